@@ -1,0 +1,1 @@
+"""On-line radar model: pure, vectorized physics functions, one module per phenomenon."""

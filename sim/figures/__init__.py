@@ -1,0 +1,1 @@
+"""PNG figures (matplotlib, Agg backend) of tables and runs."""

@@ -1,0 +1,262 @@
+"""Table file format, content-addressed cache and vectorized lookup.
+
+A :class:`Table` is an N-dimensional array sampled on a rectilinear grid (one 1-D, strictly
+increasing axis per dimension), with the axis names and units, the builder's name and version
+and a dictionary of the inputs it was built from.  The cache key is a SHA-256 of exactly those
+inputs (canonical JSON), the builder name and its version, so that a change of any input, or of
+the builder, gives a new file and nothing stale is ever read (STYLE lesson 8).
+
+Files are ``.npz`` (numpy's zip of arrays) with the metadata as a JSON string; they are written
+to a temporary file and renamed, so a crash never leaves half a table behind.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import tempfile
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+#: Bump when the file layout changes.
+FORMAT_VERSION = 1
+#: Largest table file we agree to read [bytes] (files from outside are size-checked).
+MAX_TABLE_BYTES = 2 * 1024**3
+
+
+def _canonical(obj: Any) -> Any:
+    """Turn numpy scalars/arrays and tuples into plain JSON types, recursively."""
+    if isinstance(obj, dict):
+        return {str(k): _canonical(v) for k, v in sorted(obj.items())}
+    if isinstance(obj, (list, tuple)):
+        return [_canonical(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return [_canonical(v) for v in obj.tolist()]
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, float):
+        # repr round-trips exactly; avoids 0.1+0.2 style drift between equal inputs
+        return float(repr(obj))
+    return obj
+
+
+def inputs_hash(builder: str, version: int | str, inputs: dict[str, Any]) -> str:
+    """SHA-256 (hex, first 20 characters) of a builder name, its version and its inputs."""
+    doc = json.dumps(
+        {"builder": builder, "version": str(version), "inputs": _canonical(inputs)},
+        sort_keys=True,
+        separators=(",", ":"),
+    )
+    return hashlib.sha256(doc.encode()).hexdigest()[:20]
+
+
+@dataclass(frozen=True)
+class Table:
+    """A gridded table with provenance.
+
+    Attributes
+    ----------
+    name : str
+        Builder name, e.g. ``"propagation_factor"``.
+    version : int
+        Builder version; part of the cache key.
+    axes : tuple of ndarray
+        One strictly increasing 1-D axis per dimension of ``values``.
+    axis_names, axis_units : tuple of str
+        Names and units of the axes, e.g. ``("range_m", "height_m")``, ``("m", "m")``.
+    values : ndarray
+        The tabulated quantity, ``values.shape == tuple(len(a) for a in axes)``.
+    value_name, value_unit : str
+        Name and unit of the tabulated quantity.
+    inputs : dict
+        The inputs the table was built from (JSON-able); hashed into :attr:`key`.
+    extra : dict of ndarray
+        Further arrays on the same grid (e.g. the Weibull parameter beside σ0).
+    """
+
+    name: str
+    version: int
+    axes: tuple[np.ndarray, ...]
+    axis_names: tuple[str, ...]
+    axis_units: tuple[str, ...]
+    values: np.ndarray
+    value_name: str
+    value_unit: str
+    inputs: dict[str, Any] = field(default_factory=dict)
+    extra: dict[str, np.ndarray] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if not (len(self.axes) == len(self.axis_names) == len(self.axis_units)):
+            raise ValueError("axes, axis_names and axis_units must have the same length")
+        shape = tuple(len(a) for a in self.axes)
+        if self.values.shape != shape:
+            raise ValueError(f"values shape {self.values.shape} does not match axes {shape}")
+        for arr_name, arr in self.extra.items():
+            if arr.shape != shape:
+                raise ValueError(f"extra[{arr_name!r}] shape {arr.shape} does not match {shape}")
+        for n, a in zip(self.axis_names, self.axes):
+            if a.ndim != 1 or len(a) < 2 or not np.all(np.diff(a) > 0):
+                raise ValueError(f"axis {n!r} must be 1-D, of length >= 2, strictly increasing")
+
+    @property
+    def key(self) -> str:
+        """Cache key: hash of builder name, version and inputs."""
+        return inputs_hash(self.name, self.version, self.inputs)
+
+    def metadata(self) -> dict[str, Any]:
+        return {
+            "format_version": FORMAT_VERSION,
+            "name": self.name,
+            "version": self.version,
+            "key": self.key,
+            "axis_names": list(self.axis_names),
+            "axis_units": list(self.axis_units),
+            "value_name": self.value_name,
+            "value_unit": self.value_unit,
+            "inputs": _canonical(self.inputs),
+            "extra": sorted(self.extra),
+        }
+
+    # ------------------------------------------------------------------ file format
+    def save(self, path: str | os.PathLike[str]) -> Path:
+        """Write atomically (temporary file + rename) and return the path."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        arrays = {f"axis{i}": a for i, a in enumerate(self.axes)}
+        arrays["values"] = self.values
+        arrays.update({f"extra_{k}": v for k, v in self.extra.items()})
+        meta = np.frombuffer(json.dumps(self.metadata()).encode(), dtype=np.uint8)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp.npz")
+        os.close(fd)
+        try:
+            np.savez_compressed(tmp, metadata=meta, **arrays)
+            os.replace(tmp, path)
+        finally:
+            if os.path.exists(tmp):
+                os.unlink(tmp)
+        return path
+
+    @classmethod
+    def load(cls, path: str | os.PathLike[str]) -> Table:
+        """Read a table file written by :meth:`save` (size-checked, no pickles)."""
+        path = Path(path)
+        size = path.stat().st_size
+        if size > MAX_TABLE_BYTES:
+            raise ValueError(f"{path}: table file is {size} bytes, larger than {MAX_TABLE_BYTES}")
+        with np.load(path, allow_pickle=False) as z:
+            meta = json.loads(bytes(z["metadata"]).decode())
+            if meta.get("format_version") != FORMAT_VERSION:
+                raise ValueError(f"{path}: table format {meta.get('format_version')} not supported")
+            n = len(meta["axis_names"])
+            table = cls(
+                name=meta["name"],
+                version=int(meta["version"]),
+                axes=tuple(np.array(z[f"axis{i}"]) for i in range(n)),
+                axis_names=tuple(meta["axis_names"]),
+                axis_units=tuple(meta["axis_units"]),
+                values=np.array(z["values"]),
+                value_name=meta["value_name"],
+                value_unit=meta["value_unit"],
+                inputs=meta["inputs"],
+                extra={k: np.array(z[f"extra_{k}"]) for k in meta["extra"]},
+            )
+        if table.key != meta["key"]:
+            raise ValueError(f"{path}: stored key {meta['key']} does not match its inputs")
+        return table
+
+    # ------------------------------------------------------------------ lookup
+    def lookup(self, *coords: np.ndarray, array: str | None = None) -> np.ndarray:
+        """Multilinear interpolation at broadcast coordinates; NaN outside the grid.
+
+        Vectorized and O(1) per point (binary search on each axis).  ``array`` picks an
+        entry of :attr:`extra` instead of :attr:`values`.
+        """
+        data = self.values if array is None else self.extra[array]
+        return interp_grid(self.axes, data, *coords)
+
+    def inside(self, *coords: np.ndarray) -> np.ndarray:
+        """Boolean mask of the broadcast coordinates that lie inside the grid."""
+        pts = np.broadcast_arrays(*[np.asarray(c, dtype=float) for c in coords])
+        ok = np.ones(pts[0].shape, dtype=bool)
+        for ax, p in zip(self.axes, pts):
+            ok &= (p >= ax[0]) & (p <= ax[-1])
+        return ok
+
+
+def interp_grid(axes: Sequence[np.ndarray], data: np.ndarray, *coords: np.ndarray) -> np.ndarray:
+    """Multilinear interpolation of ``data`` on the rectilinear grid ``axes``.
+
+    Points outside the grid (or NaN) give NaN, so that the caller can fall back to another
+    model and count it.  Works for any number of dimensions and complex or real data.
+    """
+    if len(coords) != len(axes):
+        raise ValueError(f"expected {len(axes)} coordinates, got {len(coords)}")
+    pts = np.broadcast_arrays(*[np.asarray(c, dtype=float) for c in coords])
+    shape = pts[0].shape
+    flat = [p.ravel() for p in pts]
+    n = flat[0].size
+    outside = np.zeros(n, dtype=bool)
+    idx = []
+    frac = []
+    for ax, p in zip(axes, flat):
+        bad = ~((p >= ax[0]) & (p <= ax[-1]))
+        outside |= bad
+        pc = np.where(bad, ax[0], p)
+        i = np.clip(np.searchsorted(ax, pc, side="right") - 1, 0, len(ax) - 2)
+        t = (pc - ax[i]) / (ax[i + 1] - ax[i])
+        idx.append(i)
+        frac.append(t)
+    out = np.zeros(n, dtype=np.result_type(data.dtype, float))
+    ndim = len(axes)
+    for corner in range(1 << ndim):
+        w = np.ones(n)
+        sel = []
+        for d in range(ndim):
+            bit = (corner >> d) & 1
+            w = w * (frac[d] if bit else 1.0 - frac[d])
+            sel.append(idx[d] + bit)
+        out += w * data[tuple(sel)]
+    out[outside] = np.nan
+    return out.reshape(shape)
+
+
+def cache_dir() -> Path:
+    """Directory of the table cache: ``$SHIPRADAR_TABLES`` or ``~/.cache/shipradar/tables``."""
+    env = os.environ.get("SHIPRADAR_TABLES")
+    if env:
+        return Path(env)
+    return Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "shipradar" / "tables"
+
+
+def cache_path(name: str, key: str, root: Path | None = None) -> Path:
+    return (root or cache_dir()) / f"{name}-{key}.npz"
+
+
+def load_cached(name: str, version: int, inputs: dict[str, Any], root: Path | None = None):
+    """Return the cached table for these inputs, or ``None`` if it has not been built."""
+    path = cache_path(name, inputs_hash(name, version, inputs), root)
+    if not path.exists():
+        return None
+    return Table.load(path)
+
+
+def get_or_build(name: str, version: int, inputs: dict[str, Any], build, root: Path | None = None):
+    """Load the table keyed by ``inputs`` from the cache, or call ``build()`` and store it.
+
+    ``build`` is a zero-argument callable returning a :class:`Table` whose ``name``,
+    ``version`` and ``inputs`` equal the arguments (checked, so the key cannot lie).
+    Returns ``(table, built)`` where ``built`` tells whether the builder ran.
+    """
+    cached = load_cached(name, version, inputs, root)
+    if cached is not None:
+        return cached, False
+    table = build()
+    if table.key != inputs_hash(name, version, inputs):
+        raise RuntimeError(f"builder for {name!r} returned a table with other inputs")
+    table.save(cache_path(name, table.key, root))
+    return table, True
