@@ -1,0 +1,533 @@
+"""Scenario schema (pydantic v2) and safe YAML loading.
+
+This module is the single declaration of every scenario parameter: type, default, unit (in
+the field name or its description) and allowed range (STYLE lesson 5).  A scenario is
+validated once, at load time, and handed inward as frozen, typed objects.  Variants (antenna
+pattern, RCS model, Doppler processor, ...) are chosen by a ``type:`` field.
+
+Symbols of the seed (DREV-R-9429, "list of symbols") are given in each field's description.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+import yaml
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    field_validator,
+    model_validator,
+)
+
+#: Largest scenario file we agree to read [bytes].
+MAX_SCENARIO_BYTES = 4 * 1024 * 1024
+
+
+class _Model(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True)
+
+
+# --------------------------------------------------------------------------- geometry
+class Origin(_Model):
+    """Geodetic origin of the scenario's local east/north/up frame (WGS-84)."""
+
+    lat_deg: float = Field(ge=-89.0, le=89.0, description="latitude [deg]")
+    lon_deg: float = Field(ge=-180.0, le=180.0, description="longitude [deg]")
+    alt_m: float = Field(0.0, ge=-500.0, le=10_000.0, description="height above the ellipsoid [m]")
+
+
+class Waypoint(_Model):
+    """A timed position: local east/north from the origin, or latitude/longitude.
+
+    Give either ``east_m`` and ``north_m`` or ``lat_deg`` and ``lon_deg``.  Motion between
+    waypoints is at constant velocity in the origin's local frame.
+    """
+
+    time_s: float = Field(0.0, ge=0.0, le=1.0e7, description="time since scenario start [s]")
+    east_m: float | None = Field(None, ge=-2.0e6, le=2.0e6, description="east of origin [m]")
+    north_m: float | None = Field(None, ge=-2.0e6, le=2.0e6, description="north of origin [m]")
+    lat_deg: float | None = Field(None, ge=-89.0, le=89.0, description="latitude [deg]")
+    lon_deg: float | None = Field(None, ge=-180.0, le=180.0, description="longitude [deg]")
+    altitude_m: float = Field(0.0, ge=0.0, le=30_000.0, description="height above the sea [m]")
+
+    @model_validator(mode="after")
+    def _one_position_form(self) -> Waypoint:
+        enu = self.east_m is not None or self.north_m is not None
+        geo = self.lat_deg is not None or self.lon_deg is not None
+        if enu == geo:
+            raise ValueError("give either east_m and north_m, or lat_deg and lon_deg")
+        if enu and (self.east_m is None or self.north_m is None):
+            raise ValueError("east_m and north_m must be given together")
+        if geo and (self.lat_deg is None or self.lon_deg is None):
+            raise ValueError("lat_deg and lon_deg must be given together")
+        return self
+
+
+def _check_waypoint_times(waypoints: list[Waypoint]) -> list[Waypoint]:
+    times = [w.time_s for w in waypoints]
+    for i in range(1, len(times)):
+        if times[i] <= times[i - 1]:
+            raise ValueError(
+                f"waypoint times must increase strictly, got {times[i - 1]} then {times[i]}"
+            )
+    return waypoints
+
+
+# --------------------------------------------------------------------------- radar
+class AzimuthPattern(_Model):
+    """Azimuth cut of the antenna directivity ([8]-[13])."""
+
+    type: Literal["isotropic", "gaussian", "sinc"] = "sinc"
+    sidelobe_db: float = Field(
+        25.0, ge=13.26, le=60.0, description="S_L, sidelobe level below the main beam [dB] (sinc)"
+    )
+
+
+class ElevationPattern(_Model):
+    """Elevation cut of the antenna directivity ([8]-[14])."""
+
+    type: Literal["isotropic", "gaussian", "sinc", "cosec2"] = "cosec2"
+    sidelobe_db: float = Field(
+        20.0, ge=13.26, le=60.0, description="S_L, sidelobe level below the main beam [dB]"
+    )
+    tilt_deg: float | None = Field(
+        None, ge=-10.0, le=45.0,
+        description="elevation of the beam maximum φ_tilt [deg]; default half the beamwidth",
+    )
+
+
+class Window(_Model):
+    """Data window of a Doppler filter bank [62] (scipy.signal.windows)."""
+
+    type: Literal["rectangular", "hann", "hamming", "taylor", "chebyshev"] = "hann"
+    sidelobe_db: float = Field(
+        40.0, ge=13.0, le=120.0, description="design sidelobe level [dB] (taylor, chebyshev)"
+    )
+
+
+class Processor(_Model):
+    """Doppler processing (seed chapter 5): MTI [58], DFT/FIR bank [59]-[62], cascade [61]."""
+
+    type: Literal["none", "mti", "dft_bank", "fir_bank", "mti_bank"] = "mti"
+    mti_order: int = Field(2, ge=1, le=6, description="N_pc: MTI canceller order (pulses - 1)")
+    n_coherent: int = Field(
+        8, ge=2, le=256, description="N_c: pulses coherently integrated by the bank"
+    )
+    window: Window = Window()
+    motion_compensated: bool = Field(
+        True, description="platform motion removed from the clutter Doppler (μ_c = 0, [35])"
+    )
+
+
+class Losses(_Model):
+    """Named losses of [20], [46], [66]-[67] [dB]; the seed's typical values by default."""
+
+    range_gate_db: float = Field(2.0, ge=0.0, le=20.0, description="L_g [dB]")
+    limiter_db: float = Field(2.0, ge=0.0, le=20.0, description="L_l [dB]")
+    matching_db: float = Field(1.0, ge=0.0, le=20.0, description="L_m [dB]")
+    clutter_extra_db: float = Field(1.0, ge=0.0, le=20.0, description="L_c - L_x [dB] ([46])")
+    cfar_db: float = Field(1.5, ge=0.0, le=20.0, description="L_CFAR [dB]")
+    clutter_distribution_db: float = Field(2.0, ge=0.0, le=20.0, description="L_cd [dB]")
+    beam_shape_db: float = Field(1.6, ge=0.0, le=20.0, description="L_B [dB]")
+
+
+class Radar(_Model):
+    """A rotating pulse-MTI/Doppler search radar (seed: symbols related to radar inputs)."""
+
+    id: str = Field(min_length=1, max_length=64, pattern=r"^[A-Za-z0-9_.-]+$")
+    peak_power_w: float = Field(gt=0.0, le=1.0e8, description="P_t, transmitted pulse power [W]")
+    gain_db: float = Field(ge=0.0, le=60.0, description="G, maximum antenna gain [dBi]")
+    frequency_hz: float = Field(ge=5.0e8, le=1.0e11, description="f, carrier frequency [Hz]")
+    polarization: Literal["H", "V"] = Field("H", description="H or V")
+    antenna_height_m: float = Field(gt=0.0, le=200.0, description="h_a, above the sea [m]")
+    beamwidth_az_deg: float = Field(gt=0.05, le=20.0, description="θ_b, azimuth 3 dB [deg]")
+    beamwidth_el_deg: float = Field(gt=0.1, le=90.0, description="φ_b, elevation 3 dB [deg]")
+    pattern_az: AzimuthPattern = AzimuthPattern()
+    pattern_el: ElevationPattern = ElevationPattern()
+    rotation_rpm: float = Field(gt=0.5, le=120.0, description="antenna rotation rate [rev/min]")
+    prf_hz: float = Field(ge=50.0, le=5.0e5, description="f_r, pulse repetition frequency [Hz]")
+    stagger_prf_hz: list[float] = Field(
+        default_factory=list, max_length=16,
+        description="PRFs of a staggered sequence [Hz]; empty for a constant PRF (5.1.4)",
+    )
+    pulse_width_s: float = Field(
+        ge=1.0e-8, le=1.0e-3, description="τ', compressed pulse width [s]"
+    )
+    noise_figure_db: float = Field(ge=0.0, le=20.0, description="N_f, receiver noise figure [dB]")
+    loss_tr_db: float = Field(ge=0.0, le=20.0, description="L_t/r, transmit/receive loss [dB]")
+    antenna_temperature_k: float | None = Field(
+        None, ge=0.0, le=5000.0,
+        description="T_a [K]; default: Blake's [18] with a sky-noise model for T'_a",
+    )
+    false_alarm_time_s: float = Field(
+        ge=0.1, le=1.0e7, description="t_fa, mean time between false alarms [s]"
+    )
+    pulses_per_frequency: int = Field(
+        1000000, ge=1, le=1000000,
+        description="N_fc, pulses before a frequency change (large: no agility)",
+    )
+    processor: Processor = Processor()
+    detector: Literal["square", "linear", "log"] = Field("square", description="detector law")
+    integrator: Literal["uniform", "non_uniform", "single_loop", "double_loop"] = Field(
+        "uniform", description="non-coherent integrator (Table I)"
+    )
+    h_range: float = Field(4.0, gt=0.0, le=100.0, description="H_r of [84]")
+    h_azimuth: float = Field(4.0, gt=0.0, le=100.0, description="H_θ of [85]")
+    instrumented_range_m: float = Field(gt=1000.0, le=1.0e6, description="R_inst [m]")
+    n_channels: int = Field(2, ge=1, le=64, description="N_ch, decision channels per cell [71]")
+    k_clutter: float = Field(1.0, ge=1.0, le=1.0e6, description="K_clutter of [96]")
+    p_fac_max: float | None = Field(
+        None, ge=1.0e-3, le=1.0e-2,
+        description="P_facmax for HP clutter false alarms; default from VP with a = 3 (7.2)",
+    )
+    a_min: float = Field(1.0, ge=0.5, le=3.0, description="a_min, minimum Weibull parameter")
+    losses: Losses = Losses()
+    start_azimuth_deg: float = Field(
+        0.0, ge=0.0, lt=360.0, description="beam azimuth (true north) at t = 0 [deg]"
+    )
+
+    @field_validator("stagger_prf_hz")
+    @classmethod
+    def _stagger_range(cls, v: list[float]) -> list[float]:
+        for p in v:
+            if not 50.0 <= p <= 5.0e5:
+                raise ValueError(f"each PRF must be in [50, 500000] Hz, got {p}")
+        return v
+
+    @model_validator(mode="after")
+    def _range_cells_positive(self) -> Radar:
+        prf = max([self.prf_hz, *self.stagger_prf_hz])
+        duty = prf * self.pulse_width_s
+        if duty >= 0.25:
+            raise ValueError(
+                f"prf_hz * pulse_width_s must be < 0.25 so that N_rc [72] > 2, got {duty:.3g}"
+            )
+        return self
+
+    @property
+    def wavelength_m(self) -> float:
+        return 299_792_458.0 / self.frequency_hz
+
+    @property
+    def scan_period_s(self) -> float:
+        return 60.0 / self.rotation_rpm
+
+
+# --------------------------------------------------------------------------- targets
+class ConstantRcs(_Model):
+    type: Literal["constant"] = "constant"
+    sigma_m2: float = Field(gt=0.0, le=1.0e6, description="σ [m²]")
+
+
+class MissileRcs(_Model):
+    """Missile model [15]."""
+
+    type: Literal["missile"] = "missile"
+    sigma_nose_m2: float = Field(gt=0.0, le=1.0e3, description="σ_n, nose-on RCS [m²]")
+    length_m: float = Field(gt=0.0, le=50.0, description="L, missile length [m]")
+    diameter_m: float = Field(gt=0.0, le=5.0, description="D, missile diameter [m]")
+
+
+class TableRcs(_Model):
+    """σ against aspect (angle off the nose), interpolated, symmetric about the axis."""
+
+    type: Literal["table"] = "table"
+    aspect_deg: list[float] = Field(min_length=2, max_length=3601)
+    sigma_m2: list[float] = Field(min_length=2, max_length=3601)
+
+    @model_validator(mode="after")
+    def _consistent(self) -> TableRcs:
+        if len(self.aspect_deg) != len(self.sigma_m2):
+            raise ValueError("aspect_deg and sigma_m2 must have the same length")
+        a = self.aspect_deg
+        if any(not 0.0 <= x <= 180.0 for x in a) or any(a[i] >= a[i + 1] for i in range(len(a) - 1)):
+            raise ValueError("aspect_deg must increase strictly within [0, 180]")
+        if any(not s > 0.0 for s in self.sigma_m2):
+            raise ValueError("sigma_m2 values must be > 0")
+        return self
+
+
+Rcs = Annotated[ConstantRcs | MissileRcs | TableRcs, Field(discriminator="type")]
+
+
+class Target(_Model):
+    id: str = Field(min_length=1, max_length=64, pattern=r"^[A-Za-z0-9_.-]+$")
+    kind: Literal["missile", "aircraft", "helicopter", "ship", "other"] = "other"
+    waypoints: list[Waypoint] = Field(min_length=1, max_length=10_000)
+    rcs: Rcs
+    swerling: int | None = Field(
+        None, ge=0, le=4, description="Swerling case 0-4; default 3 for a missile model, else 1"
+    )
+
+    _check_times = field_validator("waypoints")(classmethod(lambda cls, v: _check_waypoint_times(v)))
+
+    @property
+    def swerling_case(self) -> int:
+        if self.swerling is not None:
+            return self.swerling
+        return 3 if self.rcs.type == "missile" or self.kind == "missile" else 1
+
+
+# --------------------------------------------------------------------------- platforms, jammers
+class Platform(_Model):
+    """A ship: stationary (one waypoint) or moving along timed waypoints."""
+
+    id: str = Field(min_length=1, max_length=64, pattern=r"^[A-Za-z0-9_.-]+$")
+    waypoints: list[Waypoint] = Field(min_length=1, max_length=10_000)
+    heading_deg: float = Field(
+        0.0, ge=0.0, lt=360.0, description="heading when stationary (true north) [deg]"
+    )
+    radars: list[Radar] = Field(min_length=1, max_length=8)
+
+    _check_times = field_validator("waypoints")(classmethod(lambda cls, v: _check_waypoint_times(v)))
+
+
+class Jammer(_Model):
+    """Stand-off noise jammer ([47]-[48])."""
+
+    id: str = Field(min_length=1, max_length=64, pattern=r"^[A-Za-z0-9_.-]+$")
+    waypoints: list[Waypoint] = Field(min_length=1, max_length=10_000)
+    power_w: float = Field(gt=0.0, le=1.0e6, description="P_jt, transmitted jammer power [W]")
+    gain_db: float = Field(ge=-10.0, le=40.0, description="G_j, jammer antenna gain [dBi]")
+    bandwidth_hz: float = Field(ge=1.0e5, le=1.0e10, description="B_j, jammer bandwidth [Hz]")
+
+    _check_times = field_validator("waypoints")(classmethod(lambda cls, v: _check_waypoint_times(v)))
+
+
+# --------------------------------------------------------------------------- environment
+class DuctGiven(_Model):
+    type: Literal["height"] = "height"
+    height_m: float = Field(ge=0.0, le=60.0, description="h_duct, evaporation duct height [m]")
+
+
+class DuctBulk(_Model):
+    """Evaporation duct height from bulk meteorology (a published bulk model)."""
+
+    type: Literal["bulk"] = "bulk"
+    air_temperature_c: float = Field(ge=-40.0, le=45.0, description="[°C]")
+    sea_temperature_c: float = Field(ge=-2.0, le=35.0, description="[°C]")
+    relative_humidity: float = Field(ge=0.05, le=1.0, description="[0-1]")
+    pressure_hpa: float = Field(1013.25, ge=900.0, le=1080.0, description="[hPa]")
+
+
+Duct = Annotated[DuctGiven | DuctBulk, Field(discriminator="type")]
+
+
+class RainRegion(_Model):
+    """A vertical cylinder of rain, centred in the origin's local frame."""
+
+    east_m: float = Field(0.0, ge=-2.0e6, le=2.0e6, description="centre east of origin [m]")
+    north_m: float = Field(0.0, ge=-2.0e6, le=2.0e6, description="centre north of origin [m]")
+    radius_m: float = Field(gt=0.0, le=2.0e6, description="radius [m]")
+
+
+class Rain(_Model):
+    rate_mm_h: float = Field(gt=0.0, le=300.0, description="p_r, precipitation rate [mm/h]")
+    kind: Literal["rain", "dry_snow", "wet_snow"] = "rain"
+    cloud_base_m: float = Field(
+        3000.0, gt=0.0, le=15_000.0, description="h_cloud, top of the rain volume [m]"
+    )
+    region: RainRegion | None = Field(None, description="rain cylinder; None: everywhere")
+
+
+class Fog(_Model):
+    liquid_water_g_m3: float = Field(gt=0.0, le=5.0, description="fog/cloud liquid water [g/m³]")
+    top_m: float = Field(100.0, gt=0.0, le=10_000.0, description="fog top [m]")
+
+
+class Environment(_Model):
+    sea_state: int = Field(3, ge=0, le=9, description="S_sea, Douglas sea state")
+    wind_speed_mps: float = Field(7.0, ge=0.0, le=40.0, description="w_s, wind speed [m/s]")
+    wind_direction_deg: float = Field(
+        0.0, ge=0.0, lt=360.0, description="direction the wind blows FROM (true north) [deg]"
+    )
+    wave_height_m: float | None = Field(
+        None, ge=0.0, le=20.0, description="w_h, significant wave height [m]; default from sea state"
+    )
+    duct: Duct | None = Field(None, description="evaporation duct; None: standard atmosphere")
+    rain: Rain | None = None
+    fog: Fog | None = None
+    temperature_c: float = Field(15.0, ge=-40.0, le=45.0, description="air temperature [°C]")
+    pressure_hpa: float = Field(1013.25, ge=900.0, le=1080.0, description="[hPa]")
+    water_vapour_g_m3: float = Field(7.5, ge=0.0, le=30.0, description="surface ρ_w [g/m³]")
+
+
+# --------------------------------------------------------------------------- fidelity
+class Fidelity(_Model):
+    """Speed versus accuracy choices (docs/accuracy.md gives their measured error and cost)."""
+
+    pd_method: Literal["exact", "seed"] = Field(
+        "exact", description="P_d: exact Swerling formulas, or the seed's [78]-[83]"
+    )
+    propagation: Literal["free_space", "two_ray", "pe"] = Field(
+        "pe", description="F: free space (F = pattern), two-ray multipath, or PE table"
+    )
+    pe_grid: Literal["coarse", "standard", "fine"] = "standard"
+    improvement_grid: Literal["coarse", "standard", "fine"] = "standard"
+    sectors_per_scan: int = Field(
+        36, ge=4, le=3600, description="dwell processing batches per antenna revolution"
+    )
+    clutter: bool = Field(True, description="sea/weather clutter and clutter false alarms")
+    atmosphere: bool = Field(True, description="atmospheric attenuation [16]")
+
+
+# --------------------------------------------------------------------------- scenario
+class Scenario(_Model):
+    name: str = Field(min_length=1, max_length=200)
+    description: str = ""
+    start_time: dt.datetime = Field(
+        dt.datetime(2026, 1, 1, tzinfo=dt.timezone.utc), description="UTC start (ISO 8601)"
+    )
+    duration_s: float = Field(gt=0.0, le=1.0e6, description="simulated duration [s]")
+    seed: int = Field(0, ge=0, le=2**63 - 1, description="random seed")
+    origin: Origin
+    platforms: list[Platform] = Field(min_length=1, max_length=16)
+    targets: list[Target] = Field(default_factory=list, max_length=100_000)
+    jammers: list[Jammer] = Field(default_factory=list, max_length=64)
+    environment: Environment = Environment()
+    fidelity: Fidelity = Fidelity()
+
+    @model_validator(mode="after")
+    def _unique_ids(self) -> Scenario:
+        seen: set[str] = set()
+        ids = [p.id for p in self.platforms] + [t.id for t in self.targets]
+        ids += [j.id for j in self.jammers] + [r.id for p in self.platforms for r in p.radars]
+        for i in ids:
+            if i in seen:
+                raise ValueError(f"ids must be unique across platforms, radars, targets and jammers: {i!r} repeats")
+            seen.add(i)
+        return self
+
+    def radars(self) -> list[tuple[Platform, Radar]]:
+        return [(p, r) for p in self.platforms for r in p.radars]
+
+    @property
+    def wave_height(self) -> float:
+        """Significant wave height w_h [m], given or from the sea state."""
+        env = self.environment
+        if env.wave_height_m is not None:
+            return env.wave_height_m
+        return DOUGLAS_WAVE_HEIGHT_M[env.sea_state]
+
+
+#: Representative significant wave height [m] of each Douglas sea state 0-9 (mid-band values of
+#: the WMO sea-state code table; state 9 "phenomenal" taken as 16 m).
+DOUGLAS_WAVE_HEIGHT_M = (0.0, 0.05, 0.3, 0.875, 1.875, 3.25, 5.0, 7.5, 11.5, 16.0)
+
+
+# --------------------------------------------------------------------------- loading
+class ScenarioError(Exception):
+    """Bad scenario input; ``lines`` holds one message per problem."""
+
+    def __init__(self, lines: list[str]):
+        super().__init__("\n".join(lines))
+        self.lines = lines
+
+
+def _fmt_value(v: Any) -> str:
+    if isinstance(v, float) and v.is_integer() and abs(v) < 1e15:
+        return str(int(v))
+    if isinstance(v, (dict, list)):
+        s = repr(v)
+        return s if len(s) <= 60 else s[:57] + "..."
+    return repr(v) if isinstance(v, str) else str(v)
+
+
+def _path(loc: tuple, data: Any) -> str:
+    """``('targets', 2, 'rcs', 'missile', 'length_m')`` -> ``targets[2].rcs.length_m``.
+
+    Discriminated unions add their tag to the location; it is dropped when the input at that
+    point carries it as its ``type``.
+    """
+    out = ""
+    cur = data
+    for item in loc:
+        if isinstance(item, int):
+            out += f"[{item}]"
+            cur = cur[item] if isinstance(cur, list) and -len(cur) <= item < len(cur) else None
+            continue
+        if isinstance(cur, dict) and item not in cur and cur.get("type") == item:
+            continue  # union tag
+        if item.startswith("function-") or item in ("constrained-str", "list"):
+            continue
+        out += f".{item}" if out else str(item)
+        cur = cur.get(item) if isinstance(cur, dict) else None
+    return out or "(top level)"
+
+
+_BOUND_WORDS = {
+    "greater_than": ">",
+    "greater_than_equal": ">=",
+    "less_than": "<",
+    "less_than_equal": "<=",
+}
+
+
+def _message(err: dict) -> str:
+    typ = err["type"]
+    ctx = err.get("ctx") or {}
+    inp = err.get("input")
+    if typ in _BOUND_WORDS:
+        bound = next(iter(ctx.values()))
+        return f"must be {_BOUND_WORDS[typ]} {_fmt_value(bound)}, got {_fmt_value(inp)}"
+    if typ == "missing":
+        return "is required"
+    if typ == "extra_forbidden":
+        return "is not a known field (check its spelling)"
+    if typ == "literal_error":
+        return f"must be one of {ctx.get('expected')}, got {_fmt_value(inp)}"
+    if typ in ("too_short", "too_long"):
+        word = "at least" if typ == "too_short" else "at most"
+        n = ctx.get("min_length", ctx.get("max_length"))
+        return f"must have {word} {n} item(s), got {ctx.get('actual_length')}"
+    if typ == "string_pattern_mismatch":
+        return f"must match {ctx.get('pattern')}, got {_fmt_value(inp)}"
+    if typ == "union_tag_invalid":
+        return f"type must be one of {ctx.get('expected_tags')}, got {_fmt_value(ctx.get('tag'))}"
+    if typ == "union_tag_not_found":
+        return f"needs a 'type' field, one of the allowed kinds"
+    if typ == "value_error":
+        return str(ctx.get("error", err["msg"]))
+    if typ.endswith("_parsing") or typ.endswith("_type"):
+        return f"{err['msg'][0].lower()}{err['msg'][1:]}, got {_fmt_value(inp)}"
+    return f"{err['msg']}, got {_fmt_value(inp)}"
+
+
+def format_validation_error(exc: ValidationError, data: Any) -> list[str]:
+    """One line per problem: ``path.to.field: message, got value``."""
+    return [f"{_path(tuple(e['loc']), data)}: {_message(e)}" for e in exc.errors()]
+
+
+def parse_scenario(data: Any) -> Scenario:
+    """Validate already-parsed YAML/JSON data; raise :class:`ScenarioError` on bad input."""
+    if not isinstance(data, dict):
+        raise ScenarioError([f"(top level): must be a mapping, got {type(data).__name__}"])
+    try:
+        return Scenario.model_validate(data)
+    except ValidationError as exc:
+        raise ScenarioError(format_validation_error(exc, data)) from None
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Read a scenario YAML file safely (size-checked, ``yaml.safe_load``) and validate it."""
+    path = Path(path)
+    try:
+        size = path.stat().st_size
+    except OSError as exc:
+        raise ScenarioError([f"{path}: cannot read ({exc.strerror})"]) from None
+    if size > MAX_SCENARIO_BYTES:
+        raise ScenarioError([f"{path}: file is {size} bytes, must be <= {MAX_SCENARIO_BYTES}"])
+    try:
+        data = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+        raise ScenarioError([f"{path}: not valid YAML{where}: {getattr(exc, 'problem', exc)}"]) from None
+    except UnicodeDecodeError:
+        raise ScenarioError([f"{path}: not UTF-8 text"]) from None
+    return parse_scenario(data)
