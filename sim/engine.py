@@ -1,0 +1,399 @@
+"""The SimPy engine: one process per radar, rotating its antenna and processing sectors.
+
+Each antenna revolution is cut into ``fidelity.sectors_per_scan`` sectors.  At the end of a
+sector the process (1) solves, for every target, the exact time at which the rotating beam
+crosses it (moving ship and moving targets, :func:`sim.kinematics.beam_crossing_times`),
+(2) hands the targets crossed in that sector to the dwell model, which computes S/I, P_d and
+the noisy contacts, (3) adds the noise and sea-clutter false alarms whose azimuths fall in the
+sector, timed when the beam sweeps them, and (4) publishes one columnar plot frame and one
+truth frame.  The end of each revolution publishes an end-of-scan frame with the antenna's
+position and heading, and the sensor metadata again for late joiners.
+
+Fast mode uses :class:`simpy.Environment`, real-time mode :class:`simpy.rt.RealtimeEnvironment`;
+the process code is the same in both (STYLE: SimPy's ``rt`` only overrides ``step()``).
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import simpy
+import simpy.rt
+
+from sim import protocol
+from sim.kinematics import (
+    TWO_PI,
+    Trajectories,
+    antenna_geometry,
+    beam_crossing_times,
+    enu_to_geodetic,
+    waypoint_enu,
+)
+from sim.scenario import Platform, Radar, Scenario
+
+#: Plot origin codes on the truth topic.
+ORIGIN_TARGET, ORIGIN_NOISE, ORIGIN_SEA_CLUTTER = 0, 1, 2
+ORIGIN_NAMES = ("target", "noise", "sea_clutter")
+
+
+@dataclass
+class RunStats:
+    """Counters of one run; the summary line is built from them."""
+
+    scans: int = 0
+    sectors: int = 0
+    dwells: int = 0
+    target_plots: int = 0
+    missed_detections: int = 0
+    noise_false_alarms: int = 0
+    clutter_false_alarms: int = 0
+    merged_targets: int = 0
+    by_interference: dict[str, int] = field(default_factory=lambda: {
+        "noise": 0, "clutter": 0, "jamming": 0})
+    propagation_fallbacks: int = 0
+
+
+class Simulation:
+    """A scenario ready to run.
+
+    Parameters
+    ----------
+    scenario : the validated scenario
+    bus : object with ``emit(topic, t_sim, payload)`` and ``flush()`` (``sim.bus.Bus``), or None
+    seed : overrides the scenario's seed
+    duration_s : overrides the scenario's duration [s]
+    realtime : None for as fast as possible, or a speed factor (1 = wall clock, 10 = 10x)
+    tables : scene tables (``tables.scene.SceneTables``) or None to load what is cached
+    progress : show a progress bar on stderr
+    """
+
+    def __init__(
+        self,
+        scenario: Scenario,
+        *,
+        bus=None,
+        seed: int | None = None,
+        duration_s: float | None = None,
+        realtime: float | None = None,
+        tables=None,
+        progress: bool = False,
+    ):
+        from sensors.dwell import DwellModel  # the on-line radar model
+        from tables.scene import load_scene_tables
+
+        self.scenario = scenario
+        self.bus = bus
+        self.seed = scenario.seed if seed is None else seed
+        self.duration = float(scenario.duration_s if duration_s is None else duration_s)
+        self.realtime = realtime
+        self.progress = progress
+        self.stats = RunStats()
+        origin = scenario.origin
+        self.targets = Trajectories([waypoint_enu(t.waypoints, origin) for t in scenario.targets],
+                                    hold=False)
+        self.platforms = Trajectories(
+            [waypoint_enu(p.waypoints, origin) for p in scenario.platforms], hold=True)
+        self.jammers = Trajectories([waypoint_enu(j.waypoints, origin) for j in scenario.jammers],
+                                    hold=True)
+        self.tables = tables if tables is not None else load_scene_tables(scenario)
+        seeds = np.random.SeedSequence(self.seed).spawn(len(scenario.radars()))
+        self.radars = []
+        for k, (platform, radar) in enumerate(scenario.radars()):
+            p_index = scenario.platforms.index(platform)
+            model = DwellModel(scenario, platform, radar, self.tables)
+            self.radars.append(
+                _RadarProcess(self, p_index, platform, radar, model, np.random.default_rng(seeds[k]))
+            )
+
+    # ------------------------------------------------------------------ running
+    def run(self) -> dict[str, Any]:
+        if self.realtime:
+            env = simpy.rt.RealtimeEnvironment(factor=1.0 / self.realtime, strict=False)
+        else:
+            env = simpy.Environment()
+        for r in self.radars:
+            env.process(r.run(env))
+        bar = None
+        if self.progress:
+            from tqdm import tqdm
+
+            bar = tqdm(total=round(self.duration), unit="sim s", file=sys.stderr, leave=False)
+            env.process(self._progress(env, bar))
+        wall0 = time.perf_counter()
+        env.run(until=self.duration + 1e-9)
+        wall = time.perf_counter() - wall0
+        if bar is not None:
+            bar.close()
+        if self.bus is not None:
+            self.bus.flush()
+        return self.summary(wall)
+
+    def _progress(self, env, bar):
+        step = max(self.duration / 200.0, 0.5)
+        while True:
+            yield env.timeout(step)
+            bar.n = min(round(env.now), bar.total)
+            bar.refresh()
+
+    def summary(self, wall_s: float) -> dict[str, Any]:
+        s = self.stats
+        out = {
+            "scenario": self.scenario.name,
+            "seed": self.seed,
+            "scans": s.scans,
+            "sectors": s.sectors,
+            "dwells": s.dwells,
+            "target_plots": s.target_plots,
+            "missed_detections": s.missed_detections,
+            "merged_targets": s.merged_targets,
+            "noise_false_alarms": s.noise_false_alarms,
+            "clutter_false_alarms": s.clutter_false_alarms,
+            "dominant_interference": dict(s.by_interference),
+            "propagation_fallbacks": s.propagation_fallbacks,
+            "simulated_s": round(self.duration, 6),
+            "wall_s": round(wall_s, 4),
+            "realtime_factor": round(self.duration / wall_s, 2) if wall_s > 0 else None,
+        }
+        if self.bus is not None and hasattr(self.bus, "stats"):
+            out["bus"] = self.bus.stats
+        return out
+
+    def emit(self, topic: bytes, t: float, payload: dict) -> None:
+        if self.bus is not None:
+            self.bus.emit(topic, t, payload)
+
+
+class _RadarProcess:
+    """One rotating radar: sector events, beam crossings, false alarms, frames."""
+
+    def __init__(self, sim: Simulation, p_index: int, platform: Platform, radar: Radar,
+                 model, rng: np.random.Generator):
+        self.sim = sim
+        self.p_index = p_index
+        self.platform = platform
+        self.radar = radar
+        self.model = model
+        self.rng = rng
+        self.omega = TWO_PI / radar.scan_period_s
+        self.beam0 = math.radians(radar.start_azimuth_deg)
+        self.n_sectors = sim.scenario.fidelity.sectors_per_scan
+        self.sector_s = radar.scan_period_s / self.n_sectors
+        self.plot_counter = 0
+        self._fa = _EMPTY_FA
+        self.target_ids = [t.id for t in sim.scenario.targets]
+
+    # ------------------------------------------------------------------ helpers
+    def beam_azimuth(self, t: float) -> float:
+        return (self.beam0 + self.omega * t) % TWO_PI
+
+    def platform_state(self, t: np.ndarray):
+        rows = np.full(np.shape(t), self.p_index, dtype=int)
+        pos, vel, _ = self.sim.platforms.state(t, rows)
+        return pos, vel
+
+    def geometry(self, t: np.ndarray, rows: np.ndarray):
+        """Antenna-to-target geometry for targets ``rows`` each at its own time ``t``."""
+        tpos, tvel, active = self.sim.targets.state(t, rows)
+        ppos, pvel = self.platform_state(t)
+        geom = antenna_geometry(ppos, pvel, self.radar.antenna_height_m, tpos, tvel,
+                                self.sim.scenario.origin)
+        return geom, active, tpos
+
+    # ------------------------------------------------------------------ process
+    def run(self, env: simpy.Environment):
+        sim = self.sim
+        self._emit_meta(0.0, scan=0)
+        k = 0
+        while True:
+            t_a = k * self.sector_s
+            if t_a >= sim.duration:
+                return
+            scan, sector = divmod(k, self.n_sectors)
+            if sector == 0:
+                self._draw_scan_false_alarms(t_a)
+                if scan > 0:
+                    self._emit_meta(t_a, scan)
+            t_b = min((k + 1) * self.sector_s, sim.duration)
+            yield env.timeout(t_b - env.now)
+            self._process_sector(t_a, t_b, scan)
+            sim.stats.sectors += 1
+            if sector == self.n_sectors - 1 or t_b >= sim.duration:
+                self._end_of_scan(t_b, scan)
+            k += 1
+
+    def _emit_meta(self, t: float, scan: int) -> None:
+        r = self.radar
+        payload = {
+            "sensor": r.id,
+            "platform": self.platform.id,
+            "scan": scan,
+            "radar": r.model_dump(mode="json"),
+            "scan_period_s": r.scan_period_s,
+            "sectors_per_scan": self.n_sectors,
+            "pfa": self.model.pfa,
+            "noise_false_alarms_per_scan": self.model.noise_false_alarms_per_scan,
+            "target_ids": self.target_ids,
+            "origin_codes": list(ORIGIN_NAMES),
+            "interference_codes": list(self.model.INTERFERENCE_NAMES),
+            "origin": self.sim.scenario.origin.model_dump(),
+            "start_time": self.sim.scenario.start_time.isoformat(),
+        }
+        self.sim.emit(protocol.TOPIC_META, t, payload)
+
+    def _draw_scan_false_alarms(self, t_scan: float) -> None:
+        """Noise-induced false alarms of one revolution ([90]-[93]), uniform in R and θ."""
+        fa = self.model.noise_false_alarms(self.rng)
+        # time at which the beam sweeps each azimuth, from the beam position at scan start
+        beam = self.beam_azimuth(t_scan)
+        t = t_scan + np.mod(fa["azimuth_rad"] - beam, TWO_PI) / self.omega
+        order = np.argsort(t, kind="stable")
+        self._fa = {k: v[order] for k, v in fa.items()}
+        self._fa["time_s"] = t[order]
+
+    def _process_sector(self, t_a: float, t_b: float, scan: int) -> None:
+        sim = self.sim
+        n = sim.targets.n
+        parts = []
+        if n:
+            rows_all = np.arange(n)
+            # only targets existing at some time in the sector
+            live = (sim.targets.t_last >= t_a) & (sim.targets.t_first < t_b)
+            rows = rows_all[live]
+            if rows.size:
+                def az_at(t, rows=rows):
+                    geom, _, _ = self.geometry(t, rows)
+                    return geom.azimuth
+
+                tc = beam_crossing_times(az_at, t_a, self.beam_azimuth(t_a), self.omega, rows.size)
+                sel = (tc >= t_a) & (tc < t_b)
+                if np.any(sel):
+                    rows, tc = rows[sel], tc[sel]
+                    geom, active, tpos = self.geometry(tc, rows)
+                    ok = active & (geom.ground_range <= self.radar.instrumented_range_m)
+                    ok &= geom.slant_range > 0.0
+                    if np.any(ok):
+                        idx = np.flatnonzero(ok)
+                        res = self.model.process_targets(
+                            _take(geom, idx), rows[idx], tc[idx], tpos[idx], self.rng)
+                        sim.stats.dwells += idx.size
+                        sim.stats.missed_detections += res.pop("missed")
+                        sim.stats.merged_targets += res.pop("merged")
+                        sim.stats.propagation_fallbacks += res.pop("fallbacks", 0)
+                        nplots = res["range_m"].size
+                        sim.stats.target_plots += nplots
+                        for code, name in enumerate(self.model.INTERFERENCE_NAMES):
+                            sim.stats.by_interference[name] += int(
+                                np.count_nonzero(res["interference"] == code))
+                        res["origin"] = np.full(nplots, ORIGIN_TARGET, dtype=np.uint8)
+                        parts.append(res)
+        # noise false alarms swept in this sector
+        fa = self._fa
+        if fa["time_s"].size:
+            m = (fa["time_s"] >= t_a) & (fa["time_s"] < t_b)
+            if np.any(m):
+                plots = self.model.false_alarm_plots(
+                    fa["range_m"][m], fa["azimuth_rad"][m], fa["time_s"][m], self.rng)
+                plots["origin"] = np.full(int(m.sum()), ORIGIN_NOISE, dtype=np.uint8)
+                sim.stats.noise_false_alarms += int(m.sum())
+                parts.append(plots)
+        # sea-clutter false alarms of this sector
+        clutter = self.model.clutter_false_alarms(t_a, t_b, self.beam_azimuth(t_a), self.omega,
+                                                  self.rng)
+        if clutter is not None and clutter["range_m"].size:
+            clutter["origin"] = np.full(clutter["range_m"].size, ORIGIN_SEA_CLUTTER, np.uint8)
+            sim.stats.clutter_false_alarms += clutter["range_m"].size
+            parts.append(clutter)
+        if parts:
+            self._emit_plots(parts, t_b, scan)
+
+    def _emit_plots(self, parts: list[dict], t_b: float, scan: int) -> None:
+        cols = ("time_s", "range_m", "azimuth_rad", "snr_db", "sigma_range_m",
+                "sigma_azimuth_rad", "interference")
+        merged = {c: np.concatenate([p[c] for p in parts]) for c in cols}
+        origin = np.concatenate([p["origin"] for p in parts])
+        target = np.concatenate(
+            [p.get("target", np.full(p["range_m"].size, -1, dtype=np.int32)) for p in parts])
+        # contributors (targets merged into one plot, seed 2.2.1) as (start, count) per plot
+        starts, counts, pool, base = [], [], [], 0
+        for p in parts:
+            off = p.get("contrib_offsets")
+            if off is None:
+                off = np.zeros(p["range_m"].size + 1, dtype=np.int64)
+            starts.append(off[:-1] + base)
+            counts.append(np.diff(off))
+            c_idx = p.get("contrib_targets", np.zeros(0, dtype=np.int32))
+            pool.append(c_idx)
+            base += c_idx.size
+        starts, counts, pool = np.concatenate(starts), np.concatenate(counts), np.concatenate(pool)
+        order = np.argsort(merged["time_s"], kind="stable")
+        n = order.size
+        plot_id = np.arange(self.plot_counter, self.plot_counter + n, dtype=np.int64)
+        self.plot_counter += n
+        payload = {"sensor": self.radar.id, "scan": scan, "plot_id": plot_id}
+        payload.update({c: merged[c][order] for c in cols})
+        self.sim.emit(protocol.TOPIC_PLOTS, t_b, payload)
+        c_sorted, s_sorted = counts[order], starts[order]
+        new_off = np.concatenate([[0], np.cumsum(c_sorted)]).astype(np.int64)
+        within = np.arange(new_off[-1]) - np.repeat(new_off[:-1], c_sorted)
+        gather = np.repeat(s_sorted, c_sorted) + within
+        truth = {
+            "sensor": self.radar.id,
+            "scan": scan,
+            "kind": "plots",
+            "plot_id": plot_id,
+            "origin": origin[order],
+            "target": target[order].astype(np.int32),
+            "contrib_offsets": new_off,
+            "contrib_targets": pool[gather].astype(np.int32),
+        }
+        self.sim.emit(protocol.TOPIC_TRUTH, t_b, truth)
+
+    def _end_of_scan(self, t: float, scan: int) -> None:
+        sim = self.sim
+        sim.stats.scans += 1
+        pos, vel = self.platform_state(np.array([t]))
+        lat, lon = enu_to_geodetic(pos, sim.scenario.origin)
+        speed = float(np.hypot(vel[0, 0], vel[0, 1]))
+        heading = (math.degrees(math.atan2(vel[0, 0], vel[0, 1])) % 360.0 if speed > 0
+                   else self.platform.heading_deg)
+        eos = {
+            "sensor": self.radar.id,
+            "scan": scan,
+            "time_s": t,
+            "position": {
+                "lat_deg": float(lat[0]), "lon_deg": float(lon[0]),
+                "alt_m": float(pos[0, 2] + self.radar.antenna_height_m),
+                "east_m": float(pos[0, 0]), "north_m": float(pos[0, 1]),
+                "up_m": float(pos[0, 2] + self.radar.antenna_height_m),
+            },
+            "velocity_enu_mps": [float(v) for v in vel[0]],
+            "heading_deg": heading,
+        }
+        sim.emit(protocol.TOPIC_EOS, t, eos)
+        if sim.targets.n:
+            tpos, tvel, active = sim.targets.state(t)
+            sim.emit(protocol.TOPIC_TRUTH, t, {
+                "sensor": self.radar.id,
+                "scan": scan,
+                "kind": "targets",
+                "time_s": t,
+                "east_m": tpos[:, 0], "north_m": tpos[:, 1], "up_m": tpos[:, 2],
+                "v_east_mps": tvel[:, 0], "v_north_mps": tvel[:, 1], "v_up_mps": tvel[:, 2],
+                "active": active,
+            })
+        if sim.bus is not None:
+            sim.bus.flush()
+
+
+_EMPTY_FA = {"time_s": np.zeros(0), "range_m": np.zeros(0), "azimuth_rad": np.zeros(0)}
+
+
+def _take(geom, idx):
+    from dataclasses import fields, replace
+
+    return replace(geom, **{f.name: getattr(geom, f.name)[idx] for f in fields(geom)})
