@@ -1,0 +1,381 @@
+"""Message envelope of the shipradar stream: topics, encoding and decoding (no sockets).
+
+Every message is a ZeroMQ multipart message of two frames, ``[topic, body]``. The body is one
+msgpack map holding the schema version ``"v"``, the simulated time ``"t"`` [s since scenario
+start] and the payload's own keys, in insertion order. Numpy arrays anywhere in the payload
+travel as typed little-endian columns in a msgpack extension (type :data:`EXT_NDARRAY`), so
+that one frame per dwell or sector carries whole columns of plots.
+
+The transport (:mod:`sim.bus`) and the recorder (:mod:`sim.recording`) only move the bytes
+that :func:`encode` returns; :func:`decode` is the single inverse. ``docs/protocol.md`` is
+the reference for users writing a subscriber in another language.
+"""
+
+from __future__ import annotations
+
+import math
+import struct
+import threading
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import msgpack
+import numpy as np
+
+__all__ = [
+    "EXT_NDARRAY",
+    "MAX_BODY_BYTES",
+    "MAX_NDIM",
+    "SCHEMA_VERSION",
+    "SUPPORTED_SCHEMA_VERSIONS",
+    "TOPICS",
+    "TOPIC_EOS",
+    "TOPIC_META",
+    "TOPIC_PLOTS",
+    "TOPIC_TRUTH",
+    "ProtocolError",
+    "decode",
+    "decode_array",
+    "encode",
+    "encode_array",
+    "to_jsonable",
+]
+
+#: Version of the payload schema (topics, keys, units) described in docs/protocol.md.
+#: Bumped on any change a subscriber could notice.
+SCHEMA_VERSION: int = 1
+#: Schema versions :func:`decode` accepts.
+SUPPORTED_SCHEMA_VERSIONS: tuple[int, ...] = (1,)
+
+#: Sensor metadata, sent at start and repeated every scan for late joiners.
+TOPIC_META: bytes = b"meta"
+#: Plots (detections), one columnar message per dwell or sector.
+TOPIC_PLOTS: bytes = b"plots"
+#: End of scan marker with the sensor's own position and heading.
+TOPIC_EOS: bytes = b"eos"
+#: Ground truth (target states, origin of each plot); a tracker under test ignores it.
+TOPIC_TRUTH: bytes = b"truth"
+#: The topics the engine publishes. ZeroMQ subscriptions match by prefix, so no topic may be
+#: a prefix of another (a new topic must not start with ``meta``, ``plots``, ``eos``, ``truth``).
+TOPICS: tuple[bytes, ...] = (TOPIC_META, TOPIC_PLOTS, TOPIC_EOS, TOPIC_TRUTH)
+
+#: Largest body :func:`encode` produces and :func:`decode` accepts [bytes] (64 MiB).
+MAX_BODY_BYTES: int = 64 * 1024 * 1024
+#: Largest topic frame [bytes].
+MAX_TOPIC_BYTES: int = 255
+#: msgpack extension type code of a numpy array column.
+EXT_NDARRAY: int = 1
+#: Largest number of array dimensions (numpy's own limit).
+MAX_NDIM: int = 32
+
+# Array element types allowed on the wire, as numpy array-interface type strings
+# (byte order '<' little-endian, '|' not applicable). Object, string and datetime arrays are
+# refused: they have no portable fixed-width representation.
+_WIRE_TYPESTRS: frozenset[str] = frozenset(
+    {"|b1", "|i1", "<i2", "<i4", "<i8", "|u1", "<u2", "<u4", "<u8", "<f2", "<f4", "<f8",
+     "<c8", "<c16"}
+)
+_RESERVED_KEYS = ("v", "t")
+_EXT_HEAD = struct.Struct("<BB")  # ndim, len(typestr)
+_MAX_DEPTH = 32  # nesting depth of maps/arrays in a payload
+
+
+class ProtocolError(ValueError):
+    """A message that cannot be encoded or decoded under this schema."""
+
+
+def _pad8(n: int) -> int:
+    return (-n) % 8
+
+
+def encode_array(array: np.ndarray) -> bytes:
+    """Encode one numpy array as the data of a :data:`EXT_NDARRAY` extension.
+
+    Layout (all integers little-endian): ``uint8 ndim``, ``uint8 L``, ``L`` ASCII bytes of the
+    numpy type string (``"<f8"``, ``"|u1"``, ...), zero padding up to a multiple of 8 bytes,
+    ``ndim`` x ``uint64`` shape, then the elements in C order, little-endian. The element
+    data thus starts at an 8-byte aligned offset.
+
+    Parameters
+    ----------
+    array : numpy.ndarray
+        Array of bool, signed or unsigned integers, floats or complex numbers, any shape
+        (zero-size and 0-d included). Big-endian or non-contiguous arrays are converted.
+
+    Returns
+    -------
+    bytes
+        The extension data.
+
+    Raises
+    ------
+    ProtocolError
+        If the dtype has no wire representation (object, str, datetime, structured...).
+    """
+    dtype = array.dtype
+    if dtype.kind not in "biufc" or dtype.fields is not None:
+        raise ProtocolError(
+            f"numpy arrays of dtype {dtype} cannot be encoded: use bool, int, uint, float or "
+            "complex columns"
+        )
+    little = dtype.newbyteorder("<") if dtype.byteorder == ">" else dtype
+    typestr = little.str
+    if typestr not in _WIRE_TYPESTRS:  # e.g. float128 on some platforms
+        raise ProtocolError(f"numpy arrays of dtype {dtype} cannot be encoded")
+    if array.ndim > MAX_NDIM:
+        raise ProtocolError(f"array has {array.ndim} dimensions, more than {MAX_NDIM}")
+    data = np.ascontiguousarray(array, dtype=little).tobytes()
+    ts = typestr.encode("ascii")
+    head = _EXT_HEAD.pack(array.ndim, len(ts)) + ts
+    head += b"\0" * _pad8(len(head))
+    return head + struct.pack(f"<{array.ndim}Q", *array.shape) + data
+
+
+def decode_array(data: bytes) -> np.ndarray:
+    """Decode the data of a :data:`EXT_NDARRAY` extension (inverse of :func:`encode_array`).
+
+    Parameters
+    ----------
+    data : bytes
+        The extension data.
+
+    Returns
+    -------
+    numpy.ndarray
+        A read-only array viewing ``data`` (no copy), little-endian.
+
+    Raises
+    ------
+    ProtocolError
+        If the layout is inconsistent (unknown type, length not matching the shape).
+    """
+    if len(data) < _EXT_HEAD.size:
+        raise ProtocolError("array column too short for its header")
+    ndim, lts = _EXT_HEAD.unpack_from(data, 0)
+    pos = _EXT_HEAD.size + lts
+    if ndim > MAX_NDIM or len(data) < pos:
+        raise ProtocolError("array column header is malformed")
+    try:
+        typestr = data[_EXT_HEAD.size : pos].decode("ascii")
+    except UnicodeDecodeError as exc:
+        raise ProtocolError("array column type string is not ASCII") from exc
+    if typestr not in _WIRE_TYPESTRS:
+        raise ProtocolError(f"array column has unsupported element type {typestr!r}")
+    pos += _pad8(pos)
+    end_shape = pos + 8 * ndim
+    if len(data) < end_shape:
+        raise ProtocolError("array column header is malformed")
+    shape = struct.unpack_from(f"<{ndim}Q", data, pos)
+    dtype = np.dtype(typestr)
+    count = math.prod(shape)
+    if count * dtype.itemsize != len(data) - end_shape:
+        raise ProtocolError(
+            f"array column of shape {shape} and type {typestr} holds "
+            f"{len(data) - end_shape} bytes, expected {count * dtype.itemsize}"
+        )
+    return np.frombuffer(data, dtype=dtype, count=count, offset=end_shape).reshape(shape)
+
+
+def _default(obj: Any) -> Any:
+    """msgpack hook for what it does not pack natively."""
+    if isinstance(obj, np.ndarray):
+        return msgpack.ExtType(EXT_NDARRAY, encode_array(obj))
+    if isinstance(obj, np.generic):
+        if isinstance(obj, (np.bool_, np.integer, np.floating)):
+            return obj.item()  # numpy scalar -> the Python scalar of the same value
+        raise ProtocolError(f"numpy scalar of type {obj.dtype} cannot be encoded")
+    raise ProtocolError(
+        f"value of type {type(obj).__name__} cannot be encoded: payloads hold dict (str keys), "
+        "list, tuple, str, bytes, int, float, bool, None and numpy arrays"
+    )
+
+
+def _check_keys(obj: Any, depth: int = 0) -> None:
+    """Require str keys in every map (portable to JSON and every msgpack library)."""
+    if depth > _MAX_DEPTH:
+        raise ProtocolError(f"payload nested deeper than {_MAX_DEPTH} levels")
+    if isinstance(obj, Mapping):
+        for key, value in obj.items():
+            if not isinstance(key, str):
+                raise ProtocolError(f"payload map keys must be str, got {key!r}")
+            _check_keys(value, depth + 1)
+    elif isinstance(obj, (list, tuple)):
+        for value in obj:
+            _check_keys(value, depth + 1)
+
+
+# One packer per thread, reused for speed (a Packer allocates its buffer when created);
+# autoreset empties it between messages, so the bytes depend on the message alone.
+_LOCAL = threading.local()
+
+
+def _packer() -> msgpack.Packer:
+    packer = getattr(_LOCAL, "packer", None)
+    if packer is None:
+        packer = _LOCAL.packer = msgpack.Packer(default=_default, use_bin_type=True)
+    return packer
+
+
+def encode(topic: bytes, t_sim: float, payload: Mapping[str, Any]) -> list[bytes]:
+    """Encode one message as its two ZeroMQ frames ``[topic, body]``.
+
+    Parameters
+    ----------
+    topic : bytes
+        Topic frame, e.g. :data:`TOPIC_PLOTS` (1 to 255 bytes).
+    t_sim : float
+        Simulated time of the message [s since scenario start]; finite.
+    payload : Mapping[str, Any]
+        The message content. Keys are str and must not be ``"v"`` or ``"t"`` (the envelope's).
+        Values: dicts with str keys, lists, tuples (sent as arrays), str, bytes, int, float
+        (NaN and inf allowed), bool, None, numpy scalars (sent as Python scalars) and numpy
+        arrays of bool/int/uint/float/complex (sent as typed columns). The encoder does not
+        interpret keys.
+
+    Returns
+    -------
+    list[bytes]
+        ``[topic, body]``. Equal inputs give identical bytes (insertion order is kept, floats
+        are always float64, no wall-clock value is added).
+
+    Raises
+    ------
+    ProtocolError
+        On a bad topic, non-finite time, reserved or non-str key, unencodable value, or a
+        body larger than :data:`MAX_BODY_BYTES`.
+    """
+    if not isinstance(topic, bytes) or not 0 < len(topic) <= MAX_TOPIC_BYTES:
+        raise ProtocolError(f"topic must be 1 to {MAX_TOPIC_BYTES} bytes, got {topic!r}")
+    t = float(t_sim)
+    if not math.isfinite(t):
+        raise ProtocolError(f"t_sim must be finite, got {t_sim!r}")
+    if not isinstance(payload, Mapping):
+        raise ProtocolError(f"payload must be a mapping, got {type(payload).__name__}")
+    for key in _RESERVED_KEYS:
+        if key in payload:
+            raise ProtocolError(f"payload key {key!r} is reserved for the envelope")
+    _check_keys(payload)
+    body_map: dict[str, Any] = {"v": SCHEMA_VERSION, "t": t}
+    body_map.update(payload)
+    packer = _packer()
+    try:
+        body = packer.pack(body_map)
+    except ProtocolError:
+        packer.reset()
+        raise
+    except (TypeError, ValueError, OverflowError) as exc:  # e.g. int beyond 64 bits
+        packer.reset()
+        raise ProtocolError(f"payload cannot be encoded: {exc}") from exc
+    if len(body) > MAX_BODY_BYTES:
+        raise ProtocolError(
+            f"encoded body is {len(body)} bytes, over the {MAX_BODY_BYTES}-byte maximum: "
+            "split the payload (e.g. one message per sector)"
+        )
+    return [topic, body]
+
+
+def _ext_hook(code: int, data: bytes) -> Any:
+    if code == EXT_NDARRAY:
+        return decode_array(data)
+    raise ProtocolError(f"unknown msgpack extension type {code}")
+
+
+def decode(frames: Sequence[bytes]) -> tuple[bytes, float, dict[str, Any]]:
+    """Decode the frames of one message (inverse of :func:`encode`).
+
+    Parameters
+    ----------
+    frames : Sequence[bytes]
+        ``[topic, body]`` as received from a SUB socket or read from a recording
+        (``bytes``, ``memoryview`` or ``zmq.Frame`` buffers).
+
+    Returns
+    -------
+    topic : bytes
+        The topic frame.
+    t_sim : float
+        Simulated time [s since scenario start].
+    payload : dict[str, Any]
+        The payload without the envelope keys; numpy arrays come back as read-only arrays.
+
+    Raises
+    ------
+    ProtocolError
+        If there are not exactly two frames, the body is over :data:`MAX_BODY_BYTES`, is not
+        valid msgpack, lacks ``"v"``/``"t"``, or has an unsupported schema version.
+    """
+    if len(frames) != 2:
+        raise ProtocolError(f"a message has 2 frames [topic, body], got {len(frames)}")
+    topic = bytes(frames[0])
+    body = frames[1]
+    size = memoryview(body).nbytes
+    if size > MAX_BODY_BYTES:
+        raise ProtocolError(
+            f"message body is {size} bytes, over the {MAX_BODY_BYTES}-byte maximum"
+        )
+    try:
+        obj = msgpack.unpackb(
+            body,
+            raw=False,
+            ext_hook=_ext_hook,
+            strict_map_key=True,
+        )
+    except ProtocolError:
+        raise
+    except Exception as exc:  # msgpack raises several unrelated types on garbage
+        raise ProtocolError(f"message body on topic {topic!r} is not valid msgpack: {exc}") from exc
+    if not isinstance(obj, dict) or "v" not in obj or "t" not in obj:
+        raise ProtocolError(f"message body on topic {topic!r} lacks the 'v'/'t' envelope")
+    version = obj.pop("v")
+    if version not in SUPPORTED_SCHEMA_VERSIONS:
+        raise ProtocolError(
+            f"message schema version {version!r} is not supported "
+            f"(this decoder reads {list(SUPPORTED_SCHEMA_VERSIONS)})"
+        )
+    t_sim = obj.pop("t")
+    if not isinstance(t_sim, (int, float)) or isinstance(t_sim, bool):
+        raise ProtocolError(f"message time 't' must be a number, got {t_sim!r}")
+    return topic, float(t_sim), obj
+
+
+def _json_float(x: float) -> float | None:
+    return x if math.isfinite(x) else None
+
+
+def _json_bytes(b: bytes) -> str:
+    try:
+        return b.decode("utf-8")
+    except UnicodeDecodeError:
+        return "0x" + b.hex()
+
+
+def to_jsonable(value: Any) -> Any:
+    """Convert a decoded payload to plain JSON types (used by ``shipradar tail``).
+
+    Parameters
+    ----------
+    value : Any
+        A payload as returned by :func:`decode`, or any part of it.
+
+    Returns
+    -------
+    Any
+        The same structure with numpy arrays as (nested) lists, numpy scalars as Python
+        scalars, NaN and +/-inf as ``None`` (JSON has no such numbers), bytes as UTF-8 text
+        (or ``"0x"`` + hex when not valid UTF-8), tuples as lists and map keys as str.
+    """
+    if isinstance(value, Mapping):
+        return {str(k): to_jsonable(v) for k, v in value.items()}
+    if isinstance(value, np.ndarray):
+        return to_jsonable(value.tolist())
+    if isinstance(value, (list, tuple)):
+        return [to_jsonable(v) for v in value]
+    if isinstance(value, np.generic):
+        return to_jsonable(value.item())
+    if isinstance(value, float):
+        return _json_float(value)
+    if isinstance(value, complex):
+        return [_json_float(value.real), _json_float(value.imag)]
+    if isinstance(value, (bytes, bytearray, memoryview)):
+        return _json_bytes(bytes(value))
+    return value
