@@ -1,0 +1,220 @@
+"""Command line: ``shipradar validate | tables build | run | replay | tail | plot``.
+
+Exit codes: 0 success, 2 bad input (scenario, arguments, files), 1 runtime failure.
+Every bad-input message names the field or option, the value and what is allowed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
+
+
+class BadInput(Exception):
+    """Bad command-line input: one message line per problem."""
+
+
+def _load(path: str):
+    from sim.scenario import ScenarioError, load_scenario
+
+    try:
+        return load_scenario(path)
+    except ScenarioError as exc:
+        raise BadInput("\n".join(f"{path}: {line}" for line in exc.lines)) from None
+
+
+def _positive(name: str):
+    def conv(text: str) -> float:
+        try:
+            v = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} must be a number, got {text!r}") from None
+        if not v > 0:
+            raise argparse.ArgumentTypeError(f"{name} must be > 0, got {text}")
+        return v
+
+    return conv
+
+
+def _count(name: str):
+    def conv(text: str) -> int:
+        try:
+            v = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} must be an integer, got {text!r}") from None
+        if v < 0:
+            raise argparse.ArgumentTypeError(f"{name} must be >= 0, got {text}")
+        return v
+
+    return conv
+
+
+# --------------------------------------------------------------------------- commands
+def cmd_validate(args) -> int:
+    s = _load(args.scenario)
+    radars = ", ".join(r.id for _, r in s.radars())
+    print(f"{args.scenario}: valid ({len(s.targets)} targets, radars: {radars}, "
+          f"{s.duration_s:g} s)")
+    return EXIT_OK
+
+
+def cmd_tables_build(args) -> int:
+    from tables.scene import build_scene_tables
+
+    s = _load(args.scenario)
+    report = build_scene_tables(s, progress=sys.stderr.isatty(), log=sys.stderr)
+    print(json.dumps(report, sort_keys=False))
+    return EXIT_OK
+
+
+def cmd_run(args) -> int:
+    from sim.bus import Bus, Publisher
+    from sim.engine import Simulation
+    from sim.recording import Recorder
+
+    s = _load(args.scenario)
+    if args.record and Path(args.record).exists() and not args.overwrite:
+        raise BadInput(f"--record: {args.record} exists; pass --overwrite to replace it")
+    tables = None
+    if args.build_tables:
+        from tables.scene import build_scene_tables, load_scene_tables
+
+        build_scene_tables(s, progress=sys.stderr.isatty(), log=sys.stderr)
+        tables = load_scene_tables(s)
+    publisher = recorder = bus = None
+    try:
+        if args.publish:
+            publisher = Publisher(args.publish, wait_subscribers=args.wait_subscribers,
+                                  wait_timeout_s=args.wait_timeout, on_slow=args.on_slow)
+        if args.record:
+            recorder = Recorder(args.record, overwrite=args.overwrite)
+        if publisher or recorder:
+            bus = Bus(publisher, recorder)
+        sim = Simulation(s, bus=bus, seed=args.seed, duration_s=args.duration,
+                         realtime=args.realtime, tables=tables,
+                         progress=sys.stderr.isatty() and not args.quiet)
+        for line in sim.tables.missing_lines():
+            print(f"note: {line}", file=sys.stderr)
+        if publisher is not None and args.wait_subscribers:
+            publisher.wait_for_subscribers()
+        summary = sim.run()
+    finally:
+        if bus is not None:
+            bus.close()
+        else:
+            for part in (publisher, recorder):
+                if part is not None:
+                    part.close()
+    print(json.dumps(summary))
+    return EXIT_OK
+
+
+def cmd_replay(args) -> int:
+    from sim.bus import replay
+
+    if not Path(args.recording).exists():
+        raise BadInput(f"replay: recording {args.recording} does not exist")
+    summary = replay(args.recording, endpoint=args.publish, speed=args.speed, fast=args.fast,
+                     wait_subscribers=args.wait_subscribers)
+    print(json.dumps(summary))
+    return EXIT_OK
+
+
+def cmd_tail(args) -> int:
+    from sim.bus import tail
+
+    topics = [t.encode() for t in args.topic] if args.topic else None
+    tail(args.endpoint, topics=topics, max_messages=args.count, timeout_s=args.timeout)
+    return EXIT_OK
+
+
+def cmd_plot(args) -> int:
+    from sim.figures.scene import render
+
+    s = _load(args.scenario)
+    written = render(s, args.what, Path(args.out), radar_id=args.radar, height_m=args.height)
+    for p in written:
+        print(p)
+    return EXIT_OK
+
+
+# --------------------------------------------------------------------------- parser
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="shipradar", description=__doc__.splitlines()[0])
+    sub = p.add_subparsers(dest="command", required=True)
+
+    v = sub.add_parser("validate", help="check a scenario file")
+    v.add_argument("scenario")
+    v.set_defaults(func=cmd_validate)
+
+    t = sub.add_parser("tables", help="off-line level: precompute a scenario's tables")
+    tsub = t.add_subparsers(dest="tables_command", required=True)
+    tb = tsub.add_parser("build", help="build the tables a scenario needs (cached)")
+    tb.add_argument("scenario")
+    tb.set_defaults(func=cmd_tables_build)
+
+    r = sub.add_parser("run", help="run a scenario headless")
+    r.add_argument("scenario")
+    r.add_argument("--seed", type=_count("--seed"), default=None, help="override the seed")
+    r.add_argument("--duration", type=_positive("--duration"), default=None,
+                   help="override the duration [s]")
+    r.add_argument("--record", default=None, help="append-only recording file")
+    r.add_argument("--overwrite", action="store_true", help="replace an existing recording")
+    r.add_argument("--publish", default=None, help="ZeroMQ endpoint, e.g. tcp://127.0.0.1:5556")
+    r.add_argument("--wait-subscribers", type=_count("--wait-subscribers"), default=0,
+                   help="wait for N subscribers before starting")
+    r.add_argument("--wait-timeout", type=_positive("--wait-timeout"), default=60.0)
+    r.add_argument("--on-slow", choices=("pace", "drop"), default="pace",
+                   help="slow subscriber: slow the run down (pace) or count dropped frames")
+    r.add_argument("--realtime", nargs="?", const=1.0, default=None,
+                   type=_positive("--realtime"), help="pace to the wall clock x FACTOR")
+    r.add_argument("--build-tables", action="store_true", help="build missing tables first")
+    r.add_argument("--quiet", action="store_true", help="no progress bar")
+    r.set_defaults(func=cmd_run)
+
+    rp = sub.add_parser("replay", help="republish a recording")
+    rp.add_argument("recording")
+    rp.add_argument("--publish", default=None, help="ZeroMQ endpoint")
+    g = rp.add_mutually_exclusive_group()
+    g.add_argument("--speed", type=_positive("--speed"), default=1.0)
+    g.add_argument("--fast", action="store_true")
+    rp.add_argument("--wait-subscribers", type=_count("--wait-subscribers"), default=0)
+    rp.set_defaults(func=cmd_replay)
+
+    tl = sub.add_parser("tail", help="print a stream as JSON lines")
+    tl.add_argument("endpoint")
+    tl.add_argument("--topic", action="append", help="topic to keep (repeatable)")
+    tl.add_argument("--count", type=_count("--count"), default=None, help="stop after N messages")
+    tl.add_argument("--timeout", type=_positive("--timeout"), default=None,
+                    help="stop after S seconds without a message")
+    tl.set_defaults(func=cmd_tail)
+
+    pl = sub.add_parser("plot", help="render figures of a scenario's tables as PNG")
+    pl.add_argument("scenario")
+    pl.add_argument("what", choices=("propagation", "coverage", "clutter", "improvement", "all"))
+    pl.add_argument("--out", default="out/figures")
+    pl.add_argument("--radar", default=None, help="radar id (default: every radar)")
+    pl.add_argument("--height", type=float, default=10.0, help="target height for F vs range [m]")
+    pl.set_defaults(func=cmd_plot)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)  # argparse exits with 2 on bad options
+    try:
+        return args.func(args)
+    except BadInput as exc:
+        print(str(exc), file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

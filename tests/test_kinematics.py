@@ -1,0 +1,136 @@
+"""Kinematics and geometry against independent computations; exact beam-crossing times."""
+
+import math
+
+import numpy as np
+import pymap3d
+import pymap3d.vincenty
+import pytest
+from scipy.optimize import brentq
+
+from sim.kinematics import (
+    EARTH_RADIUS_M,
+    K_FACTOR,
+    Trajectories,
+    antenna_geometry,
+    beam_crossing_times,
+    slant_range_elevation,
+    waypoint_enu,
+    wrap_pi,
+)
+from sim.scenario import Origin, Waypoint
+
+ORIGIN = Origin(lat_deg=44.6, lon_deg=-63.0)
+
+
+def _traj(points, hold):
+    return Trajectories([np.array(p, dtype=float) for p in points], hold=hold)
+
+
+def test_piecewise_linear_state():
+    tr = _traj([[(0, 0, 0, 10), (10, 100, 0, 10), (20, 100, 200, 30)],
+                [(5, 0, 0, 0)]], hold=False)
+    pos, vel, act = tr.state(np.array([15.0, 5.0]))
+    assert pos[0] == pytest.approx([100, 100, 20])
+    assert vel[0] == pytest.approx([0, 20, 2])
+    assert act.tolist() == [True, True]
+    pos, vel, act = tr.state(25.0)
+    assert act.tolist() == [False, False]  # targets exist only within their waypoint times
+    plat = _traj([[(0, 0, 0, 0), (10, 50, 0, 0)]], hold=True)
+    pos, vel, act = plat.state(30.0)
+    assert pos[0] == pytest.approx([50, 0, 0]) and vel[0] == pytest.approx([0, 0, 0]) and act[0]
+
+
+def test_latlon_waypoints_round_trip():
+    w = [Waypoint(time_s=0, lat_deg=44.7, lon_deg=-62.9, altitude_m=5)]
+    enu = waypoint_enu(w, ORIGIN)
+    lat, lon, _ = pymap3d.enu2geodetic(enu[0, 1], enu[0, 2], 0, 44.6, -63.0, 0)
+    # the tangent-plane up offset is dropped (east/north are map coordinates): ~3 cm here
+    assert (lat, lon) == pytest.approx((44.7, -62.9), abs=1e-6)
+
+
+def test_azimuth_and_range_against_pymap3d():
+    rng = np.random.default_rng(3)
+    ant = np.array([30e3, -20e3, 0.0])
+    tgt = np.column_stack([rng.uniform(-150e3, 150e3, 50), rng.uniform(-150e3, 150e3, 50),
+                           rng.uniform(0, 5000, 50)])
+    g = antenna_geometry(ant, np.zeros(3), 20.0, tgt, np.zeros_like(tgt), ORIGIN)
+    lat_a, lon_a, _ = pymap3d.enu2geodetic(ant[0], ant[1], 0, 44.6, -63.0, 0)
+    lat_t, lon_t, _ = pymap3d.enu2geodetic(tgt[:, 0], tgt[:, 1], 0, 44.6, -63.0, 0)
+    az, _, _ = pymap3d.geodetic2aer(lat_t, lon_t, tgt[:, 2], lat_a, lon_a, 20.0)
+    assert np.degrees(np.abs(wrap_pi(g.azimuth - np.radians(az)))).max() < 1e-6
+    dist, _ = pymap3d.vincenty.vdist(lat_a, lon_a, lat_t, lon_t)
+    assert g.ground_range == pytest.approx(np.asarray(dist), rel=2e-4)
+
+
+def test_slant_range_closed_forms():
+    a_e = K_FACTOR * EARTH_RADIUS_M
+    d = np.array([1e3, 50e3, 300e3])
+    slant, elev = slant_range_elevation(d, 0.0, 0.0)
+    gamma = d / a_e
+    assert slant == pytest.approx(2 * a_e * np.sin(gamma / 2), rel=1e-12)
+    assert elev == pytest.approx(-gamma / 2, rel=1e-9)
+    s, e = slant_range_elevation(0.0, 10.0, 110.0)  # straight up
+    assert s == pytest.approx(100.0) and e == pytest.approx(math.pi / 2)
+    # flat-earth limit at short range
+    s, e = slant_range_elevation(1000.0, 20.0, 520.0)
+    assert s == pytest.approx(math.hypot(1000, 500), rel=1e-4)
+    assert e == pytest.approx(math.atan2(500, 1000), abs=2e-4)
+
+
+@pytest.mark.parametrize("rpm", [6.0, 60.0])
+def test_beam_crossing_exact_moving_ship_and_targets(rpm):
+    ship = _traj([[(0, 0, 0, 0), (600, 0, 6000, 0)]], hold=True)  # 10 m/s north
+    rng = np.random.default_rng(1)
+    n = 40
+    tracks = []
+    for _ in range(n):
+        p0 = rng.uniform(-20e3, 20e3, 2)
+        v = rng.uniform(-300, 300, 2)
+        tracks.append([(0, *p0, 5.0), (600, *(p0 + 600 * v), 5.0)])
+    tg = _traj(tracks, hold=False)
+    omega = rpm / 60 * 2 * math.pi
+
+    def az_at(t, rows=np.arange(n)):
+        tp, tv, _ = tg.state(t, rows)
+        sp, sv, _ = ship.state(t, np.zeros(rows.size, dtype=int))
+        return antenna_geometry(sp, sv, 25.0, tp, tv, ORIGIN).azimuth
+
+    t_start, beam0 = 37.3, 1.1
+    tc = beam_crossing_times(az_at, t_start, beam0, omega, n)
+    period = 2 * math.pi / omega
+    assert np.all(tc >= t_start - 1e-9) and np.all(tc < t_start + 1.5 * period)
+    for i in range(n):
+        f = lambda t: wrap_pi(az_at(np.array([t]), np.array([i]))[0] - (beam0 + omega * (t - t_start)))  # noqa: E731
+        root = brentq(f, tc[i] - 0.05 * period, tc[i] + 0.05 * period, xtol=1e-12)
+        assert tc[i] == pytest.approx(root, abs=1e-7)
+
+
+def test_beam_crossing_flat_analytic():
+    """Short ranges near the origin: a flat-earth analytic rotation gives the same times."""
+    ship_v = np.array([3.0, 8.0])
+    tgt_p0, tgt_v = np.array([2000.0, -1500.0]), np.array([-250.0, 100.0])
+    ship = _traj([[(0, 0, 0, 0), (100, *(100 * ship_v), 0)]], hold=True)
+    tg = _traj([[(0, *tgt_p0, 10.0), (100, *(tgt_p0 + 100 * tgt_v), 10.0)]], hold=False)
+    omega = 2 * math.pi / 2.5
+
+    def az_flat(t):
+        d = tgt_p0 + tgt_v * t - ship_v * t
+        return math.atan2(d[0], d[1])
+
+    def az_at(t):
+        tp, tv, _ = tg.state(t)
+        sp, sv, _ = ship.state(t, np.zeros(1, dtype=int))
+        return antenna_geometry(sp, sv, 0.0, tp, tv, ORIGIN).azimuth
+
+    tc = beam_crossing_times(az_at, 10.0, 0.0, omega, 1)[0]
+    root = brentq(lambda t: wrap_pi(az_flat(t) - omega * (t - 10.0)), tc - 0.2, tc + 0.2)
+    # flat frame vs ellipsoid: meridian convergence a few 1e-3 deg at 2.5 km
+    assert tc == pytest.approx(root, abs=2e-4)
+
+
+def test_radial_velocity_sign():
+    ant = np.zeros(3)
+    tgt = np.array([[0.0, 10e3, 10.0]])
+    g = antenna_geometry(ant, np.zeros(3), 20, tgt, np.array([[0.0, -300.0, 0.0]]), ORIGIN)
+    assert g.radial_velocity[0] == pytest.approx(-300.0, rel=1e-4)  # closing: negative
