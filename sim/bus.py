@@ -86,7 +86,9 @@ def check_bind_endpoint(endpoint: str, *, allow_remote: bool = False) -> None:
         return
     hint = "bind a loopback address such as tcp://127.0.0.1:5555, or allow remote binding"
     if scheme != "tcp":
-        raise EndpointError(f"refusing to bind {endpoint}: transport {scheme!r} is not local; {hint}")
+        raise EndpointError(
+            f"refusing to bind {endpoint}: transport {scheme!r} is not local; {hint}"
+        )
     host, colon, _port = rest.rpartition(":")
     if not colon:
         raise EndpointError(f"malformed endpoint {endpoint!r}: no port")
@@ -229,6 +231,22 @@ class Publisher:
         if not self._closed:
             self._drain_subscriptions()
         return max(self._subscriptions.values(), default=0)
+
+    def poll_subscriptions(self, timeout_s: float = 0.0) -> int:
+        """Take in (un)subscriptions, waiting up to ``timeout_s`` for the first one.
+
+        Parameters
+        ----------
+        timeout_s : float, optional
+            Longest wait for a subscription change [s]; 0 only reads what is pending.
+
+        Returns
+        -------
+        int
+            :attr:`subscribers` afterwards.
+        """
+        self._drain_subscriptions(max(0, int(timeout_s * 1000)))
+        return self.subscribers
 
     def wait_for_subscribers(self, n: int | None = None, timeout_s: float | None = None) -> int:
         """Block until ``n`` subscribers have subscribed.
