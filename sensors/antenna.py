@@ -224,7 +224,9 @@ def cosec2_directivity(
     tilt = np.asarray(tilt_rad, dtype=float)
     phi_j = tilt + 0.5 * bw
     if np.any(phi_j <= 0.0):
-        raise ValueError("cosec² pattern needs tilt + beamwidth/2 > 0 (its junction above the horizon)")
+        raise ValueError(
+            "cosec² pattern needs tilt + beamwidth/2 > 0 (its junction above the horizon)"
+        )
     sinc = sinc_directivity(el - tilt, bw, sidelobe_db, envelope=envelope)
     # [14] writes the junction value as 1/sqrt(2), the sinc's nominal 3 dB value; the sinc
     # of [10]-[11] is 1/sqrt(2) there only to the obliquity factor and the 5 digits of
@@ -276,8 +278,10 @@ def directivity(
         Field factor, broadcast shape of the inputs, ``|g| <= 1``.
     """
     if pattern == "isotropic":
-        return np.broadcast_to(isotropic_directivity(angle_rad), np.broadcast_shapes(
-            np.shape(angle_rad), np.shape(beamwidth_rad))).copy()
+        return np.broadcast_to(
+            isotropic_directivity(angle_rad),
+            np.broadcast_shapes(np.shape(angle_rad), np.shape(beamwidth_rad)),
+        ).copy()
     if pattern == "gaussian":
         return gaussian_directivity(angle_rad, beamwidth_rad)
     if pattern == "sinc":
@@ -285,8 +289,12 @@ def directivity(
     if pattern == "cosec2":
         elevation = np.asarray(angle_rad, dtype=float) + np.asarray(tilt_rad, dtype=float)
         return cosec2_directivity(
-            elevation, beamwidth_rad, tilt_rad, sidelobe_db,
-            cosec_max_rad=cosec_max_rad, envelope=envelope,
+            elevation,
+            beamwidth_rad,
+            tilt_rad,
+            sidelobe_db,
+            cosec_max_rad=cosec_max_rad,
+            envelope=envelope,
         )
     raise ValueError(f"unknown antenna pattern {pattern!r}; expected one of {PATTERNS}")
 
@@ -331,6 +339,11 @@ def elevation_directivity(
     """
     offset = np.asarray(elevation_rad, dtype=float) - np.asarray(tilt_rad, dtype=float)
     return directivity(
-        offset, beamwidth_rad, pattern, sidelobe_db=sidelobe_db, tilt_rad=tilt_rad,
-        cosec_max_rad=cosec_max_rad, envelope=envelope,
+        offset,
+        beamwidth_rad,
+        pattern,
+        sidelobe_db=sidelobe_db,
+        tilt_rad=tilt_rad,
+        cosec_max_rad=cosec_max_rad,
+        envelope=envelope,
     )

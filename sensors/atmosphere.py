@@ -148,7 +148,10 @@ def gaseous_equivalent_heights_m(
     f = np.asarray(_ghz(freq_hz), dtype=float)
     # itur 0.4 returns kilometres under a "m" unit label: take the value as km.
     ho_hw = itu676.slant_inclined_path_equivalent_height(
-        f, p, np.asarray(water_vapour_density_g_m3, dtype=float), np.asarray(temperature_k, dtype=float)
+        f,
+        p,
+        np.asarray(water_vapour_density_g_m3, dtype=float),
+        np.asarray(temperature_k, dtype=float),
     )
     h = _plain(ho_hw)
     return h[0] * _KM, h[1] * _KM
@@ -328,20 +331,25 @@ def fog_specific_attenuation_db_per_km(
         γ_f/c [dB/km], 0 for M = 0.
     """
     t_c = np.asarray(temperature_k, dtype=float) - constants.zero_Celsius
-    kl = np.vectorize(lambda f_, t_: float(_plain(itu840.specific_attenuation_coefficients(f_, t_))))
+    kl = np.vectorize(
+        lambda f_, t_: float(_plain(itu840.specific_attenuation_coefficients(f_, t_)))
+    )
     return kl(_ghz(freq_hz), t_c) * np.asarray(liquid_water_g_m3, dtype=float)
 
 
 def _build_grid(freq_hz, ranges_m, elevations_rad, inputs) -> Table:
     t, p, rho = inputs["temperature_k"], inputs["pressure_hpa"], inputs["water_vapour_density_g_m3"]
     go, gw = gaseous_specific_attenuation_db_per_km(
-        freq_hz, temperature_k=t, pressure_hpa=p, water_vapour_density_g_m3=rho)
+        freq_hz, temperature_k=t, pressure_hpa=p, water_vapour_density_g_m3=rho
+    )
     ho, hw = gaseous_equivalent_heights_m(
-        freq_hz, temperature_k=t, pressure_hpa=p, water_vapour_density_g_m3=rho)
+        freq_hz, temperature_k=t, pressure_hpa=p, water_vapour_density_g_m3=rho
+    )
     rr, ee = np.meshgrid(ranges_m, elevations_rad, indexing="ij")
     ha = inputs["antenna_height_m"]
-    gas = gaseous_loss_db(rr, ee, gamma_o_db_per_km=go, gamma_w_db_per_km=gw,
-                          h_o_m=ho, h_w_m=hw, antenna_height_m=ha)
+    gas = gaseous_loss_db(
+        rr, ee, gamma_o_db_per_km=go, gamma_w_db_per_km=gw, h_o_m=ho, h_w_m=hw, antenna_height_m=ha
+    )
     # Once the path has left the absorbing layer the quadrature of each range returns the
     # same total to within 1e-15 relative, in either direction: keep the table exactly
     # non-decreasing in range, as the loss is.
@@ -352,11 +360,16 @@ def _build_grid(freq_hz, ranges_m, elevations_rad, inputs) -> Table:
     else:
         fog = np.zeros_like(gas)
     return Table(
-        name=TABLE_NAME, version=TABLE_VERSION,
+        name=TABLE_NAME,
+        version=TABLE_VERSION,
         axes=(np.asarray(ranges_m, dtype=float), np.asarray(elevations_rad, dtype=float)),
-        axis_names=("slant_range_m", "elevation_rad"), axis_units=("m", "rad"),
-        values=gas + fog, value_name="one_way_gas_fog_loss_db", value_unit="dB",
-        inputs=inputs, extra={"gaseous_db": gas, "fog_db": fog},
+        axis_names=("slant_range_m", "elevation_rad"),
+        axis_units=("m", "rad"),
+        values=gas + fog,
+        value_name="one_way_gas_fog_loss_db",
+        value_unit="dB",
+        inputs=inputs,
+        extra={"gaseous_db": gas, "fog_db": fog},
     )
 
 
@@ -464,7 +477,9 @@ def lookup_gas_fog_loss_db(
     r, el = np.broadcast_arrays(r, el)
     rc = np.clip(r, r_axis[0], r_axis[-1])
     loss = table.lookup(rc, el)
-    slope_end = np.interp(el, e_axis, (table.values[-1] - table.values[-2]) / (r_axis[-1] - r_axis[-2]))
+    slope_end = np.interp(
+        el, e_axis, (table.values[-1] - table.values[-2]) / (r_axis[-1] - r_axis[-2])
+    )
     loss = loss + slope_end * np.maximum(r - r_axis[-1], 0.0)
     if r_axis[0] > 0.0:
         loss = np.where(r < r_axis[0], loss * np.maximum(r, 0.0) / r_axis[0], loss)

@@ -28,7 +28,9 @@ from numpy.typing import ArrayLike, NDArray
 from sensors.noise import L_J_DB, MIN_RANGE_M, power_ratio
 
 
-def bandwidth_ratio(radar_bandwidth_hz: ArrayLike, jammer_bandwidth_hz: ArrayLike) -> NDArray[np.float64]:
+def bandwidth_ratio(
+    radar_bandwidth_hz: ArrayLike, jammer_bandwidth_hz: ArrayLike
+) -> NDArray[np.float64]:
     """Fraction of the jammer's noise power inside the radar receiver, ``min(B/B_j, 1)``.
 
     Parameters
@@ -114,10 +116,21 @@ def jammer_power_w(
     lam = np.asarray(wavelength_m, dtype=float)
     r = np.maximum(np.asarray(range_m, dtype=float), min_range_m)
     return (
-        np.asarray(p_jt_w, dtype=float) * np.asarray(g_j, dtype=float) * np.asarray(gain, dtype=float)
-        * pattern * bandwidth_ratio(radar_bandwidth_hz, jammer_bandwidth_hz)
-        * lam * lam * np.asarray(f_j, dtype=float) ** 2
-        / ((4.0 * np.pi) ** 2 * r * r * np.asarray(l_r, dtype=float) * np.asarray(l_atm, dtype=float))
+        np.asarray(p_jt_w, dtype=float)
+        * np.asarray(g_j, dtype=float)
+        * np.asarray(gain, dtype=float)
+        * pattern
+        * bandwidth_ratio(radar_bandwidth_hz, jammer_bandwidth_hz)
+        * lam
+        * lam
+        * np.asarray(f_j, dtype=float) ** 2
+        / (
+            (4.0 * np.pi) ** 2
+            * r
+            * r
+            * np.asarray(l_r, dtype=float)
+            * np.asarray(l_atm, dtype=float)
+        )
     )
 
 

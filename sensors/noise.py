@@ -140,7 +140,9 @@ def system_noise_temperature_k(
     )
 
 
-def antenna_temperature_k(sky_temperature_k: ArrayLike, l_a: ArrayLike = 1.0) -> NDArray[np.float64]:
+def antenna_temperature_k(
+    sky_temperature_k: ArrayLike, l_a: ArrayLike = 1.0
+) -> NDArray[np.float64]:
     """Antenna noise temperature, seed [18] (Blake 1986 p. 172).
 
     ``T_a = (0.876 T'_a - 254)/L_a + 290``: 87.6 % of the pattern sees the sky at T'_a and
@@ -227,11 +229,17 @@ def sky_temperature_k(
     """
     el = np.maximum(np.asarray(elevation_rad, dtype=float), 0.0)
     go, gw = atmosphere.gaseous_specific_attenuation_db_per_km(
-        freq_hz, temperature_k=surface_temperature_k, pressure_hpa=pressure_hpa,
-        water_vapour_density_g_m3=water_vapour_density_g_m3)
+        freq_hz,
+        temperature_k=surface_temperature_k,
+        pressure_hpa=pressure_hpa,
+        water_vapour_density_g_m3=water_vapour_density_g_m3,
+    )
     ho, hw = atmosphere.gaseous_equivalent_heights_m(
-        freq_hz, temperature_k=surface_temperature_k, pressure_hpa=pressure_hpa,
-        water_vapour_density_g_m3=water_vapour_density_g_m3)
+        freq_hz,
+        temperature_k=surface_temperature_k,
+        pressure_hpa=pressure_hpa,
+        water_vapour_density_g_m3=water_vapour_density_g_m3,
+    )
     # Absorption coefficient [Np/m of power] from dB/km.
     np_per_m_per_db_per_km = np.log(10.0) / 10.0 / constants.kilo
 
@@ -279,8 +287,10 @@ def noise_power_w(system_temperature_k: ArrayLike, bandwidth_hz: ArrayLike) -> N
     ndarray
         N0' [W] (k T0 B = -114 dBm for 290 K and 1 MHz).
     """
-    return constants.k * np.asarray(system_temperature_k, dtype=float) * np.asarray(
-        bandwidth_hz, dtype=float
+    return (
+        constants.k
+        * np.asarray(system_temperature_k, dtype=float)
+        * np.asarray(bandwidth_hz, dtype=float)
     )
 
 
@@ -314,7 +324,11 @@ def radar_constant(
     lam = np.asarray(wavelength_m, dtype=float)
     g = np.asarray(gain, dtype=float)
     return (
-        np.asarray(p_t_w, dtype=float) * g * g * lam * lam
+        np.asarray(p_t_w, dtype=float)
+        * g
+        * g
+        * lam
+        * lam
         / ((4.0 * np.pi) ** 3 * np.asarray(l_tr, dtype=float) * np.asarray(l_atm, dtype=float) ** 2)
     )
 

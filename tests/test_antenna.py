@@ -52,7 +52,9 @@ def test_first_sidelobe_peak_level(sidelobe_db):
     second_null = np.arcsin(2 * np.pi / antenna.sinc_constant_k(bw))
     res = minimize_scalar(
         lambda a: -abs(antenna.sinc_directivity(a, bw, sidelobe_db)),
-        bounds=(null * 1.0001, second_null), method="bounded", options={"xatol": 1e-10},
+        bounds=(null * 1.0001, second_null),
+        method="bounded",
+        options={"xatol": 1e-10},
     )
     peak_db = 20 * np.log10(-res.fun)
     assert peak_db == pytest.approx(-sidelobe_db, abs=0.02)
@@ -64,14 +66,17 @@ def test_sidelobe_factor_only_beyond_first_null():
     bw = np.deg2rad(3.0)
     inside = np.linspace(-0.99, 0.99, 41) * antenna.sinc_first_null_rad(bw)
     assert antenna.sinc_directivity(inside, bw, 40.0) == pytest.approx(
-        antenna.sinc_directivity(inside, bw, 13.26), rel=1e-12)
+        antenna.sinc_directivity(inside, bw, 13.26), rel=1e-12
+    )
 
 
 def test_wide_beam_has_no_null_and_sidelobe_factor_unused():
     bw = np.deg2rad(60.0)  # 2.2575 sin(30°) > 1
     assert antenna.sinc_first_null_rad(bw) == np.pi
     a = np.linspace(-np.pi, np.pi, 101)
-    assert antenna.sinc_directivity(a, bw, 40.0) == pytest.approx(antenna.sinc_directivity(a, bw), rel=1e-12)
+    assert antenna.sinc_directivity(a, bw, 40.0) == pytest.approx(
+        antenna.sinc_directivity(a, bw), rel=1e-12
+    )
 
 
 def test_envelope_bounds_the_sidelobes():
@@ -86,7 +91,9 @@ def test_cosec2_junction_continuity_and_law():
     bw, tilt = np.deg2rad(4.0), np.deg2rad(2.0)
     phi_j = tilt + bw / 2
     eps = 1e-9
-    below, at, above = antenna.cosec2_directivity(np.array([phi_j - eps, phi_j, phi_j + eps]), bw, tilt)
+    below, at, above = antenna.cosec2_directivity(
+        np.array([phi_j - eps, phi_j, phi_j + eps]), bw, tilt
+    )
     assert below == pytest.approx(above, abs=1e-6)
     # Both sides are [14]'s 1/sqrt(2) there, within [11]'s digits and the obliquity factor.
     assert at == pytest.approx(1 / np.sqrt(2), rel=1e-3)
@@ -115,14 +122,17 @@ def test_cosec2_rejects_junction_below_horizon():
 def test_dispatcher_and_elevation_convention():
     bw = np.deg2rad(3.0)
     a = np.linspace(-0.2, 0.2, 11)
-    assert antenna.directivity(a, bw, "gaussian") == pytest.approx(antenna.gaussian_directivity(a, bw))
+    assert antenna.directivity(a, bw, "gaussian") == pytest.approx(
+        antenna.gaussian_directivity(a, bw)
+    )
     assert antenna.directivity(a, bw, "isotropic") == pytest.approx(np.ones(11))
     tilt = np.deg2rad(1.5)
     for pattern in ("gaussian", "sinc", "cosec2"):
         assert antenna.elevation_directivity(tilt, bw, pattern, tilt_rad=tilt) == pytest.approx(1.0)
     el = np.deg2rad(10.0)
     assert antenna.elevation_directivity(el, bw, "cosec2", tilt_rad=tilt) == pytest.approx(
-        antenna.cosec2_directivity(el, bw, tilt))
+        antenna.cosec2_directivity(el, bw, tilt)
+    )
     with pytest.raises(ValueError):
         antenna.directivity(0.0, bw, "parabolic")
 

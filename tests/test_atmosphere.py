@@ -46,15 +46,19 @@ def test_zenith_closed_form(gas10):
     r = np.array([100.0, 1e3, 5e3, 20e3, 100e3])
     loss = atm.gaseous_loss_db(r, np.pi / 2, **gas10)
     g = gas10
-    expected = (g["gamma_o_db_per_km"] * g["h_o_m"] * (1 - np.exp(-r / g["h_o_m"]))
-                + g["gamma_w_db_per_km"] * g["h_w_m"] * (1 - np.exp(-r / g["h_w_m"]))) / 1e3
+    expected = (
+        g["gamma_o_db_per_km"] * g["h_o_m"] * (1 - np.exp(-r / g["h_o_m"]))
+        + g["gamma_w_db_per_km"] * g["h_w_m"] * (1 - np.exp(-r / g["h_w_m"]))
+    ) / 1e3
     assert loss == pytest.approx(expected, rel=1e-9)
 
 
 @pytest.mark.parametrize("el_deg, rel", [(90.0, 0.05), (30.0, 0.05), (10.0, 0.05), (5.0, 0.06)])
 def test_slant_path_against_itur_line_by_line_layers(gas10, el_deg, rel):
     # Second method: P.676 Annex 1 through ~900 layers of the P.835 standard atmosphere.
-    exact = float(itu676.gaseous_attenuation_slant_path(10.0, el_deg, RHO, P_HPA, T_K, mode="exact").value)
+    exact = float(
+        itu676.gaseous_attenuation_slant_path(10.0, el_deg, RHO, P_HPA, T_K, mode="exact").value
+    )
     ours = atm.gaseous_loss_db(2000e3, np.deg2rad(el_deg), **gas10)
     assert ours == pytest.approx(exact, rel=rel)
 
@@ -101,8 +105,12 @@ def test_fog_specific_attenuation_linear_in_water_content():
 def test_rain_specific_attenuation_p838_coefficients():
     # ITU-R P.838-3 Table 5 at 10 GHz: k_H = 0.01217, α_H = 1.2571; k_V = 0.01129, α_V = 1.2156.
     r = np.array([1.0, 10.0, 50.0])
-    assert atm.rain_specific_attenuation_db_per_km(F_HZ, r, "H") == pytest.approx(0.01217 * r**1.2571, rel=1e-3)
-    assert atm.rain_specific_attenuation_db_per_km(F_HZ, r, "V") == pytest.approx(0.01129 * r**1.2156, rel=1e-3)
+    assert atm.rain_specific_attenuation_db_per_km(F_HZ, r, "H") == pytest.approx(
+        0.01217 * r**1.2571, rel=1e-3
+    )
+    assert atm.rain_specific_attenuation_db_per_km(F_HZ, r, "V") == pytest.approx(
+        0.01129 * r**1.2156, rel=1e-3
+    )
     assert atm.rain_specific_attenuation_db_per_km(F_HZ, 0.0, "H") == 0.0
     with pytest.raises(ValueError):
         atm.rain_specific_attenuation_db_per_km(F_HZ, 1.0, "X")
@@ -114,12 +122,21 @@ def test_rain_loss_zero_without_rain_and_proportional_to_path():
     gamma = atm.rain_specific_attenuation_db_per_km(F_HZ, 10.0, "H")
     paths = np.array([0.0, 1e3, 2e3, 7.5e3])
     assert atm.rain_loss_db(gamma, paths) == pytest.approx(gamma * paths / 1e3, rel=1e-15)
-    assert atm.rain_loss_db(gamma, 2e3) == pytest.approx(2 * atm.rain_loss_db(gamma, 1e3), rel=1e-15)
+    assert atm.rain_loss_db(gamma, 2e3) == pytest.approx(
+        2 * atm.rain_loss_db(gamma, 1e3), rel=1e-15
+    )
 
 
 def _path(target_en, target_up, centre_en, radius, top, radar_en=(0.0, 0.0), radar_up=0.0):
-    return atm.rain_path_length_m(np.array(radar_en), np.array(target_en), radar_up, target_up,
-                                  np.array(centre_en), radius, top)
+    return atm.rain_path_length_m(
+        np.array(radar_en),
+        np.array(target_en),
+        radar_up,
+        target_up,
+        np.array(centre_en),
+        radius,
+        top,
+    )
 
 
 def test_rain_chord_hand_geometry():
@@ -132,16 +149,22 @@ def test_rain_chord_hand_geometry():
     # Misses the cell.
     assert _path((20e3, 0.0), 0.0, (10e3, 6e3), 5e3, 3e3) == 0.0
     # Rain everywhere, climbing target at 6 km: half the slant path is below a 3 km top.
-    assert _path((20e3, 0.0), 6e3, (0.0, 0.0), np.inf, 3e3) == pytest.approx(0.5 * np.hypot(20e3, 6e3), rel=1e-12)
+    assert _path((20e3, 0.0), 6e3, (0.0, 0.0), np.inf, 3e3) == pytest.approx(
+        0.5 * np.hypot(20e3, 6e3), rel=1e-12
+    )
     # Both ends above the rain top.
     assert _path((20e3, 0.0), 4e3, (10e3, 0.0), 5e3, 3e3, radar_up=3.5e3) == 0.0
     # Vertical segment on the axis, from 1 km to 5 km, 3 km top: 2 km.
-    assert _path((10e3, 0.0), 5e3, (10e3, 0.0), 5e3, 3e3, radar_en=(10e3, 0.0), radar_up=1e3) == pytest.approx(2e3, rel=1e-12)
+    assert _path(
+        (10e3, 0.0), 5e3, (10e3, 0.0), 5e3, 3e3, radar_en=(10e3, 0.0), radar_up=1e3
+    ) == pytest.approx(2e3, rel=1e-12)
 
 
 def test_rain_path_vectorized_over_targets():
     targets = np.array([[20e3, 0.0], [20e3, 0.0], [12e3, 0.0]])
-    out = atm.rain_path_length_m(np.zeros(2), targets, 0.0, np.zeros(3), np.array([10e3, 0.0]), 5e3, 3e3)
+    out = atm.rain_path_length_m(
+        np.zeros(2), targets, 0.0, np.zeros(3), np.array([10e3, 0.0]), 5e3, 3e3
+    )
     assert out == pytest.approx([10e3, 10e3, 7e3], rel=1e-12)
 
 
@@ -166,8 +189,9 @@ def test_grid_table_build_cache_and_lookup(table_cache, gas10):
     ranges = np.linspace(0.0, 200e3, 201)
     els = np.deg2rad(np.linspace(-1.0, 30.0, 63))
     t0 = time.perf_counter()
-    table = atm.atmospheric_loss_grid(F_HZ, ranges, els, fog_lwc_g_m3=0.2, fog_top_m=150.0,
-                                      antenna_height_m=20.0)
+    table = atm.atmospheric_loss_grid(
+        F_HZ, ranges, els, fog_lwc_g_m3=0.2, fog_top_m=150.0, antenna_height_m=20.0
+    )
     build_s = time.perf_counter() - t0
     print(f"atmospheric_loss_grid 201x63 build: {build_s:.3f} s")
     assert isinstance(table, Table)
@@ -177,14 +201,19 @@ def test_grid_table_build_cache_and_lookup(table_cache, gas10):
     # The gas part equals the direct integral at the nodes.
     j = 20
     assert table.extra["gaseous_db"][:, j] == pytest.approx(
-        atm.gaseous_loss_db(ranges, els[j], antenna_height_m=20.0, **gas10), rel=1e-12)
+        atm.gaseous_loss_db(ranges, els[j], antenna_height_m=20.0, **gas10), rel=1e-12
+    )
     # Fog part: K_l M times the length below the fog top.
-    fog = atm.fog_specific_attenuation_db_per_km(F_HZ, 0.2) * atm.layer_path_length_m(
-        ranges, els[j], 150.0, 20.0) / 1e3
+    fog = (
+        atm.fog_specific_attenuation_db_per_km(F_HZ, 0.2)
+        * atm.layer_path_length_m(ranges, els[j], 150.0, 20.0)
+        / 1e3
+    )
     assert table.extra["fog_db"][:, j] == pytest.approx(fog, rel=1e-12)
     # Cached: a second call reads the file and gives the same table.
-    again = atm.atmospheric_loss_grid(F_HZ, ranges, els, fog_lwc_g_m3=0.2, fog_top_m=150.0,
-                                      antenna_height_m=20.0)
+    again = atm.atmospheric_loss_grid(
+        F_HZ, ranges, els, fog_lwc_g_m3=0.2, fog_top_m=150.0, antenna_height_m=20.0
+    )
     assert again.key == table.key
     assert len(list(table_cache.glob("atmospheric_loss-*.npz"))) == 1
     assert np.array_equal(again.values, table.values)

@@ -17,8 +17,19 @@ def test_jammer_power_and_sj_hand_computation_in_db():
     # L_r 1.5 dB, L_atm 0.5 dB:
     # 20 + 10 + 35 - 40 - 20 + 20 log 0.03 - 20 log 4π - 20 log 1e5 - 1.5 - 0.5
     # = 20 + 10 + 35 - 40 - 20 - 30.458 - 21.984 - 100 - 2 = -149.442 dBW
-    pj = jamming.jammer_power_w(100.0, power_ratio(10.0), power_ratio(35.0), 0.01, 1.0, LAM,
-                                100e3, 1e6, 100e6, l_r=power_ratio(1.5), l_atm=power_ratio(0.5))
+    pj = jamming.jammer_power_w(
+        100.0,
+        power_ratio(10.0),
+        power_ratio(35.0),
+        0.01,
+        1.0,
+        LAM,
+        100e3,
+        1e6,
+        100e6,
+        l_r=power_ratio(1.5),
+        l_atm=power_ratio(0.5),
+    )
     assert 10 * np.log10(pj) == pytest.approx(-149.442, abs=0.002)
     # [48] with P_r = -130 dBW and L_j = L_x = 5 dB: S/J = -130 + 149.442 - 5 = 14.442 dB.
     sj = jamming.signal_to_jamming(1e-13, pj)
@@ -45,8 +56,9 @@ def test_main_beam_versus_sidelobe_with_the_antenna_pattern():
     # A Gaussian beam has no sidelobes: the seed's constant L_sl keeps a floor.
     g_gauss = antenna.directivity(np.deg2rad(90.0), bw, "gaussian")
     floor = power_ratio(-40.0)
-    pj_floor = jamming.jammer_power_w(100.0, 10.0, 3000.0, g_gauss, 1.0, LAM, 50e3, 1e6, 50e6,
-                                      sidelobe_floor=floor)
+    pj_floor = jamming.jammer_power_w(
+        100.0, 10.0, 3000.0, g_gauss, 1.0, LAM, 50e3, 1e6, 50e6, sidelobe_floor=floor
+    )
     assert pj_floor == pytest.approx(main * floor, rel=1e-12)
 
 
@@ -56,12 +68,15 @@ def test_vectorized_over_dwells_and_jammers():
     g_az = rng.uniform(0.0, 1.0, (n_dwell, n_jam))
     ranges = np.array([30e3, 80e3, 150e3])
     p = np.array([50.0, 200.0, 1000.0])
-    pj = jamming.jammer_power_w(p, 10.0, 3000.0, g_az, 0.9, LAM, ranges, 1e6, np.array([2e7, 5e7, 1e8]))
+    pj = jamming.jammer_power_w(
+        p, 10.0, 3000.0, g_az, 0.9, LAM, ranges, 1e6, np.array([2e7, 5e7, 1e8])
+    )
     assert pj.shape == (n_dwell, n_jam)
     for i in range(n_dwell):
         for j in range(n_jam):
-            one = jamming.jammer_power_w(p[j], 10.0, 3000.0, g_az[i, j], 0.9, LAM, ranges[j], 1e6,
-                                         [2e7, 5e7, 1e8][j])
+            one = jamming.jammer_power_w(
+                p[j], 10.0, 3000.0, g_az[i, j], 0.9, LAM, ranges[j], 1e6, [2e7, 5e7, 1e8][j]
+            )
             assert pj[i, j] == pytest.approx(one, rel=1e-14)
     total = pj.sum(axis=1)
     sj = jamming.signal_to_jamming(np.full(n_dwell, 1e-12), total)

@@ -19,7 +19,9 @@ def test_named_constants_are_the_seeds():
 
 
 def test_receive_loss_is_half_the_transmit_receive_loss_in_db():
-    assert 10 * np.log10(noise.receive_loss(noise.power_ratio(4.0))) == pytest.approx(2.0, rel=1e-12)
+    assert 10 * np.log10(noise.receive_loss(noise.power_ratio(4.0))) == pytest.approx(
+        2.0, rel=1e-12
+    )
     assert noise.receive_loss(1.0) == 1.0
 
 
@@ -49,8 +51,16 @@ def test_radar_equation_snr_hand_computation_in_db():
     # P_t 1 MW, G 35 dB, 10 GHz, L_t/r 3 dB, σ 1 m², R 50 km, F 1, T_s 500 K, B 1 MHz, L_x 5 dB.
     # In dB: 60 + 2·35 + 20 log λ - 30 log 4π - 3 + 0 - 40 log R - 10 log(k T_s B) - 5.
     lam = 299792458.0 / 10e9
-    snr_db_hand = (60 + 70 + 20 * np.log10(lam) - 30 * np.log10(4 * np.pi) - 3
-                   - 40 * np.log10(50e3) - 10 * np.log10(1.380649e-23 * 500 * 1e6) - 5)
+    snr_db_hand = (
+        60
+        + 70
+        + 20 * np.log10(lam)
+        - 30 * np.log10(4 * np.pi)
+        - 3
+        - 40 * np.log10(50e3)
+        - 10 * np.log10(1.380649e-23 * 500 * 1e6)
+        - 5
+    )
     assert snr_db_hand == pytest.approx(12.21, abs=0.01)  # worked by hand: 12.21 dB
     kr = noise.radar_constant(1e6, noise.power_ratio(35.0), lam, noise.power_ratio(3.0))
     pr = noise.received_power(kr, 1.0, 1.0, 50e3)
@@ -98,8 +108,11 @@ def test_sky_temperature_isothermal_closed_form():
     go, gw = atm.gaseous_specific_attenuation_db_per_km(10e9)
     ho, hw = atm.gaseous_equivalent_heights_m(10e9)
     path = atm.layer_path_length_m(1e9, els, noise.ATMOSPHERE_TOP_M)
-    loss = noise.power_ratio(atm.gaseous_loss_db(path, els, gamma_o_db_per_km=go, gamma_w_db_per_km=gw,
-                                                 h_o_m=ho, h_w_m=hw))
+    loss = noise.power_ratio(
+        atm.gaseous_loss_db(
+            path, els, gamma_o_db_per_km=go, gamma_w_db_per_km=gw, h_o_m=ho, h_w_m=hw
+        )
+    )
     expected = 288.15 * (1 - 1 / loss) + noise.T_COSMIC_K / loss
     assert t_sky == pytest.approx(expected, rel=1e-6)
 
@@ -118,6 +131,8 @@ def test_sky_temperature_monotone_and_bounded():
     for f in (1e9, 10e9, 35e9):
         t = noise.sky_temperature_k(f, els)
         assert np.all(np.diff(t) <= 1e-9)
-        assert np.all(t >= noise.T_COSMIC_K) and np.all(t <= 288.15 + noise.galactic_noise_temperature_k(f))
+        assert np.all(t >= noise.T_COSMIC_K) and np.all(
+            t <= 288.15 + noise.galactic_noise_temperature_k(f)
+        )
     # Near the 60 GHz oxygen band the air is opaque: the sky is the air temperature.
     assert noise.sky_temperature_k(60e9, 0.0) == pytest.approx(288.15, rel=0.02)

@@ -14,7 +14,9 @@ BROADSIDE = SIGMA_N * 4 * LENGTH / (np.pi * DIAMETER)
 def test_nose_on_and_broadside_values():
     assert rcs.missile_rcs(SIGMA_N, LENGTH, DIAMETER, 0.0, 0.0) == pytest.approx(SIGMA_N, rel=1e-15)
     for theta, phi in ((np.pi / 2, 0.0), (-np.pi / 2, 0.0), (0.0, np.pi / 2), (0.0, -np.pi / 2)):
-        assert rcs.missile_rcs(SIGMA_N, LENGTH, DIAMETER, theta, phi) == pytest.approx(BROADSIDE, rel=1e-12)
+        assert rcs.missile_rcs(SIGMA_N, LENGTH, DIAMETER, theta, phi) == pytest.approx(
+            BROADSIDE, rel=1e-12
+        )
 
 
 def test_seed_formula_inside_ninety_degrees():
@@ -22,21 +24,29 @@ def test_seed_formula_inside_ninety_degrees():
     # Split ψ between θ' and φ' (ψ = sqrt(θ'² + φ'²)) in a hand-chosen 3-4-5 ratio.
     theta, phi = 0.6 * psi, 0.8 * psi
     expected = SIGMA_N * (np.cos(psi) + 4 * LENGTH / (np.pi * DIAMETER) * np.sin(psi))
-    assert rcs.missile_rcs(SIGMA_N, LENGTH, DIAMETER, theta, phi) == pytest.approx(expected, rel=1e-12)
+    assert rcs.missile_rcs(SIGMA_N, LENGTH, DIAMETER, theta, phi) == pytest.approx(
+        expected, rel=1e-12
+    )
 
 
 def test_beyond_ninety_degrees_folds_to_tail_symmetric_aspect():
     psi = np.deg2rad(np.array([100.0, 135.0, 170.0, 180.0]))
     assert rcs.missile_rcs(SIGMA_N, LENGTH, DIAMETER, psi, 0.0) == pytest.approx(
-        rcs.missile_rcs(SIGMA_N, LENGTH, DIAMETER, np.pi - psi, 0.0), rel=1e-12)
+        rcs.missile_rcs(SIGMA_N, LENGTH, DIAMETER, np.pi - psi, 0.0), rel=1e-12
+    )
     # Tail-on equals nose-on, and [15] as printed would have been negative there.
-    assert rcs.missile_rcs(SIGMA_N, LENGTH, DIAMETER, np.pi, 0.0) == pytest.approx(SIGMA_N, rel=1e-12)
+    assert rcs.missile_rcs(SIGMA_N, LENGTH, DIAMETER, np.pi, 0.0) == pytest.approx(
+        SIGMA_N, rel=1e-12
+    )
     assert SIGMA_N * (np.cos(np.pi) + 0.0) < 0.0
 
 
 @settings(max_examples=100, deadline=None)
-@given(theta=st.floats(-np.pi, np.pi), phi=st.floats(-np.pi / 2, np.pi / 2),
-       ratio=st.floats(1.0, 100.0))
+@given(
+    theta=st.floats(-np.pi, np.pi),
+    phi=st.floats(-np.pi / 2, np.pi / 2),
+    ratio=st.floats(1.0, 100.0),
+)
 def test_missile_rcs_symmetric_positive_bounded(theta, phi, ratio):
     length, diameter = ratio * 0.1, 0.1
     s = rcs.missile_rcs(1.0, length, diameter, theta, phi)
@@ -51,17 +61,21 @@ def test_missile_rcs_symmetric_positive_bounded(theta, phi, ratio):
 def test_aspect_angles_from_geometry():
     # Radar at the origin, target 10 km north.
     los = np.array([[0.0, 10e3, 0.0]] * 5)
-    vel = np.array([
-        [0.0, -300.0, 0.0],   # flying at the radar: nose-on
-        [0.0, 300.0, 0.0],    # flying away: tail-on
-        [300.0, 0.0, 0.0],    # flying east: radar on its right, broadside
-        [0.0, 0.0, 300.0],    # climbing vertically: radar 90° off the nose
-        [0.0, -300.0, -300.0],  # diving toward the radar at 45°
-    ])
+    vel = np.array(
+        [
+            [0.0, -300.0, 0.0],  # flying at the radar: nose-on
+            [0.0, 300.0, 0.0],  # flying away: tail-on
+            [300.0, 0.0, 0.0],  # flying east: radar on its right, broadside
+            [0.0, 0.0, 300.0],  # climbing vertically: radar 90° off the nose
+            [0.0, -300.0, -300.0],  # diving toward the radar at 45°
+        ]
+    )
     theta, phi = rcs.aspect_angles(los, vel)
     assert theta[0] == pytest.approx(0.0, abs=1e-12) and phi[0] == pytest.approx(0.0, abs=1e-12)
     assert abs(theta[1]) == pytest.approx(np.pi, rel=1e-12)
-    assert abs(theta[2]) == pytest.approx(np.pi / 2, rel=1e-12) and phi[2] == pytest.approx(0.0, abs=1e-12)
+    assert abs(theta[2]) == pytest.approx(np.pi / 2, rel=1e-12) and phi[2] == pytest.approx(
+        0.0, abs=1e-12
+    )
     # Vertical velocity: the radar is 90° off the nose.
     assert rcs.off_nose_angle(theta[3], phi[3]) == pytest.approx(np.pi / 2, rel=1e-12)
     # Diving at 45° toward a radar on the horizon: 45° off the nose, in the vertical plane.
@@ -70,8 +84,10 @@ def test_aspect_angles_from_geometry():
 
 
 @settings(max_examples=100, deadline=None)
-@given(los=st.lists(st.floats(-1e5, 1e5), min_size=3, max_size=3),
-       vel=st.lists(st.floats(-1e3, 1e3), min_size=3, max_size=3))
+@given(
+    los=st.lists(st.floats(-1e5, 1e5), min_size=3, max_size=3),
+    vel=st.lists(st.floats(-1e3, 1e3), min_size=3, max_size=3),
+)
 def test_off_nose_angle_matches_dot_product(los, vel):
     los, vel = np.array(los), np.array(vel)
     if np.linalg.norm(los) < 1.0 or np.linalg.norm(vel) < 1e-3:
@@ -79,12 +95,16 @@ def test_off_nose_angle_matches_dot_product(los, vel):
     theta, phi = rcs.aspect_angles(los, vel)
     # Second method: angle between the velocity and the direction target -> radar.
     cos_true = np.dot(vel, -los) / (np.linalg.norm(vel) * np.linalg.norm(los))
-    assert rcs.off_nose_angle(theta, phi) == pytest.approx(np.arccos(np.clip(cos_true, -1, 1)), abs=1e-6)
+    assert rcs.off_nose_angle(theta, phi) == pytest.approx(
+        np.arccos(np.clip(cos_true, -1, 1)), abs=1e-6
+    )
 
 
 def test_zero_velocity_is_nose_on():
-    theta, phi = rcs.aspect_angles(np.array([[1e3, 2e3, 10.0], [0.0, 0.0, 0.0]]),
-                                   np.array([[0.0, 0.0, 0.0], [100.0, 0.0, 0.0]]))
+    theta, phi = rcs.aspect_angles(
+        np.array([[1e3, 2e3, 10.0], [0.0, 0.0, 0.0]]),
+        np.array([[0.0, 0.0, 0.0], [100.0, 0.0, 0.0]]),
+    )
     assert theta == pytest.approx([0.0, 0.0], abs=0.0) and phi == pytest.approx([0.0, 0.0], abs=0.0)
     assert rcs.missile_rcs(SIGMA_N, LENGTH, DIAMETER, theta, phi) == pytest.approx([SIGMA_N] * 2)
 
@@ -99,7 +119,8 @@ def test_tabulated_rcs_exact_at_nodes_and_symmetric():
     assert rcs.tabulated_rcs(axis, sigma, np.deg2rad(60.0)) == pytest.approx(21.0, rel=1e-12)
     # Beyond π folds back: 200° off the nose is 160°.
     assert rcs.tabulated_rcs(axis, sigma, np.deg2rad(200.0)) == pytest.approx(
-        rcs.tabulated_rcs(axis, sigma, np.deg2rad(160.0)), rel=1e-12)
+        rcs.tabulated_rcs(axis, sigma, np.deg2rad(160.0)), rel=1e-12
+    )
 
 
 def test_tabulated_rcs_holds_end_values_and_rejects_bad_tables():
