@@ -191,6 +191,43 @@ def path_height_m(
     return np.sqrt(np.maximum(r2, 0.0)) - earth_radius_m
 
 
+def ray_elevation_rad(
+    slant_range_m: ArrayLike,
+    target_height_m: ArrayLike,
+    antenna_height_m: ArrayLike = 0.0,
+    earth_radius_m: float = EFFECTIVE_EARTH_RADIUS_M,
+) -> NDArray[np.float64]:
+    """Elevation at the antenna of the ray reaching a height at a slant range (inverse of
+    :func:`path_height_m`): the elevation coordinate of the atmospheric-loss table.
+
+    ``sin(el) = ((a_e + h_t)² - r0² - R²) / (2 R r0)``, ``r0 = a_e + h_a`` (cosine law in the
+    triangle earth centre - antenna - target over the effective earth).
+
+    Parameters
+    ----------
+    slant_range_m : array_like
+        Slant range R [m]; R = 0 gives 0 (no direction).
+    target_height_m : array_like
+        Target height above the sea h_t [m].
+    antenna_height_m : array_like, optional
+        Antenna height h_a [m].
+    earth_radius_m : float, optional
+        Effective earth radius [m].
+
+    Returns
+    -------
+    ndarray
+        Elevation [rad] in [-π/2, π/2] (clipped when the heights and range are inconsistent).
+    """
+    r = np.asarray(slant_range_m, dtype=float)
+    r0 = earth_radius_m + np.asarray(antenna_height_m, dtype=float)
+    rt = earth_radius_m + np.asarray(target_height_m, dtype=float)
+    # (rt - r0)(rt + r0) avoids the cancellation of rt² - r0² for heights << a_e.
+    num = (rt - r0) * (rt + r0) - r * r
+    den = 2.0 * np.where(r > 0.0, r, 1.0) * r0
+    return np.where(r > 0.0, np.arcsin(np.clip(num / den, -1.0, 1.0)), 0.0)
+
+
 def path_quadrature(slant_range_m: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Nodes and weights to integrate a smooth function of distance along a path [0, R].
 
@@ -461,7 +498,8 @@ def lookup_gas_fog_loss_db(
     slant_range_m : array_like
         Slant range [m].
     elevation_rad : array_like
-        Elevation at the antenna [rad].
+        Elevation of the ray at the antenna [rad], on the table's 4/3 earth: for a target
+        use :func:`ray_elevation_rad`.
 
     Returns
     -------

@@ -224,3 +224,21 @@ def test_grid_table_build_cache_and_lookup(table_cache, gas10):
     assert got[0] == pytest.approx(table.values[50, j], rel=1e-12)
     assert got[1] > table.values[-1, j]
     assert got[2] == pytest.approx(atm.lookup_gas_fog_loss_db(table, 100e3, els[-1]), rel=1e-12)
+
+
+@settings(max_examples=100, deadline=None)
+@given(r=st.floats(1.0, 4e5), el=st.floats(-0.02, 1.5), ha=st.floats(0.0, 100.0))
+def test_ray_elevation_inverts_path_height(r, el, ha):
+    h = float(atm.path_height_m(r, el, ha))
+    if h < 0.0:
+        return  # a ray into the sea has no target
+    assert atm.ray_elevation_rad(r, h, ha) == pytest.approx(el, abs=1e-7)
+
+
+def test_ray_elevation_hand_geometry():
+    # Zenith: target straight above at R + h_a.
+    assert atm.ray_elevation_rad(1000.0, 1020.0, 20.0) == pytest.approx(np.pi / 2, abs=1e-6)
+    # Sea-level to sea-level at 20 km over a 4/3 earth: the chord dips by R/(2 a_e).
+    expected = -20e3 / (2 * atm.EFFECTIVE_EARTH_RADIUS_M)
+    assert atm.ray_elevation_rad(20e3, 0.0, 0.0) == pytest.approx(expected, rel=1e-6)
+    assert atm.ray_elevation_rad(0.0, 10.0, 10.0) == 0.0
