@@ -221,6 +221,10 @@ def sky_temperature_k(
     include_galactic : bool, optional
         Add the galactic noise (False: cosmic background only).
 
+    Notes
+    -----
+    Per scene, not per dwell: the nested quadrature holds 120 × 120 points per elevation.
+
     Returns
     -------
     ndarray
