@@ -221,15 +221,15 @@ def sky_temperature_k(
     include_galactic : bool, optional
         Add the galactic noise (False: cosmic background only).
 
-    Notes
-    -----
-    Per scene, not per dwell: the nested quadrature holds 120 × 120 points per elevation.
-
     Returns
     -------
     ndarray
         T'_a [K], between the external temperature (zenith, transparent air) and the air
         temperature (opaque air, near 60 GHz or along the horizon at high frequencies).
+
+    Notes
+    -----
+    Per scene, not per dwell: the nested quadrature holds 120 × 120 points per elevation.
     """
     el = np.maximum(np.asarray(elevation_rad, dtype=float), 0.0)
     go, gw = atmosphere.gaseous_specific_attenuation_db_per_km(
