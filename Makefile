@@ -6,7 +6,10 @@ STAMP := $(VENV)/.installed
 DEMO ?= scenarios/single_missile.yaml
 OUT ?= out
 
-.PHONY: install demo test bench lint clean
+ENDPOINT ?= tcp://127.0.0.1:5556
+SERVE_ARGS ?= --realtime 1
+
+.PHONY: install demo test bench lint clean tables serve tail
 
 $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -20,6 +23,15 @@ demo: $(STAMP)
 	mkdir -p $(OUT)
 	$(VENV)/bin/shipradar tables build $(DEMO)
 	$(VENV)/bin/shipradar run $(DEMO) --record $(OUT)/demo.rec
+
+tables: $(STAMP)
+	$(VENV)/bin/shipradar tables build $(DEMO)
+
+serve: $(STAMP)
+	$(VENV)/bin/shipradar run $(DEMO) --publish $(ENDPOINT) $(SERVE_ARGS)
+
+tail: $(STAMP)
+	$(VENV)/bin/shipradar tail $(ENDPOINT)
 
 test: $(STAMP)
 	MPLBACKEND=Agg $(PY) -m pytest -q
