@@ -72,8 +72,7 @@ MAX_NDIM: int = 32
 # (byte order '<' little-endian, '|' not applicable). Object, string and datetime arrays are
 # refused: they have no portable fixed-width representation.
 _WIRE_TYPESTRS: frozenset[str] = frozenset(
-    {"|b1", "|i1", "<i2", "<i4", "<i8", "|u1", "<u2", "<u4", "<u8", "<f2", "<f4", "<f8",
-     "<c8", "<c16"}
+    "|b1 |i1 <i2 <i4 <i8 |u1 <u2 <u4 <u8 <f2 <f4 <f8 <c8 <c16".split()
 )
 _RESERVED_KEYS = ("v", "t")
 _EXT_HEAD = struct.Struct("<BB")  # ndim, len(typestr)
@@ -86,6 +85,41 @@ class ProtocolError(ValueError):
 
 def _pad8(n: int) -> int:
     return (-n) % 8
+
+
+# Per (dtype, ndim): the constant start of the extension header and the wire dtype.
+_HEAD_CACHE: dict[tuple[np.dtype, int], tuple[bytes, np.dtype]] = {}
+_SHAPES = [struct.Struct(f"<{n}Q") for n in range(MAX_NDIM + 1)]
+_WIRE_DTYPES: dict[bytes, np.dtype] = {ts.encode("ascii"): np.dtype(ts) for ts in _WIRE_TYPESTRS}
+
+
+def _array_head(dtype: np.dtype, ndim: int) -> tuple[bytes, np.dtype]:
+    cached = _HEAD_CACHE.get((dtype, ndim))
+    if cached is not None:
+        return cached
+    if dtype.kind not in "biufc" or dtype.fields is not None:
+        raise ProtocolError(
+            f"numpy arrays of dtype {dtype} cannot be encoded: use bool, int, uint, float or "
+            "complex columns"
+        )
+    little = dtype.newbyteorder("<") if dtype.byteorder == ">" else dtype
+    typestr = little.str
+    if typestr not in _WIRE_TYPESTRS:  # e.g. float128 on some platforms
+        raise ProtocolError(f"numpy arrays of dtype {dtype} cannot be encoded")
+    if ndim > MAX_NDIM:
+        raise ProtocolError(f"array has {ndim} dimensions, more than {MAX_NDIM}")
+    ts = typestr.encode("ascii")
+    head = _EXT_HEAD.pack(ndim, len(ts)) + ts
+    head += b"\0" * _pad8(len(head))
+    _HEAD_CACHE[(dtype, ndim)] = (head, little)
+    return head, little
+
+
+# Header start (ndim, type string, padding) -> (ndim, dtype), for the decoder's fast path.
+_PREFIXES: dict[bytes, tuple[int, np.dtype]] = {
+    _array_head(dt, nd)[0]: (nd, dt) for dt in _WIRE_DTYPES.values() for nd in range(MAX_NDIM + 1)
+}
+assert all(len(prefix) == 8 for prefix in _PREFIXES)
 
 
 def encode_array(array: np.ndarray) -> bytes:
@@ -112,23 +146,9 @@ def encode_array(array: np.ndarray) -> bytes:
     ProtocolError
         If the dtype has no wire representation (object, str, datetime, structured...).
     """
-    dtype = array.dtype
-    if dtype.kind not in "biufc" or dtype.fields is not None:
-        raise ProtocolError(
-            f"numpy arrays of dtype {dtype} cannot be encoded: use bool, int, uint, float or "
-            "complex columns"
-        )
-    little = dtype.newbyteorder("<") if dtype.byteorder == ">" else dtype
-    typestr = little.str
-    if typestr not in _WIRE_TYPESTRS:  # e.g. float128 on some platforms
-        raise ProtocolError(f"numpy arrays of dtype {dtype} cannot be encoded")
-    if array.ndim > MAX_NDIM:
-        raise ProtocolError(f"array has {array.ndim} dimensions, more than {MAX_NDIM}")
-    data = np.ascontiguousarray(array, dtype=little).tobytes()
-    ts = typestr.encode("ascii")
-    head = _EXT_HEAD.pack(array.ndim, len(ts)) + ts
-    head += b"\0" * _pad8(len(head))
-    return head + struct.pack(f"<{array.ndim}Q", *array.shape) + data
+    head, little = _array_head(array.dtype, array.ndim)
+    data = array.astype(little, copy=False).tobytes()
+    return b"".join((head, _SHAPES[array.ndim].pack(*array.shape), data))
 
 
 def decode_array(data: bytes) -> np.ndarray:
@@ -149,31 +169,42 @@ def decode_array(data: bytes) -> np.ndarray:
     ProtocolError
         If the layout is inconsistent (unknown type, length not matching the shape).
     """
-    if len(data) < _EXT_HEAD.size:
+    size = len(data)
+    fast = _PREFIXES.get(data[:8])
+    if fast is not None:  # every wire type string fits the first 8 bytes
+        ndim, dtype = fast
+        end_shape = 8 + 8 * ndim
+        if size >= end_shape:
+            shape = _SHAPES[ndim].unpack_from(data, 8)
+            count = shape[0] if ndim == 1 else math.prod(shape)
+            if count * dtype.itemsize == size - end_shape:
+                array = np.frombuffer(data, dtype=dtype, count=count, offset=end_shape)
+                return array if ndim == 1 else array.reshape(shape)
+    # Slow path: unusual or malformed header; find what is wrong and say so.
+    if size < _EXT_HEAD.size:
         raise ProtocolError("array column too short for its header")
-    ndim, lts = _EXT_HEAD.unpack_from(data, 0)
+    ndim, lts = data[0], data[1]
     pos = _EXT_HEAD.size + lts
-    if ndim > MAX_NDIM or len(data) < pos:
+    if ndim > MAX_NDIM or size < pos:
         raise ProtocolError("array column header is malformed")
-    try:
-        typestr = data[_EXT_HEAD.size : pos].decode("ascii")
-    except UnicodeDecodeError as exc:
-        raise ProtocolError("array column type string is not ASCII") from exc
-    if typestr not in _WIRE_TYPESTRS:
-        raise ProtocolError(f"array column has unsupported element type {typestr!r}")
+    dtype = _WIRE_DTYPES.get(bytes(data[_EXT_HEAD.size : pos]))
+    if dtype is None:
+        raise ProtocolError(
+            f"array column has unsupported element type {bytes(data[_EXT_HEAD.size : pos])!r}"
+        )
     pos += _pad8(pos)
     end_shape = pos + 8 * ndim
-    if len(data) < end_shape:
+    if size < end_shape:
         raise ProtocolError("array column header is malformed")
-    shape = struct.unpack_from(f"<{ndim}Q", data, pos)
-    dtype = np.dtype(typestr)
-    count = math.prod(shape)
-    if count * dtype.itemsize != len(data) - end_shape:
+    shape = _SHAPES[ndim].unpack_from(data, pos)
+    count = shape[0] if ndim == 1 else math.prod(shape)
+    if count * dtype.itemsize != size - end_shape:
         raise ProtocolError(
-            f"array column of shape {shape} and type {typestr} holds "
-            f"{len(data) - end_shape} bytes, expected {count * dtype.itemsize}"
+            f"array column of shape {shape} and type {dtype.str} holds "
+            f"{size - end_shape} bytes, expected {count * dtype.itemsize}"
         )
-    return np.frombuffer(data, dtype=dtype, count=count, offset=end_shape).reshape(shape)
+    array = np.frombuffer(data, dtype=dtype, count=count, offset=end_shape)
+    return array if ndim == 1 else array.reshape(shape)
 
 
 def _default(obj: Any) -> Any:
@@ -190,18 +221,29 @@ def _default(obj: Any) -> Any:
     )
 
 
-def _check_keys(obj: Any, depth: int = 0) -> None:
+def _check_keys(mapping: Mapping[Any, Any], depth: int = 0) -> None:
     """Require str keys in every map (portable to JSON and every msgpack library)."""
     if depth > _MAX_DEPTH:
         raise ProtocolError(f"payload nested deeper than {_MAX_DEPTH} levels")
-    if isinstance(obj, Mapping):
-        for key, value in obj.items():
-            if not isinstance(key, str):
-                raise ProtocolError(f"payload map keys must be str, got {key!r}")
+    # Exact-type tests on purpose: this runs for every message, and msgpack itself packs only
+    # dict and list/tuple (and their subclasses) as containers.
+    for key, value in mapping.items():
+        if not isinstance(key, str):
+            raise ProtocolError(f"payload map keys must be str, got {key!r}")
+        if isinstance(value, dict):
             _check_keys(value, depth + 1)
-    elif isinstance(obj, (list, tuple)):
-        for value in obj:
+        elif isinstance(value, (list, tuple)):
+            _check_items(value, depth + 1)
+
+
+def _check_items(items: Sequence[Any], depth: int) -> None:
+    if depth > _MAX_DEPTH:
+        raise ProtocolError(f"payload nested deeper than {_MAX_DEPTH} levels")
+    for value in items:
+        if isinstance(value, dict):
             _check_keys(value, depth + 1)
+        elif isinstance(value, (list, tuple)):
+            _check_items(value, depth + 1)
 
 
 # One packer per thread, reused for speed (a Packer allocates its buffer when created);
@@ -310,9 +352,7 @@ def decode(frames: Sequence[bytes]) -> tuple[bytes, float, dict[str, Any]]:
     body = frames[1]
     size = memoryview(body).nbytes
     if size > MAX_BODY_BYTES:
-        raise ProtocolError(
-            f"message body is {size} bytes, over the {MAX_BODY_BYTES}-byte maximum"
-        )
+        raise ProtocolError(f"message body is {size} bytes, over the {MAX_BODY_BYTES}-byte maximum")
     try:
         obj = msgpack.unpackb(
             body,
