@@ -338,3 +338,18 @@ def test_decode_accepts_zero_copy_buffers():
 
 def test_maximum_is_documented_value():
     assert protocol.MAX_BODY_BYTES == 64 * 1024 * 1024
+
+
+def test_decoding_snippet_in_the_documentation_reads_our_bytes():
+    from pathlib import Path
+
+    doc = (Path(__file__).resolve().parents[1] / "docs" / "protocol.md").read_text()
+    snippet = doc.split("```python\n", 1)[1].split("```", 1)[0]
+    namespace: dict = {}
+    exec(compile(snippet, "docs/protocol.md", "exec"), namespace)  # defines, does not listen
+    payload = plot_payload(4)
+    payload["grid"] = np.arange(6, dtype=np.int16).reshape(2, 3)
+    payload["flags"] = np.array([True, False])
+    msg = namespace["decode_body"](encode(TOPIC_PLOTS, 7.5, payload)[1])
+    assert msg.pop("v") == SCHEMA_VERSION and msg.pop("t") == 7.5
+    assert_same(payload, msg)
