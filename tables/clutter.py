@@ -1,0 +1,438 @@
+"""Off-line clutter maps: sea clutter [21]-[38] and weather clutter [39]-[45] over (range, azimuth).
+
+One map per radar and environment (seed 4.1.1: "estimated in the radar domain (R, θ) and
+stored in the clutter map file together with the calculated reflectivities").  Axes: ground
+range from the radar [m] (0 to the instrumented range) and beam azimuth from true north [rad]
+on [0, 2π] with both ends present, so any azimuth wrapped into [0, 2π) is inside the grid.
+
+Sea map (:func:`build_sea_clutter_map`), values P_sc [W] at the RF input ([21]), extras on the
+same grid, read on-line by S/C [46], the distribution loss [64] and the clutter false alarms
+[94]-[96]:
+
+* ``sigma0_db``: σ0* [dB] ([22], GIT with the ducting extension; :data:`DB_FLOOR` = none);
+* ``sigma0_diff_db``: σ0d = σ0* - σ0(reference) [dB] ([32]);
+* ``weibull_a``: a ([32] for VP, the 4.1.2 heuristic for HP; 1 (Rayleigh) when the radar is
+  not of medium-to-high resolution);
+* ``doppler_mean_hz``: μ_c [Hz] ([34]-[35], 0 when motion-compensated);
+* ``doppler_spread_hz``: σ_s [Hz] ([36]-[38]).
+
+Weather map (:func:`build_weather_clutter_map`, only for a scene with precipitation), values
+P_wc [W] if the cell is full of rain; the on-line side multiplies by the cell's rain fraction
+(:func:`sensors.weather_clutter.rain_cylinder_fraction`); extras ``doppler_mean_hz`` and
+``doppler_spread_hz``.
+
+Both depend on the ship's motion only through μ (when not motion-compensated); the table is
+built for the given speed and heading, and the on-line side may recompute f1 [34] cheaply.
+
+The cache key is the hash of every input that changes a value (the elevation pattern by its
+hashable description, not by the callable), through :func:`tables.store.get_or_build`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.constants import c as SPEED_OF_LIGHT_MPS
+
+from sensors import sea_clutter as sc
+from sensors import weather_clutter as wc
+from tables.store import Table, get_or_build
+
+SEA_MAP_NAME = "sea_clutter_map"
+WEATHER_MAP_NAME = "weather_clutter_map"
+#: Builder versions (part of the cache key): bump when the model changes.
+SEA_MAP_VERSION = 1
+WEATHER_MAP_VERSION = 1
+#: Default grid: 1501 ranges (100 m steps at 150 km) and 1° in azimuth.
+DEFAULT_N_RANGE = 1501
+DEFAULT_N_AZIMUTH = 360
+
+ElevationPattern = tuple[str, float, float, float]
+Directivity = Callable[[NDArray[np.float64]], NDArray[np.float64]]
+
+
+def range_cell_m(pulse_width_s: ArrayLike) -> NDArray[np.float64]:
+    """Range cell C_R = c τ'/2 [m] (seed 4.1.4).
+
+    Parameters
+    ----------
+    pulse_width_s : array_like
+        Compressed pulse width τ' [s].
+    """
+    return SPEED_OF_LIGHT_MPS * np.asarray(pulse_width_s, dtype=float) / 2.0
+
+
+def map_axes(max_range_m: float, n_range: int, n_azimuth: int) -> tuple[np.ndarray, np.ndarray]:
+    """Ground-range axis [0, R_max] [m] and azimuth axis [0, 2π] (n_azimuth + 1 points) [rad]."""
+    if max_range_m <= 0.0 or n_range < 2 or n_azimuth < 2:
+        raise ValueError("need max_range_m > 0, n_range >= 2 and n_azimuth >= 2")
+    return np.linspace(0.0, max_range_m, n_range), np.linspace(0.0, 2.0 * np.pi, n_azimuth + 1)
+
+
+def wrap_azimuth(azimuth_rad: ArrayLike) -> NDArray[np.float64]:
+    """Azimuth wrapped into [0, 2π) [rad]."""
+    return np.mod(np.asarray(azimuth_rad, dtype=float), 2.0 * np.pi)
+
+
+def lookup_clutter(
+    table: Table, ground_range_m: ArrayLike, azimuth_rad: ArrayLike, array: str | None = None
+) -> NDArray[np.float64]:
+    """Read a clutter map at ground ranges and (unwrapped) azimuths; NaN beyond the range axis.
+
+    Parameters
+    ----------
+    table : Table
+        A map from :func:`build_sea_clutter_map` or :func:`build_weather_clutter_map`.
+    ground_range_m : array_like
+        Ground range [m].
+    azimuth_rad : array_like
+        Beam azimuth from true north [rad], any real value.
+    array : str, optional
+        An extra (e.g. ``"weibull_a"``) instead of the power.
+    """
+    return table.lookup(ground_range_m, wrap_azimuth(azimuth_rad), array=array)
+
+
+def _noise_limit_range(ranges: np.ndarray, power: np.ndarray, limit_w: float) -> np.ndarray:
+    """Per azimuth, the last ground range where the power is above ``limit_w`` (0 if nowhere).
+
+    Interpolated linearly in dB between the two grid points around the crossing.
+    """
+    above = power > limit_w
+    n = len(ranges)
+    # index of the last range above the limit, per column (-1 if none)
+    last = n - 1 - np.argmax(above[::-1, :], axis=0)
+    last = np.where(above.any(axis=0), last, -1)
+    out = np.where(last < 0, 0.0, ranges[-1])
+    inner = (last >= 0) & (last < n - 1)
+    cols = np.nonzero(inner)[0]
+    i = last[cols]
+    p0 = sc.to_db(power[i, cols])
+    p1 = sc.to_db(power[i + 1, cols])
+    lim = sc.to_db(limit_w)
+    t = np.clip((p0 - lim) / np.maximum(p0 - p1, 1e-12), 0.0, 1.0)
+    out[cols] = ranges[i] + t * (ranges[i + 1] - ranges[i])
+    return out
+
+
+def sea_clutter_map_inputs(
+    *,
+    freq_hz: float,
+    polarization: str,
+    antenna_height_m: float,
+    beamwidth_az_rad: float,
+    pulse_width_s: float,
+    radar_constant_w_m2: float,
+    elevation_pattern: ElevationPattern,
+    noise_power_w: float,
+    rotation_rate_rad_s: float,
+    wind_speed_mps: float,
+    wind_direction_rad: float,
+    max_range_m: float,
+    wave_height_m: float | None = None,
+    sea_state: float | None = None,
+    duct_height_m: float = 0.0,
+    a_min: float = sc.RAYLEIGH_A,
+    motion_compensated: bool = True,
+    ship_speed_mps: float = 0.0,
+    ship_heading_rad: float = 0.0,
+    n_range: int = DEFAULT_N_RANGE,
+    n_azimuth: int = DEFAULT_N_AZIMUTH,
+    k_factor: float = sc.STANDARD_K_FACTOR,
+) -> dict[str, Any]:
+    """The hashable inputs of a sea-clutter map (arguments of :func:`build_sea_clutter_map`)."""
+    kind, bw, sl, tilt = elevation_pattern
+    return {
+        "freq_hz": float(freq_hz),
+        "polarization": sc._polarization(polarization),
+        "antenna_height_m": float(antenna_height_m),
+        "beamwidth_az_rad": float(beamwidth_az_rad),
+        "pulse_width_s": float(pulse_width_s),
+        "radar_constant_w_m2": float(radar_constant_w_m2),
+        "elevation_pattern": [str(kind), float(bw), float(sl), float(tilt)],
+        "noise_power_w": float(noise_power_w),
+        "rotation_rate_rad_s": float(rotation_rate_rad_s),
+        "wind_speed_mps": float(wind_speed_mps),
+        "wind_direction_rad": float(wind_direction_rad),
+        "max_range_m": float(max_range_m),
+        "wave_height_m": None if wave_height_m is None else float(wave_height_m),
+        "sea_state": None if sea_state is None else float(sea_state),
+        "duct_height_m": float(duct_height_m),
+        "a_min": float(a_min),
+        "motion_compensated": bool(motion_compensated),
+        "ship_speed_mps": float(ship_speed_mps),
+        "ship_heading_rad": float(ship_heading_rad),
+        "n_range": int(n_range),
+        "n_azimuth": int(n_azimuth),
+        "k_factor": float(k_factor),
+    }
+
+
+def build_sea_clutter_map(*, elevation_directivity: Directivity, **kwargs: Any) -> Table:
+    """Build the sea-clutter map of one radar in one environment.
+
+    Per cell (ground range d, beam azimuth θ): φ = θ - wind direction (the direction the wind
+    blows *from*, so φ = 0 looks upwind); σ0*(d, φ) by [22]
+    (:func:`sensors.sea_clutter.ducted_reflectivity_db`, the duct ignored below 1 m);
+    P_sc = K_r g⁴(-ψ_d) R θ_b C_R σ0* / R⁴ [21]; σ0d against the reference of [31]; a by [32]
+    (VP) or the 4.1.2 heuristic (HP: 3 at the 3° range, linearly down to a_min at the last range
+    where P_sc > 2 N0'), or 1 when the resolution is too coarse for non-Rayleigh clutter;
+    μ_c [34]-[35] and σ_s [36]-[38].
+
+    Parameters
+    ----------
+    elevation_directivity : callable
+        g(elevation [rad]) → field factor, the radar's elevation pattern (negative elevations
+        are below the horizon).  Must be the pattern that ``elevation_pattern`` describes.
+    freq_hz : float
+        Carrier frequency [Hz], 1-100 GHz.
+    polarization : {"H", "V"}
+        Polarization.
+    antenna_height_m : float
+        h_a [m].
+    beamwidth_az_rad : float
+        θ_b [rad].
+    pulse_width_s : float
+        τ' [s]; C_R = c τ'/2.
+    radar_constant_w_m2 : float
+        K_r of [3] [W·m²].
+    elevation_pattern : tuple
+        Hashable description (kind, beamwidth [rad], sidelobe [dB], tilt [rad]) of the callable.
+    noise_power_w : float
+        N0' of [19] [W] (HP skewness heuristic).
+    rotation_rate_rad_s : float
+        α [rad/s] ([37]).
+    wind_speed_mps : float
+        w_s [m/s].
+    wind_direction_rad : float
+        Direction the wind blows from, true north [rad].
+    max_range_m : float
+        Last ground range of the map [m].
+    wave_height_m : float, optional
+        Significant wave height [m]; None: from the wind.
+    sea_state : float, optional
+        Douglas sea state of [27]; None: from the wave height.
+    duct_height_m : float, optional
+        Evaporation duct height [m]; < 1 m: no duct.
+    a_min : float, optional
+        a_min.
+    motion_compensated : bool, optional
+        μ_c = 0 ([35]).
+    ship_speed_mps, ship_heading_rad : float, optional
+        Platform velocity for f1 [34] (speed [m/s], course from true north [rad]).
+    n_range, n_azimuth : int, optional
+        Grid size.
+    k_factor : float, optional
+        Effective earth radius factor.
+
+    Returns
+    -------
+    Table
+        Values P_sc [W]; extras as in the module docstring.
+    """
+    inputs = sea_clutter_map_inputs(**kwargs)
+    p = inputs
+    ranges, azimuths = map_axes(p["max_range_m"], p["n_range"], p["n_azimuth"])
+    h_a, f, k = p["antenna_height_m"], p["freq_hz"], p["k_factor"]
+    w_s, w_h = p["wind_speed_mps"], p["wave_height_m"]
+    lam = SPEED_OF_LIGHT_MPS / f
+    c_r = range_cell_m(p["pulse_width_s"])
+    theta_b = p["beamwidth_az_rad"]
+
+    phi = (azimuths - p["wind_direction_rad"])[None, :]
+    d = ranges[:, None]
+    sigma0_db = sc.ducted_reflectivity_db(
+        d, h_a, f, w_s, phi, w_h, p["polarization"], p["duct_height_m"], p["sea_state"], k
+    )
+    slant = sc.slant_range_m(ranges, h_a, k)
+    depression = sc.depression_angle_rad(ranges, h_a, k)
+    g = np.asarray(elevation_directivity(-depression), dtype=float)
+    power = sc.sea_clutter_power_w(
+        p["radar_constant_w_m2"], g[:, None], slant[:, None], theta_b, c_r, sc.from_db(sigma0_db)
+    )
+
+    sigma0_ref_db = sc.to_db(sc.reference_reflectivity(w_s, w_h))
+    sigma0_diff_db = sigma0_db - sigma0_ref_db
+    if not bool(sc.is_medium_high_resolution(theta_b, p["pulse_width_s"])):
+        a = np.full(power.shape, sc.RAYLEIGH_A)
+    elif p["polarization"] == "V":
+        a = sc.weibull_a_vp(sigma0_diff_db, w_s, p["a_min"])
+    else:
+        r_ref = sc.ground_range_at_grazing_m(sc.REFERENCE_GRAZING_RAD, h_a, k)
+        r_noise = _noise_limit_range(ranges, power, sc.HP_NOISE_LIMIT_FACTOR * p["noise_power_w"])
+        a = sc.weibull_a_hp(d, r_ref, r_noise[None, :], p["a_min"])
+
+    f1 = sc.platform_doppler_hz(
+        p["ship_speed_mps"], azimuths[None, :] - p["ship_heading_rad"], depression[:, None], lam
+    )
+    mean = sc.mean_clutter_doppler_hz(f1, phi, lam, p["motion_compensated"])
+    spread = sc.clutter_spread_hz(
+        sc.wind_spread_hz(w_s, phi, lam) + np.zeros_like(d),
+        sc.rotation_spread_hz(p["rotation_rate_rad_s"], theta_b),
+    )
+    shape = power.shape
+    return Table(
+        name=SEA_MAP_NAME,
+        version=SEA_MAP_VERSION,
+        axes=(ranges, azimuths),
+        axis_names=("ground_range_m", "azimuth_rad"),
+        axis_units=("m", "rad"),
+        values=power,
+        value_name="sea_clutter_power_w",
+        value_unit="W",
+        inputs=inputs,
+        extra={
+            "sigma0_db": np.broadcast_to(sigma0_db, shape).copy(),
+            "sigma0_diff_db": np.broadcast_to(sigma0_diff_db, shape).copy(),
+            "weibull_a": np.broadcast_to(a, shape).astype(float),
+            "doppler_mean_hz": np.broadcast_to(mean, shape).copy(),
+            "doppler_spread_hz": np.broadcast_to(spread, shape).copy(),
+        },
+    )
+
+
+def sea_clutter_map(
+    *, elevation_directivity: Directivity, root: Path | None = None, **kwargs: Any
+) -> tuple[Table, bool]:
+    """The sea-clutter map from the table cache, built if missing: ``(table, built)``.
+
+    Same keyword arguments as :func:`build_sea_clutter_map`; ``root`` overrides the cache
+    directory.
+    """
+    inputs = sea_clutter_map_inputs(**kwargs)
+    return get_or_build(
+        SEA_MAP_NAME, SEA_MAP_VERSION, inputs,
+        lambda: build_sea_clutter_map(elevation_directivity=elevation_directivity, **kwargs),
+        root,
+    )
+
+
+def weather_clutter_map_inputs(
+    *,
+    freq_hz: float,
+    antenna_height_m: float,
+    beamwidth_az_rad: float,
+    beamwidth_el_rad: float,
+    pulse_width_s: float,
+    prf_hz: float,
+    radar_constant_w_m2: float,
+    rain_rate_mm_h: float,
+    cloud_base_m: float,
+    rotation_rate_rad_s: float,
+    wind_speed_mps: float,
+    wind_direction_rad: float,
+    max_range_m: float,
+    precipitation: str = "rain",
+    turbulence_spread_mps: float = wc.RAIN_TURBULENCE_SPREAD_MPS,
+    motion_compensated: bool = True,
+    ship_speed_mps: float = 0.0,
+    ship_heading_rad: float = 0.0,
+    n_range: int = DEFAULT_N_RANGE,
+    n_azimuth: int = DEFAULT_N_AZIMUTH,
+    k_factor: float = sc.STANDARD_K_FACTOR,
+) -> dict[str, Any]:
+    """The hashable inputs of a weather-clutter map (arguments of :func:`build_weather_clutter_map`)."""
+    if rain_rate_mm_h <= 0.0:
+        raise ValueError("a weather-clutter map needs precipitation (rain_rate_mm_h > 0)")
+    return {
+        "freq_hz": float(freq_hz),
+        "antenna_height_m": float(antenna_height_m),
+        "beamwidth_az_rad": float(beamwidth_az_rad),
+        "beamwidth_el_rad": float(beamwidth_el_rad),
+        "pulse_width_s": float(pulse_width_s),
+        "prf_hz": float(prf_hz),
+        "radar_constant_w_m2": float(radar_constant_w_m2),
+        "rain_rate_mm_h": float(rain_rate_mm_h),
+        "cloud_base_m": float(cloud_base_m),
+        "rotation_rate_rad_s": float(rotation_rate_rad_s),
+        "wind_speed_mps": float(wind_speed_mps),
+        "wind_direction_rad": float(wind_direction_rad),
+        "max_range_m": float(max_range_m),
+        "precipitation": str(precipitation),
+        "turbulence_spread_mps": float(turbulence_spread_mps),
+        "motion_compensated": bool(motion_compensated),
+        "ship_speed_mps": float(ship_speed_mps),
+        "ship_heading_rad": float(ship_heading_rad),
+        "n_range": int(n_range),
+        "n_azimuth": int(n_azimuth),
+        "k_factor": float(k_factor),
+    }
+
+
+def build_weather_clutter_map(**kwargs: Any) -> Table:
+    """Build the weather-clutter map of one radar in one precipitation (seed [39]-[45]).
+
+    Per cell: ϑ0 [42] (snow as rain-equivalent), R_c [41] (folded with the PRF), d_h [43],
+    ϑ [40], P_wc = K_r ϑ / R⁴ [39] with R the slant range of the cell, assuming the cell is
+    full of rain; spread [44]-[45] with the scan [37]; mean from the wind drift (and f1 [34]
+    unless motion-compensated, the beam at the horizon).  Only call this when the scene has
+    precipitation; multiply by the cell's rain fraction on-line.
+
+    Parameters
+    ----------
+    **kwargs
+        As :func:`weather_clutter_map_inputs`: ``freq_hz`` [Hz], ``antenna_height_m`` [m],
+        ``beamwidth_az_rad`` and ``beamwidth_el_rad`` [rad], ``pulse_width_s`` [s], ``prf_hz``
+        [Hz], ``radar_constant_w_m2`` [W·m²], ``rain_rate_mm_h`` [mm/h], ``cloud_base_m`` [m],
+        ``rotation_rate_rad_s`` [rad/s], ``wind_speed_mps`` [m/s], ``wind_direction_rad``
+        (from, true north) [rad], ``max_range_m`` [m], ``precipitation`` ("rain", "dry_snow",
+        "wet_snow"), ``turbulence_spread_mps`` [m/s], ``motion_compensated``,
+        ``ship_speed_mps`` [m/s], ``ship_heading_rad`` [rad], ``n_range``, ``n_azimuth``,
+        ``k_factor``.
+
+    Returns
+    -------
+    Table
+        Values P_wc [W] (full rain); extras ``doppler_mean_hz`` and ``doppler_spread_hz`` [Hz].
+    """
+    p = weather_clutter_map_inputs(**kwargs)
+    ranges, azimuths = map_axes(p["max_range_m"], p["n_range"], p["n_azimuth"])
+    f = p["freq_hz"]
+    lam = SPEED_OF_LIGHT_MPS / f
+    theta_b, phi_b = p["beamwidth_az_rad"], p["beamwidth_el_rad"]
+
+    eta = wc.rain_reflectivity(f, p["rain_rate_mm_h"], p["precipitation"])
+    r_c = wc.folded_range_m(ranges, p["prf_hz"])
+    vol = wc.volume_cross_section_m2(
+        eta, r_c, theta_b, phi_b, p["cloud_base_m"], range_cell_m(p["pulse_width_s"])
+    )
+    slant = sc.slant_range_m(ranges, p["antenna_height_m"], p["k_factor"])
+    power = wc.weather_clutter_power_w(p["radar_constant_w_m2"], vol, slant)
+
+    phi = (azimuths - p["wind_direction_rad"])[None, :]
+    f1 = 0.0
+    if not p["motion_compensated"]:
+        f1 = sc.platform_doppler_hz(p["ship_speed_mps"], azimuths[None, :] - p["ship_heading_rad"], 0.0, lam)
+    mean = wc.weather_mean_doppler_hz(p["wind_speed_mps"], phi, lam, f1)
+    spread = wc.weather_spread_hz(
+        lam, wc.shear_spread_mps(ranges, phi_b), p["turbulence_spread_mps"],
+        sc.rotation_spread_hz(p["rotation_rate_rad_s"], theta_b),
+    )
+    shape = (len(ranges), len(azimuths))
+    return Table(
+        name=WEATHER_MAP_NAME,
+        version=WEATHER_MAP_VERSION,
+        axes=(ranges, azimuths),
+        axis_names=("ground_range_m", "azimuth_rad"),
+        axis_units=("m", "rad"),
+        values=np.broadcast_to(power[:, None], shape).copy(),
+        value_name="weather_clutter_power_w",
+        value_unit="W",
+        inputs=p,
+        extra={
+            "doppler_mean_hz": np.broadcast_to(mean, shape).copy(),
+            "doppler_spread_hz": np.broadcast_to(spread[:, None], shape).copy(),
+        },
+    )
+
+
+def weather_clutter_map(*, root: Path | None = None, **kwargs: Any) -> tuple[Table, bool]:
+    """The weather-clutter map from the table cache, built if missing: ``(table, built)``."""
+    inputs = weather_clutter_map_inputs(**kwargs)
+    return get_or_build(
+        WEATHER_MAP_NAME, WEATHER_MAP_VERSION, inputs, lambda: build_weather_clutter_map(**kwargs), root
+    )
