@@ -91,8 +91,7 @@ class Recorder:
             self._file: BinaryIO = open(self.path, mode, buffering=buffer_bytes)  # noqa: SIM115
         except FileExistsError:
             raise RecordingExistsError(
-                f"recording {self.path} already exists; choose another file or allow "
-                "overwriting it"
+                f"recording {self.path} already exists; choose another file or allow overwriting it"
             ) from None
         self.records = 0
         self.bytes_written = 0
