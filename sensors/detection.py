@@ -1,0 +1,859 @@
+"""Probability of false alarm, effective number of pulses and probability of detection.
+
+Seed sections 6.2-6.4, equations [68]-[83] and Tables I-III.
+
+Two methods for P_d, chosen by name (SPEC §4 item 23):
+
+``"exact"``
+    The exact probability that the non-coherent sum of ``N`` square-law detected pulses
+    exceeds the threshold set for ``P_fa``, for the Swerling 0-4 targets (DiFranco & Rubin,
+    *Radar Detection*, 1968, ch. 10; Meyer & Mayer, *Radar Target Detection*, 1973, ch. 3).
+    With the noise power per pulse as unit, the noise-only sum is Gamma(N, 1), so the
+    threshold is ``T = Q⁻¹(N, P_fa)`` (inverse regularized upper incomplete gamma).  The
+    targets of Table III are the chi-square family: the total signal energy over the dwell
+    is Gamma-distributed with K degrees of freedom (K = 1, N, 2, 2N for Swerling 1-4, K → ∞
+    for Swerling 0).  No Monte Carlo.
+
+``"seed"``
+    The seed's Blake-style approximation [78]-[83] with the equivalent number of pulses of
+    Table I, the detector efficiency of Table II and the fluctuation loss [83] with K of
+    Table III, solved for P_d by iteration on the seed's required S/I.
+
+Choices where the seed is silent or wrong
+-----------------------------------------
+* **Non-integer N (exact method).**  N_e of [74]-[77] is not an integer.  The exact P_d is
+  evaluated at ⌊N⌋ and ⌈N⌉ (each with its own threshold for the same P_fa) and interpolated
+  linearly in N.  It is exact at integers, continuous in N, and, being a convex combination
+  of two monotone functions, stays in [0, 1] and monotone in S/I.
+* **Outside the seed's validity (SPEC §4 item 15).**  [78]-[83] are stated for
+  0.1 ≤ P_d ≤ 0.9 and 1e-12 ≤ P_fa ≤ 1e-4.  Blake's g_fa [80] and g_d [81] are fits of the
+  normal quantiles Φ⁻¹(1-P_fa) and Φ⁻¹(P_d) on exactly those ranges; outside them each is
+  continued by the exact normal quantile, shifted to join the fit continuously at the edge
+  of its range.  X0 [79] is floored at 0 (its root g_fa + g_d = 0 is P_d ≈ P_fa, the
+  noise-only limit), and the returned P_d is never below P_fa.  The result is defined for
+  0 < P_fa ≤ 0.1 and every S/I, finite, in [0, 1], continuous where the formulas are and
+  monotone non-decreasing in S/I by construction (bisection with fixed midpoints, see
+  :func:`probability_of_detection`); P_d → P_fa as S/I → 0 and P_d → 1 as S/I → ∞.
+* **Table I "signal variation".**  In Blake (1980, p. 68) "Gaussian" and "constant" are the
+  envelope of the pulse train across the dwell (Gaussian antenna beam vs a rectangular
+  train), not the target's fluctuation, which [83] already carries.  It is the keyword
+  ``signal_variation`` (default ``"constant"``, the pulse train the exact method and the
+  per-pulse S/I at beam centre assume).  Taking "Gaussian" for the fluctuating cases would
+  count the fluctuation twice (3 dB too pessimistic for Swerling 1, one pulse).
+* **S/I in dB** is clipped to ±:data:`SNR_DB_LIMIT` (beyond it P_d is saturated at P_fa or
+  1 to double precision); -inf dB is S/I = 0 and gives P_d = P_fa.  NaN raises.
+* **[74] units.**  θ_b / f_rot is read as the time on target: θ_b in radians and the
+  rotation rate in rad/s.
+* **N_rc ≤ 0 or P_fa ∉ (0, 1) in [68]-[72] (SPEC §4 item 14)** raise ``ValueError``.
+* **N_e < 1 (SPEC §4 item 16)**: :func:`effective_pulses` never returns less than 1.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy import special, stats
+
+# ----------------------------------------------------------------------------- constants
+#: Number of decision channels per range cell N_ch of [71] (seed 6.2: 2 for any radar).
+N_CHANNELS = 2
+#: The seed's 0.69 ≈ ln 2 of [68] and of the Bernoulli limit of [92]: P_fa = 0.69/n' makes
+#: the probability of at least one false alarm in t_fa equal to 1/2 (Nathanson 1991, p. 82).
+LN2_SEED = 0.69
+#: [72]: N_rc = 1/(f_r τ') - 2: the two cells lost at each end of the interpulse period.
+RANGE_CELLS_LOST = 2.0
+#: [74]: the clutter spectrum decorrelates every pulse when σ_s'/(λ f_r) ≥ 0.2.
+DECORRELATED_SPREAD_RATIO = 0.2
+#: [74]: N_n' = 1 + (5/6) σ_s' θ_b / (λ f_rot).
+CLUTTER_SAMPLES_FACTOR = 5.0 / 6.0
+#: [76]: N_e = N_e' / (1 + 0.53 N_pc) (fit of Trunk's results, seed Ref. 25).
+MTI_PULSE_FACTOR = 0.53
+
+#: Stated validity of the seed's approximation [78]-[83] (seed 6.4).
+SEED_PD_RANGE = (0.1, 0.9)
+SEED_PFA_RANGE = (1e-12, 1e-4)
+#: Largest P_fa the seed method accepts (g_fa stays positive; the exact method takes (0, 1)).
+SEED_PFA_MAX = 0.1
+#: Seed 6.4: the iterative solution must match the input S/I to 1 %.
+SEED_SNR_TOLERANCE = 0.01
+#: [80]: g_fa = 2.36 sqrt(-log10 P_fa) - 1.02 (Blake 1980; a fit of Φ⁻¹(1 - P_fa)).
+G_FA_SLOPE = 2.36
+G_FA_OFFSET = 1.02
+#: [81]-[82]: g_d = 1.231 t / sqrt(1 - t²), t = 0.9 (2 P_d - 1).
+G_D_SLOPE = 1.231
+G_D_T_SCALE = 0.9
+
+#: Table I (Blake 1980, p. 68): H_n / N_e by (signal variation, integrator).  The constant
+#: double-loop entry is 1.3347 N_e exp(-3/N_e) (see :func:`equivalent_pulses`).
+TABLE_I = {
+    ("gaussian", "non_uniform"): 0.626,
+    ("gaussian", "uniform"): 0.558,
+    ("gaussian", "single_loop"): 0.561,
+    ("gaussian", "double_loop"): 0.586,
+    ("constant", "non_uniform"): 1.0,
+    ("constant", "uniform"): 1.0,
+    ("constant", "single_loop"): 1.4299,
+    ("constant", "double_loop"): 1.3347,
+}
+DOUBLE_LOOP_DECAY = 3.0
+INTEGRATORS = ("non_uniform", "uniform", "single_loop", "double_loop")
+SIGNAL_VARIATIONS = ("constant", "gaussian")
+#: Table II: asymptotic efficiency ζ of the envelope detector.
+TABLE_II = {"square": 1.0, "linear": 0.915, "log": 0.608}
+SWERLING_CASES = (0, 1, 2, 3, 4)
+
+#: S/I beyond ±this [dB] is clipped (P_d is then P_fa or 1 to double precision).
+SNR_DB_LIMIT = 1000.0
+#: Search interval of :func:`required_snr_db` (exact method) [dB].
+REQUIRED_SNR_DB_BRACKET = (-200.0, 400.0)
+_REQUIRED_SNR_ITERATIONS = 52
+#: Seed method: P_d is searched as z = Φ⁻¹(P_d) in [-Z, Z] (Φ(9) = 1 to double precision).
+_SEED_Z_MAX = 9.0
+_SEED_ITERATIONS = 18
+#: gammainc values below this are recomputed by series (log domain) [-].
+_TINY = 1e-250
+#: Swerling 4 binomial sum: half-width in standard deviations and extra terms.
+_SW4_SIGMAS = 12.0
+_SW4_EXTRA = 40.0
+_SW4_CHUNK = 2_000_000
+
+
+# ----------------------------------------------------------------------------- [68]-[73]
+def range_cells(prf_hz: ArrayLike, pulse_width_s: ArrayLike) -> NDArray[np.float64]:
+    """Number of range cells N_rc = 1/(f_r τ') - 2, seed [72].
+
+    Parameters
+    ----------
+    prf_hz : array_like
+        Pulse repetition frequency f_r [Hz].
+    pulse_width_s : array_like
+        Compressed pulse length τ' [s].
+
+    Returns
+    -------
+    ndarray
+        N_rc [-] (not rounded).
+
+    Raises
+    ------
+    ValueError
+        If f_r or τ' is not positive, or N_rc ≤ 0 (f_r τ' ≥ 1/2: no range cell left;
+        SPEC §4 item 14).
+    """
+    f_r = np.asarray(prf_hz, dtype=float)
+    tau = np.asarray(pulse_width_s, dtype=float)
+    _require_positive("prf_hz", f_r)
+    _require_positive("pulse_width_s", tau)
+    n_rc = 1.0 / (f_r * tau) - RANGE_CELLS_LOST
+    if np.any(~(n_rc > 0)):
+        duty = np.broadcast_to(f_r * tau, n_rc.shape)[~(n_rc > 0)].flat[0]
+        raise ValueError(
+            f"range_cells: N_rc = 1/(f_r tau') - 2 must be > 0, i.e. prf_hz * pulse_width_s "
+            f"must be < 0.5; got prf_hz * pulse_width_s = {duty:g}"
+        )
+    return n_rc
+
+
+def sweep_time(beamwidth_rad: ArrayLike, scan_period_s: ArrayLike) -> NDArray[np.float64]:
+    """Time for the beam to sweep a point target, t_swp = θ_b t_scan / (2π), seed [70].
+
+    Parameters
+    ----------
+    beamwidth_rad : array_like
+        Horizontal 3 dB beamwidth θ_b [rad], in (0, 2π].
+    scan_period_s : array_like
+        Time of one revolution t_scan [s], > 0.
+
+    Returns
+    -------
+    ndarray
+        t_swp [s].
+
+    Raises
+    ------
+    ValueError
+        If θ_b ∉ (0, 2π] or t_scan ≤ 0.
+    """
+    theta = np.asarray(beamwidth_rad, dtype=float)
+    t_scan = np.asarray(scan_period_s, dtype=float)
+    _require_positive("beamwidth_rad", theta)
+    if np.any(theta > 2.0 * np.pi):
+        raise ValueError(f"beamwidth_rad must be <= 2 pi, got {np.max(theta):g}")
+    _require_positive("scan_period_s", t_scan)
+    return theta / (2.0 * np.pi) * t_scan
+
+
+def pulses_per_beam(
+    beamwidth_rad: ArrayLike, scan_period_s: ArrayLike, prf_hz: ArrayLike
+) -> NDArray[np.float64]:
+    """Pulses hitting a point target in one beam sweep, N_n = t_swp f_r, seed [73].
+
+    Parameters
+    ----------
+    beamwidth_rad : array_like
+        Horizontal 3 dB beamwidth θ_b [rad].
+    scan_period_s : array_like
+        Time of one revolution [s].
+    prf_hz : array_like
+        Pulse repetition frequency f_r [Hz], > 0.
+
+    Returns
+    -------
+    ndarray
+        N_n [-] (not rounded; may be below 1 for a fast scan, see :func:`effective_pulses`).
+    """
+    f_r = np.asarray(prf_hz, dtype=float)
+    _require_positive("prf_hz", f_r)
+    return sweep_time(beamwidth_rad, scan_period_s) * f_r
+
+
+def pfa_from_false_alarm_time(
+    t_fa_s: ArrayLike,
+    beamwidth_rad: ArrayLike,
+    scan_period_s: ArrayLike,
+    prf_hz: ArrayLike,
+    pulse_width_s: ArrayLike,
+    n_channels: ArrayLike = N_CHANNELS,
+) -> NDArray[np.float64]:
+    """Probability of false alarm from the mean time between false alarms, seed [68]-[72].
+
+    P_fa = 0.69 / n',  n' = n_0 t_fa / t_swp,  t_swp = θ_b t_scan / (2π),
+    n_0 = N_ch N_rc,  N_rc = 1/(f_r τ') - 2.
+
+    Parameters
+    ----------
+    t_fa_s : array_like
+        Mean time between false alarms t_fa [s], > 0.
+    beamwidth_rad : array_like
+        Horizontal 3 dB beamwidth θ_b [rad].
+    scan_period_s : array_like
+        Time of one revolution t_scan [s].
+    prf_hz : array_like
+        Pulse repetition frequency f_r [Hz].
+    pulse_width_s : array_like
+        Compressed pulse length τ' [s].
+    n_channels : array_like, optional
+        Decision channels per range cell N_ch [-] (seed: :data:`N_CHANNELS` = 2).
+
+    Returns
+    -------
+    ndarray
+        P_fa [-], in (0, 1).
+
+    Raises
+    ------
+    ValueError
+        If N_rc ≤ 0 (f_r τ' ≥ 1/2), an input is not positive, or the result is not in
+        (0, 1) (n' ≤ 0.69: t_fa shorter than about one sweep; SPEC §4 item 14).
+    """
+    t_fa = np.asarray(t_fa_s, dtype=float)
+    n_ch = np.asarray(n_channels, dtype=float)
+    _require_positive("t_fa_s", t_fa)
+    _require_positive("n_channels", n_ch)
+    t_swp = sweep_time(beamwidth_rad, scan_period_s)
+    n_0 = n_ch * range_cells(prf_hz, pulse_width_s)
+    n_prime = n_0 * t_fa / t_swp
+    pfa = LN2_SEED / n_prime
+    if np.any(~((pfa > 0) & (pfa < 1))):
+        bad = np.asarray(pfa)[~((pfa > 0) & (pfa < 1))].flat[0]
+        raise ValueError(
+            f"pfa_from_false_alarm_time: P_fa = 0.69 / n' must be in (0, 1), got {bad:g} "
+            "(false alarm time too short for the number of opportunities n')"
+        )
+    return pfa
+
+
+# ----------------------------------------------------------------------------- [74]-[77]
+def effective_pulses(
+    n_pulses: ArrayLike,
+    *,
+    clutter_dominated: ArrayLike = False,
+    clutter_velocity_spread_mps: ArrayLike = 0.0,
+    wavelength_m: ArrayLike = 1.0,
+    prf_hz: ArrayLike = 1.0,
+    beamwidth_rad: ArrayLike = 1.0,
+    rotation_rate_rad_s: ArrayLike = 1.0,
+    pulses_per_frequency: ArrayLike = 1.0,
+    mti_order: ArrayLike = 0,
+    n_coherent: ArrayLike = 1,
+) -> NDArray[np.float64]:
+    """Effective number of pulses for non-coherent integration N_e, seed [73]-[77].
+
+    Noise or jamming dominated (``clutter_dominated`` False): N_e = N_n [73] (the seed
+    assumes the clutter filters are switched off).  Clutter dominated:
+
+    * N_n' = ⌊N_n⌋ if σ_s'/(λ f_r) ≥ 0.2, else ⌊1 + 5 σ_s' θ_b / (6 λ ω_rot)⌋ [74],
+      capped at N_n;
+    * N_e' = max(N_n / N_fc, N_n') with frequency agility [75];
+    * with a filter bank or coherent integrator (``n_coherent`` > 1): N_e = N_n / N_c [77];
+      otherwise with an N_pc-pulse MTI: N_e = N_e' / (1 + 0.53 N_pc) [76]; otherwise N_e'.
+
+    The result is never below 1 (SPEC §4 item 16).
+
+    Parameters
+    ----------
+    n_pulses : array_like
+        Pulses per beam sweep N_n of [73] [-].
+    clutter_dominated : array_like of bool
+        Whether clutter is the dominant interference (per element).
+    clutter_velocity_spread_mps : array_like
+        Standard deviation of the clutter velocity spectrum σ_s' [m/s], ≥ 0.
+    wavelength_m : array_like
+        Radar wavelength λ [m].
+    prf_hz : array_like
+        Pulse repetition frequency f_r [Hz].
+    beamwidth_rad : array_like
+        Horizontal 3 dB beamwidth θ_b [rad].
+    rotation_rate_rad_s : array_like
+        Antenna rotation rate ω_rot [rad/s]; θ_b/ω_rot is the time on target.
+    pulses_per_frequency : array_like
+        Pulses before a frequency change N_fc [-] (1 = pulse-to-pulse agility; set it to
+        N_n or more for a fixed frequency).
+    mti_order : array_like
+        Order N_pc of the MTI canceller [-] (0: no MTI).
+    n_coherent : array_like
+        Pulses integrated coherently by the filter bank N_c [-] (1: none).
+
+    Returns
+    -------
+    ndarray
+        N_e [-], ≥ 1, broadcast over all arguments.
+    """
+    n_n = np.asarray(n_pulses, dtype=float)
+    dominated = np.asarray(clutter_dominated, dtype=bool)
+    sigma = np.asarray(clutter_velocity_spread_mps, dtype=float)
+    lam = np.asarray(wavelength_m, dtype=float)
+    f_r = np.asarray(prf_hz, dtype=float)
+    theta = np.asarray(beamwidth_rad, dtype=float)
+    omega = np.asarray(rotation_rate_rad_s, dtype=float)
+    n_fc = np.asarray(pulses_per_frequency, dtype=float)
+    n_pc = np.asarray(mti_order, dtype=float)
+    n_c = np.asarray(n_coherent, dtype=float)
+    for name, arr in (
+        ("wavelength_m", lam), ("prf_hz", f_r), ("beamwidth_rad", theta),
+        ("rotation_rate_rad_s", omega), ("pulses_per_frequency", n_fc),
+        ("n_coherent", n_c),
+    ):
+        _require_positive(name, arr)
+    if np.any(~(n_n >= 0)) or np.any(~(sigma >= 0)) or np.any(~(n_pc >= 0)):
+        raise ValueError(
+            "effective_pulses: n_pulses, clutter_velocity_spread_mps and mti_order must be >= 0"
+        )
+    decorrelated = sigma / (lam * f_r) >= DECORRELATED_SPREAD_RATIO
+    n_clutter = np.where(
+        decorrelated,
+        np.floor(n_n),
+        np.floor(1.0 + CLUTTER_SAMPLES_FACTOR * sigma * theta / (lam * omega)),
+    )
+    n_clutter = np.minimum(n_clutter, n_n)  # "a number between 1 and N_n"
+    n_e_prime = np.maximum(n_n / n_fc, n_clutter)  # [75]
+    n_e_clutter = np.where(
+        n_c > 1.0, n_n / n_c, n_e_prime / (1.0 + MTI_PULSE_FACTOR * n_pc)
+    )  # [77] or [76]
+    return np.maximum(np.where(dominated, n_e_clutter, n_n), 1.0)
+
+
+# ----------------------------------------------------------------------------- P_d: public
+def probability_of_detection(
+    snr_db: ArrayLike,
+    pfa: ArrayLike,
+    n_pulses: ArrayLike,
+    swerling: ArrayLike,
+    method: str = "exact",
+    *,
+    integrator: str = "uniform",
+    detector: str = "square",
+    signal_variation: str = "constant",
+) -> NDArray[np.float64] | float:
+    """Probability of detection of a Swerling 0-4 target, seed [78]-[83] or exact.
+
+    Parameters
+    ----------
+    snr_db : array_like
+        Per-pulse signal-to-interference ratio S/I [dB]; -inf allowed (S/I = 0); clipped
+        to ±:data:`SNR_DB_LIMIT`.
+    pfa : array_like
+        Probability of false alarm [-]: in (0, 1) for ``"exact"``, (0, 0.1] for ``"seed"``.
+    n_pulses : array_like
+        Pulses integrated non-coherently, N_e [-], real, ≥ 1 (non-integer: see the module
+        notes).
+    swerling : array_like of int
+        Swerling case, 0 (steady) to 4.
+    method : {"exact", "seed"}
+        ``"exact"``: square-law detector, uniform non-coherent integration, exact Swerling
+        0-4 (DiFranco & Rubin 1968; Meyer & Mayer 1973).  ``"seed"``: [78]-[83] with Tables
+        I-III, solved to better than the seed's 1 % of S/I.
+    integrator : {"non_uniform", "uniform", "single_loop", "double_loop"}
+        Table I integrator (``"seed"`` only; ``"exact"`` requires ``"uniform"``).
+    detector : {"square", "linear", "log"}
+        Table II envelope detector (``"seed"`` only; ``"exact"`` requires ``"square"``).
+    signal_variation : {"constant", "gaussian"}
+        Table I pulse-train envelope (``"seed"`` only), see the module notes.
+
+    Returns
+    -------
+    ndarray or float
+        P_d [-], finite, in [P_fa, 1], monotone non-decreasing in S/I; a float for scalar
+        inputs.
+
+    Notes
+    -----
+    Exact closed forms used (S per-pulse S/I, T = Q⁻¹(N, P_fa), P(a, x) and Q(a, x) the
+    regularized incomplete gammas):
+
+    * Swerling 0: P_d = Q_M(√(2NS), √(2T)) as the non-central χ² survival function with 2N
+      degrees of freedom and non-centrality 2NS.
+    * Swerling 1: P_d = P_fa + c^{1-N} e^{-(1-c)T} P(N, cT), c = NS/(1+NS) (an algebraic
+      rearrangement of DiFranco & Rubin eq. 10-77 without the Q(N-1, ·) term).
+    * Swerling 2: P_d = Q(N, T/(1+S)).
+    * Swerling 3: P_d = P_fa + e^{-T/β} c^{1-N} [(2-c) P(N, cT) + D(N, cT)/β],
+      β = 1 + NS/2, c = 1 - 1/β, D(N, x) = x P(N, x) - N P(N+1, x) ≥ 0.
+    * Swerling 4: P_d = Σ_m Bin(m; N, r) Q(N+m, T/β), β = 1 + S/2, r = 1 - 1/β.
+
+    Small terms are formed in the log domain (series for P(N, x) where it underflows), so
+    the results stay accurate and warning-free from S/I = -50 to +100 dB, P_fa = 1e-15 to
+    0.1 and N = 1 to 10⁴.
+
+    The seed method solves D_0(P_d) L_f(P_d) = S/I for P_d by bisection on z = Φ⁻¹(P_d)
+    with fixed midpoints (hence monotone in S/I whatever the formula does), followed by a
+    log-linear interpolation inside the last bracket.
+    """
+    snr, pfa_a, n_a, sw = _broadcast_inputs(snr_db, pfa, n_pulses, swerling, method)
+    if method == "exact":
+        _require_exact_receiver(integrator, detector)
+        out = _pd_exact(snr, pfa_a, n_a, sw)
+    else:
+        h_n, zeta = _seed_parameters(n_a, integrator, detector, signal_variation)
+        out = _pd_seed(snr, pfa_a, n_a, sw, h_n, zeta)
+    return out if out.ndim else float(out)
+
+
+def required_snr_db(
+    pd: ArrayLike,
+    pfa: ArrayLike,
+    n_pulses: ArrayLike,
+    swerling: ArrayLike,
+    method: str = "exact",
+    *,
+    integrator: str = "uniform",
+    detector: str = "square",
+    signal_variation: str = "constant",
+) -> NDArray[np.float64] | float:
+    """Per-pulse S/I needed for a probability of detection: inverse of
+    :func:`probability_of_detection`.
+
+    Parameters
+    ----------
+    pd : array_like
+        Wanted probability of detection [-], in [0, 1].
+    pfa, n_pulses, swerling, method, integrator, detector, signal_variation
+        As in :func:`probability_of_detection`.
+
+    Returns
+    -------
+    ndarray or float
+        Required per-pulse S/I [dB].  -inf where P_d ≤ P_fa (no signal is needed), +inf
+        where P_d = 1.  ``"exact"``: vectorized bisection in dB on
+        :data:`REQUIRED_SNR_DB_BRACKET` to ~1e-13 dB (results beyond the bracket are
+        clipped to it).  ``"seed"``: the closed form D_0 L_f of [78]-[83] (Blake's
+        procedure), with the extensions of the module notes outside its validity.
+    """
+    pd_a, pfa_a, n_a, sw = _broadcast_inputs(0.0, pfa, n_pulses, swerling, method, pd=pd)
+    if method == "exact":
+        _require_exact_receiver(integrator, detector)
+        out = _required_exact(pd_a, pfa_a, n_a, sw)
+    else:
+        h_n, zeta = _seed_parameters(n_a, integrator, detector, signal_variation)
+        z = special.ndtri(pd_a)  # ∓inf at P_d = 0 or 1, handled below
+        lo = z <= -_SEED_Z_MAX
+        hi = z >= _SEED_Z_MAX
+        z_c = np.clip(z, -_SEED_Z_MAX, _SEED_Z_MAX)
+        req = _seed_required_snr(z_c, pfa_a, n_a, sw, h_n, zeta)
+        out = np.full(req.shape, -np.inf)
+        pos = req > 0
+        out[pos] = 10.0 * np.log10(req[pos])
+        out = np.where(hi, np.inf, np.where(lo | (pd_a <= pfa_a), -np.inf, out))
+    return out if out.ndim else float(out)
+
+
+def equivalent_pulses(
+    n_pulses: ArrayLike, integrator: str = "uniform", signal_variation: str = "constant"
+) -> NDArray[np.float64]:
+    """Equivalent number of pulses integrated H_n, seed Table I (Blake 1980, p. 68).
+
+    Parameters
+    ----------
+    n_pulses : array_like
+        Pulses integrated N_e [-], ≥ 1.
+    integrator : {"non_uniform", "uniform", "single_loop", "double_loop"}
+        Integrator weighting.
+    signal_variation : {"constant", "gaussian"}
+        Envelope of the pulse train (Gaussian beam or constant).
+
+    Returns
+    -------
+    ndarray
+        H_n [-]; the constant double-loop entry 1.3347 N_e exp(-3/N_e) is small for N_e of a
+        few pulses (0.066 at N_e = 1), as tabulated.
+    """
+    if integrator not in INTEGRATORS:
+        raise ValueError(f"integrator must be one of {INTEGRATORS}, got {integrator!r}")
+    if signal_variation not in SIGNAL_VARIATIONS:
+        raise ValueError(
+            f"signal_variation must be one of {SIGNAL_VARIATIONS}, got {signal_variation!r}"
+        )
+    n = np.asarray(n_pulses, dtype=float)
+    h = TABLE_I[(signal_variation, integrator)] * n
+    if (signal_variation, integrator) == ("constant", "double_loop"):
+        h = h * np.exp(-DOUBLE_LOOP_DECAY / n)
+    return h
+
+
+def fluctuation_k(swerling: ArrayLike, n_pulses: ArrayLike) -> NDArray[np.float64]:
+    """Degrees of freedom K of the chi-square target family, seed Table III.
+
+    Parameters
+    ----------
+    swerling : array_like of int
+        Swerling case 0-4.
+    n_pulses : array_like
+        Pulses integrated N_e [-].
+
+    Returns
+    -------
+    ndarray
+        K [-]: inf (steady), 1, N_e, 2, 2 N_e for Swerling 0-4.
+    """
+    sw = np.asarray(swerling)
+    n = np.asarray(n_pulses, dtype=float)
+    return np.select(
+        [sw == 0, sw == 1, sw == 2, sw == 3], [np.inf, 1.0, n, 2.0], default=2.0 * n
+    ).astype(float)
+
+
+# ----------------------------------------------------------------------------- validation
+def _require_positive(name: str, arr: np.ndarray) -> None:
+    if np.any(~(arr > 0)) or np.any(~np.isfinite(arr)):
+        bad = arr[~((arr > 0) & np.isfinite(arr))].flat[0] if arr.ndim else float(arr)
+        raise ValueError(f"{name} must be finite and > 0, got {bad:g}")
+
+
+def _require_exact_receiver(integrator: str, detector: str) -> None:
+    if integrator != "uniform" or detector != "square":
+        raise ValueError(
+            "method='exact' models a square-law detector with uniform non-coherent "
+            f"integration; got integrator={integrator!r}, detector={detector!r} "
+            "(use method='seed' for Tables I-II)"
+        )
+
+
+def _broadcast_inputs(snr_db, pfa, n_pulses, swerling, method, pd=None):
+    if method not in ("exact", "seed"):
+        raise ValueError(f"method must be 'exact' or 'seed', got {method!r}")
+    first = snr_db if pd is None else pd
+    a, p, n, s = np.broadcast_arrays(
+        np.asarray(first, dtype=float),
+        np.asarray(pfa, dtype=float),
+        np.asarray(n_pulses, dtype=float),
+        np.asarray(swerling),
+    )
+    if np.any(np.isnan(a)):
+        raise ValueError(f"{'snr_db' if pd is None else 'pd'} must not be NaN")
+    if pd is not None and np.any((a < 0) | (a > 1)):
+        raise ValueError(f"pd must be in [0, 1], got {a[(a < 0) | (a > 1)].flat[0]:g}")
+    pfa_max = 1.0 if method == "exact" else SEED_PFA_MAX
+    if np.any(~((p > 0) & (p < 1) & (p <= pfa_max))):
+        bad = p[~((p > 0) & (p < 1) & (p <= pfa_max))].flat[0]
+        interval = "(0, 1)" if method == "exact" else f"(0, {SEED_PFA_MAX}]"
+        raise ValueError(f"pfa must be in {interval} for method={method!r}, got {bad:g}")
+    if np.any(~((n >= 1) & np.isfinite(n))):
+        raise ValueError(f"n_pulses must be finite and >= 1, got {n[~(n >= 1)].flat[0]:g}")
+    if not np.all(np.isin(s, SWERLING_CASES)):
+        raise ValueError(f"swerling must be one of {SWERLING_CASES}, got {s[~np.isin(s, SWERLING_CASES)].flat[0]}")
+    if pd is None:
+        a = np.clip(a, -SNR_DB_LIMIT, SNR_DB_LIMIT)
+    return a.copy(), p.copy(), n.copy(), s.astype(np.int64)
+
+
+# ----------------------------------------------------------------------------- exact
+def _log_poisson(a: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """ln(x^a e^{-x} / Γ(a+1)), x > 0."""
+    return a * np.log(x) - x - special.gammaln(a + 1.0)
+
+
+def _series(a: np.ndarray, x: np.ndarray, weighted: bool) -> np.ndarray:
+    """Σ_k w_k x^k / ((a+1)(a+2)…(a+k+j)) for x < a + 1, positive terms only.
+
+    ``weighted`` False: M(1, a+1, x) = Σ_k x^k/(a+1)_k (so P(a, x) = pois(a; x) M).
+    ``weighted`` True:  Σ_k (k+1) x^k/(a+1)_{k+1} (so D(a, x) = pois(a; x) x Σ).
+    """
+    total = np.zeros(a.shape)
+    if weighted:
+        term = 1.0 / (a + 1.0)
+        k = 0
+        while True:
+            total = total + (k + 1) * term
+            k += 1
+            term = term * x / (a + k + 1.0)
+            if np.all((k + 1) * term <= 1e-17 * total) or k > 100_000:
+                return total
+    term = np.ones(a.shape)
+    k = 0
+    while True:
+        total = total + term
+        k += 1
+        term = term * x / (a + k)
+        if np.all(term <= 1e-17 * total) or k > 100_000:
+            return total
+
+
+def _log_gammainc(a: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """ln P(a, x) for a ≥ 1, x > 0, accurate where P underflows (then x < a)."""
+    p = special.gammainc(a, x)
+    small = p < _TINY
+    out = np.log(np.where(small, 1.0, p))
+    if np.any(small):
+        a_s, x_s = a[small], x[small]
+        out[small] = _log_poisson(a_s, x_s) + np.log(_series(a_s, x_s, weighted=False))
+    return out
+
+
+def _log_d(a: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """ln D(a, x), D = x P(a, x) - a P(a+1, x) = ∫_0^x (x-u) g_a(u) du > 0."""
+    out = np.empty(a.shape)
+    low = x < 0.5 * a
+    if np.any(low):
+        a_l, x_l = a[low], x[low]
+        out[low] = (
+            _log_poisson(a_l, x_l) + np.log(x_l) + np.log(_series(a_l, x_l, weighted=True))
+        )
+    high = ~low
+    if np.any(high):
+        a_h, x_h = a[high], x[high]
+        log_pois = _log_poisson(a_h, x_h)
+        p = special.gammainc(a_h, x_h)
+        # D = (x - a) P(a, x) + a pois(a; x): no cancellation for x ≥ a, at most a factor
+        # ~a between the two terms for a/2 ≤ x < a.
+        d = (x_h - a_h) * p + a_h * np.exp(log_pois)
+        ok = (p >= _TINY) & (d > 0)
+        res = np.log(np.where(ok, d, 1.0))
+        if np.any(~ok):
+            a_b, x_b = a_h[~ok], x_h[~ok]
+            m1 = _series(a_b, x_b, weighted=False)
+            res[~ok] = _log_poisson(a_b, x_b) + np.log((x_b - a_b) * m1 + a_b)
+        out[high] = res
+    return out
+
+
+def _pd_exact_integer(s, pfa, n, sw):
+    """Exact P_d for integer-valued n (1-D arrays, s > 0)."""
+    t = special.gammainccinv(n, pfa)
+    out = np.empty(s.shape)
+    m = sw == 0
+    if np.any(m):
+        out[m] = stats.ncx2.sf(2.0 * t[m], 2.0 * n[m], 2.0 * n[m] * s[m])
+    m = sw == 2
+    if np.any(m):
+        out[m] = special.gammaincc(n[m], t[m] / (1.0 + s[m]))
+    m = sw == 1
+    if np.any(m):
+        nn, tt, ns = n[m], t[m], n[m] * s[m]
+        log_c = -np.log1p(1.0 / ns)
+        c = ns / (1.0 + ns)
+        log_term = -tt / (1.0 + ns) + (1.0 - nn) * log_c + _log_gammainc(nn, c * tt)
+        out[m] = pfa[m] + np.exp(log_term)
+    m = sw == 3
+    if np.any(m):
+        nn, tt, half = n[m], t[m], 0.5 * n[m] * s[m]
+        beta = 1.0 + half
+        log_c = -np.log1p(1.0 / half)
+        c = half / beta
+        log_a = -tt / beta + (1.0 - nn) * log_c
+        x = c * tt
+        t1 = np.exp(log_a + np.log(2.0 - c) + _log_gammainc(nn, x))
+        t2 = np.exp(log_a + _log_d(nn, x) - np.log(beta))
+        out[m] = pfa[m] + t1 + t2
+    m = sw == 4
+    if np.any(m):
+        out[m] = _pd_swerling4(s[m], t[m], n[m])
+    return np.clip(out, pfa, 1.0)
+
+
+def _pd_swerling4(s, t, n):
+    """Σ_m Bin(m; N, r) Q(N+m, T/β) over the binomial's bulk (±12σ + 40 terms)."""
+    half = 0.5 * s
+    x = t / (1.0 + half)
+    log_r = np.log(half) - np.log1p(half)
+    log_1mr = -np.log1p(half)
+    r = half / (1.0 + half)
+    mean = n * r
+    sd = np.sqrt(n * r * (1.0 - r))
+    m_lo = np.maximum(np.floor(mean - _SW4_SIGMAS * sd - _SW4_EXTRA), 0.0)
+    m_hi = np.minimum(np.ceil(mean + _SW4_SIGMAS * sd + _SW4_EXTRA), n)
+    width = int(np.max(m_hi - m_lo)) + 1
+    out = np.empty(s.shape)
+    step = max(1, _SW4_CHUNK // width)
+    offsets = np.arange(width, dtype=float)
+    for i in range(0, s.size, step):  # chunks bound the memory, not a loop over targets
+        sl = slice(i, i + step)
+        mm = m_lo[sl, None] + offsets[None, :]
+        valid = mm <= m_hi[sl, None]
+        mm = np.where(valid, mm, m_lo[sl, None])
+        nn = n[sl, None]
+        log_w = (
+            special.gammaln(nn + 1.0) - special.gammaln(mm + 1.0) - special.gammaln(nn - mm + 1.0)
+            + mm * log_r[sl, None] + (nn - mm) * log_1mr[sl, None]
+        )
+        w = np.where(valid, np.exp(log_w - np.max(log_w, axis=1, keepdims=True)), 0.0)
+        # normalized: the mass outside the window is < 1e-30, while the rounding of the
+        # large gammaln terms (common to a row) would otherwise leave Σw = 1 ± 1e-11
+        w = w / np.sum(w, axis=1, keepdims=True)
+        out[sl] = np.sum(w * special.gammaincc(nn + mm, x[sl, None]), axis=1)
+    return out
+
+
+def _pd_exact(snr_db, pfa, n, sw):
+    shape = snr_db.shape
+    s = np.power(10.0, snr_db.ravel() / 10.0)
+    p, nn, ss = pfa.ravel(), n.ravel(), sw.ravel()
+    out = p.copy()  # S/I = 0 (-inf dB): P_d = P_fa
+    pos = s > 0
+    n_lo = np.floor(nn)
+    frac = nn - n_lo
+    if np.any(pos):
+        out[pos] = _pd_exact_integer(s[pos], p[pos], n_lo[pos], ss[pos])
+        up = pos & (frac > 0)
+        if np.any(up):
+            pd_hi = _pd_exact_integer(s[up], p[up], n_lo[up] + 1.0, ss[up])
+            out[up] = (1.0 - frac[up]) * out[up] + frac[up] * pd_hi
+    return out.reshape(shape)
+
+
+def _required_exact(pd, pfa, n, sw):
+    shape = pd.shape
+    pd, pfa, n, sw = pd.ravel(), pfa.ravel(), n.ravel(), sw.ravel()
+    out = np.full(pd.shape, -np.inf)
+    out[pd >= 1.0] = np.inf
+    todo = (pd > pfa) & (pd < 1.0)
+    if np.any(todo):
+        target, p_t, n_t, s_t = pd[todo], pfa[todo], n[todo], sw[todo]
+        lo = np.full(target.shape, REQUIRED_SNR_DB_BRACKET[0])
+        hi = np.full(target.shape, REQUIRED_SNR_DB_BRACKET[1])
+        for _ in range(_REQUIRED_SNR_ITERATIONS):
+            mid = 0.5 * (lo + hi)
+            below = _pd_exact(mid, p_t, n_t, s_t) < target
+            lo = np.where(below, mid, lo)
+            hi = np.where(below, hi, mid)
+        out[todo] = 0.5 * (lo + hi)
+    return out.reshape(shape)
+
+
+# ----------------------------------------------------------------------------- seed
+def _seed_parameters(n, integrator, detector, signal_variation):
+    if detector not in TABLE_II:
+        raise ValueError(f"detector must be one of {tuple(TABLE_II)}, got {detector!r}")
+    return equivalent_pulses(n, integrator, signal_variation), TABLE_II[detector]
+
+
+def g_fa(pfa: ArrayLike) -> NDArray[np.float64]:
+    """Blake's false-alarm quantile g_fa = 2.36 sqrt(-log10 P_fa) - 1.02, seed [80].
+
+    Parameters
+    ----------
+    pfa : array_like
+        Probability of false alarm [-], in (0, 1).
+
+    Returns
+    -------
+    ndarray
+        g_fa [-].  Outside 1e-12 ≤ P_fa ≤ 1e-4 (the fit's range) the exact normal quantile
+        Φ⁻¹(1 - P_fa) is used, shifted to join the fit continuously at the nearest edge.
+    """
+    p = np.asarray(pfa, dtype=float)
+    p_c = np.clip(p, *SEED_PFA_RANGE)
+    blake = G_FA_SLOPE * np.sqrt(-np.log10(p_c)) - G_FA_OFFSET
+    return blake + (special.ndtri(p_c) - special.ndtri(p))
+
+
+def g_d(z: ArrayLike) -> NDArray[np.float64]:
+    """Blake's detection quantile g_d = 1.231 t / sqrt(1 - t²), t = 0.9 (2 P_d - 1), [81]-[82].
+
+    Parameters
+    ----------
+    z : array_like
+        Φ⁻¹(P_d), the normal quantile of the probability of detection [-] (the argument is
+        z rather than P_d so that P_d near 0 and 1 keeps its precision).
+
+    Returns
+    -------
+    ndarray
+        g_d [-].  Outside 0.1 ≤ P_d ≤ 0.9 the exact quantile z is used, shifted to join the
+        fit continuously at the nearest edge, so g_d → ±∞ as P_d → 1 or 0.
+    """
+    z = np.asarray(z, dtype=float)
+    z_c = np.clip(z, special.ndtri(SEED_PD_RANGE[0]), special.ndtri(SEED_PD_RANGE[1]))
+    t = G_D_T_SCALE * (2.0 * special.ndtr(z_c) - 1.0)
+    return G_D_SLOPE * t / np.sqrt(1.0 - t * t) + (z - z_c)
+
+
+def _seed_required_snr(z, pfa, n, sw, h_n, zeta):
+    """D_0 [78] times L_f [83] at P_d = Φ(z): the seed's required per-pulse S/I (linear)."""
+    gf = g_fa(pfa)
+    gd = g_d(z)
+    x0 = np.square(np.maximum(gf + gd, 0.0))  # [79], floored at the noise-only limit
+    a = x0 / (4.0 * h_n)
+    d0 = a + np.sqrt(a * a + x0 / (zeta * h_n))  # [78] rearranged: finite at X0 = 0
+    k = fluctuation_k(sw, n)
+    base = -special.log_ndtr(z) * (1.0 + gd / gf)
+    usable = (base > 0) & (d0 > 0)
+    fluct = np.isfinite(k)
+    log_lf = np.where(
+        fluct & usable, -np.log(np.where(usable, base, 1.0)) / np.where(fluct, k, 1.0), 0.0
+    )
+    req = np.where(usable | ~fluct, d0 * np.exp(log_lf), 0.0)
+    return req
+
+
+def _pd_seed(snr_db, pfa, n, sw, h_n, zeta):
+    shape = snr_db.shape
+    s = np.power(10.0, snr_db.ravel() / 10.0)
+    p, nn, ss, hh = pfa.ravel(), n.ravel(), sw.ravel(), np.broadcast_to(h_n, shape).ravel()
+    lo = np.full(s.shape, -_SEED_Z_MAX)
+    hi = np.full(s.shape, _SEED_Z_MAX)
+    for _ in range(_SEED_ITERATIONS):
+        mid = 0.5 * (lo + hi)
+        below = _seed_required_snr(mid, p, nn, ss, hh, zeta) < s
+        lo = np.where(below, mid, lo)
+        hi = np.where(below, hi, mid)
+    f_lo = _seed_required_snr(lo, p, nn, ss, hh, zeta)
+    f_hi = _seed_required_snr(hi, p, nn, ss, hh, zeta)
+    # log-linear interpolation inside the final bracket: monotone in S/I within a bracket
+    ok = (f_lo > 0) & (f_hi > f_lo) & (s > 0)
+    num = np.log(np.where(ok, s, 1.0)) - np.log(np.where(ok, f_lo, 1.0))
+    den = np.log(np.where(ok, f_hi, 2.0)) - np.log(np.where(ok, f_lo, 1.0))
+    frac = np.where(ok, np.clip(num / den, 0.0, 1.0), 0.0)
+    z = lo + frac * (hi - lo)
+    return np.clip(np.maximum(special.ndtr(z), p), 0.0, 1.0).reshape(shape)
+
+
+__all__ = [
+    "DECORRELATED_SPREAD_RATIO",
+    "LN2_SEED",
+    "N_CHANNELS",
+    "SEED_PD_RANGE",
+    "SEED_PFA_RANGE",
+    "TABLE_I",
+    "TABLE_II",
+    "effective_pulses",
+    "equivalent_pulses",
+    "fluctuation_k",
+    "g_d",
+    "g_fa",
+    "pfa_from_false_alarm_time",
+    "probability_of_detection",
+    "pulses_per_beam",
+    "range_cells",
+    "required_snr_db",
+    "sweep_time",
+]
+
