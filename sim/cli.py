@@ -79,17 +79,16 @@ def cmd_run(args) -> int:
     s = _load(args.scenario)
     if args.record and Path(args.record).exists() and not args.overwrite:
         raise BadInput(f"--record: {args.record} exists; pass --overwrite to replace it")
-    tables = None
-    if args.build_tables:
-        from tables.scene import build_scene_tables, load_scene_tables
+    from tables.scene import load_scene_tables
 
-        build_scene_tables(s, progress=sys.stderr.isatty(), log=sys.stderr)
-        tables = load_scene_tables(s)
+    # the tables the scene reads: from the cache, built now if missing (shown on stderr)
+    tables = load_scene_tables(s, progress=sys.stderr.isatty(), log=sys.stderr)
     publisher = recorder = bus = None
     try:
         if args.publish:
             publisher = Publisher(args.publish, wait_subscribers=args.wait_subscribers,
-                                  wait_timeout_s=args.wait_timeout, on_slow=args.on_slow)
+                                  wait_timeout_s=args.wait_timeout, on_slow=args.on_slow,
+                                  allow_remote=args.allow_remote)
         if args.record:
             recorder = Recorder(args.record, overwrite=args.overwrite)
         if publisher or recorder:
@@ -119,7 +118,8 @@ def cmd_replay(args) -> int:
     if not Path(args.recording).exists():
         raise BadInput(f"replay: recording {args.recording} does not exist")
     summary = replay(args.recording, endpoint=args.publish, speed=args.speed, fast=args.fast,
-                     wait_subscribers=args.wait_subscribers)
+                     wait_subscribers=args.wait_subscribers, allow_remote=args.allow_remote,
+                     out=None if args.publish else sys.stdout)
     print(json.dumps(summary))
     return EXIT_OK
 
@@ -170,9 +170,10 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--wait-timeout", type=_positive("--wait-timeout"), default=60.0)
     r.add_argument("--on-slow", choices=("pace", "drop"), default="pace",
                    help="slow subscriber: slow the run down (pace) or count dropped frames")
+    r.add_argument("--allow-remote", action="store_true",
+                   help="allow binding a non-loopback address (e.g. tcp://0.0.0.0:5556)")
     r.add_argument("--realtime", nargs="?", const=1.0, default=None,
                    type=_positive("--realtime"), help="pace to the wall clock x FACTOR")
-    r.add_argument("--build-tables", action="store_true", help="build missing tables first")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
     r.set_defaults(func=cmd_run)
 
@@ -183,6 +184,8 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--speed", type=_positive("--speed"), default=1.0)
     g.add_argument("--fast", action="store_true")
     rp.add_argument("--wait-subscribers", type=_count("--wait-subscribers"), default=0)
+    rp.add_argument("--allow-remote", action="store_true",
+                    help="allow binding a non-loopback address")
     rp.set_defaults(func=cmd_replay)
 
     tl = sub.add_parser("tail", help="print a stream as JSON lines")
@@ -206,11 +209,17 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)  # argparse exits with 2 on bad options
+    from sim.bus import EndpointError, PublisherStalledError, SubscriberTimeoutError
+    from sim.recording import RecordingError, RecordingExistsError
+
     try:
         return args.func(args)
-    except BadInput as exc:
+    except (BadInput, EndpointError, RecordingError, RecordingExistsError) as exc:
         print(str(exc), file=sys.stderr)
         return EXIT_BAD_INPUT
+    except (SubscriberTimeoutError, PublisherStalledError) as exc:
+        print(str(exc), file=sys.stderr)
+        return EXIT_FAILURE
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130

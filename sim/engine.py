@@ -204,6 +204,19 @@ class _RadarProcess:
                                 self.sim.scenario.origin)
         return geom, active, tpos
 
+    def jammer_geometry(self, t: float):
+        """Geometry from the antenna to every jammer at time ``t`` (None without jammers).
+
+        Stand-off jammers move slowly against a sector's duration: one geometry per sector.
+        """
+        jam = self.sim.jammers
+        if jam.n == 0:
+            return None
+        jpos, jvel, _ = jam.state(t)
+        ppos, pvel = self.platform_state(np.full(jam.n, t))
+        return antenna_geometry(ppos, pvel, self.radar.antenna_height_m, jpos, jvel,
+                                self.sim.scenario.origin)
+
     # ------------------------------------------------------------------ process
     def run(self, env: simpy.Environment):
         sim = self.sim
@@ -274,12 +287,15 @@ class _RadarProcess:
                 if np.any(sel):
                     rows, tc = rows[sel], tc[sel]
                     geom, active, tpos = self.geometry(tc, rows)
+                    ppos, _ = self.platform_state(tc)
                     ok = active & (geom.ground_range <= self.radar.instrumented_range_m)
                     ok &= geom.slant_range > 0.0
                     if np.any(ok):
                         idx = np.flatnonzero(ok)
                         res = self.model.process_targets(
-                            _take(geom, idx), rows[idx], tc[idx], tpos[idx], self.rng)
+                            _take(geom, idx), rows[idx], tc[idx], tpos[idx], self.rng,
+                            antenna_en=ppos[idx, :2],
+                            jam_geom=self.jammer_geometry(0.5 * (t_a + t_b)))
                         sim.stats.dwells += idx.size
                         sim.stats.missed_detections += res.pop("missed")
                         sim.stats.merged_targets += res.pop("merged")
