@@ -330,8 +330,11 @@ def effective_pulses(
     n_pc = np.asarray(mti_order, dtype=float)
     n_c = np.asarray(n_coherent, dtype=float)
     for name, arr in (
-        ("wavelength_m", lam), ("prf_hz", f_r), ("beamwidth_rad", theta),
-        ("rotation_rate_rad_s", omega), ("pulses_per_frequency", n_fc),
+        ("wavelength_m", lam),
+        ("prf_hz", f_r),
+        ("beamwidth_rad", theta),
+        ("rotation_rate_rad_s", omega),
+        ("pulses_per_frequency", n_fc),
         ("n_coherent", n_c),
     ):
         _require_positive(name, arr)
@@ -569,7 +572,8 @@ def _broadcast_inputs(snr_db, pfa, n_pulses, swerling, method, pd=None):
     if np.any(~((n >= 1) & np.isfinite(n))):
         raise ValueError(f"n_pulses must be finite and >= 1, got {n[~(n >= 1)].flat[0]:g}")
     if not np.all(np.isin(s, SWERLING_CASES)):
-        raise ValueError(f"swerling must be one of {SWERLING_CASES}, got {s[~np.isin(s, SWERLING_CASES)].flat[0]}")
+        bad = s[~np.isin(s, SWERLING_CASES)].flat[0]
+        raise ValueError(f"swerling must be one of {SWERLING_CASES}, got {bad}")
     if pd is None:
         a = np.clip(a, -SNR_DB_LIMIT, SNR_DB_LIMIT)
     return a.copy(), p.copy(), n.copy(), s.astype(np.int64)
@@ -624,9 +628,7 @@ def _log_d(a: np.ndarray, x: np.ndarray) -> np.ndarray:
     low = x < 0.5 * a
     if np.any(low):
         a_l, x_l = a[low], x[low]
-        out[low] = (
-            _log_poisson(a_l, x_l) + np.log(x_l) + np.log(_series(a_l, x_l, weighted=True))
-        )
+        out[low] = _log_poisson(a_l, x_l) + np.log(x_l) + np.log(_series(a_l, x_l, weighted=True))
     high = ~low
     if np.any(high):
         a_h, x_h = a[high], x[high]
@@ -701,8 +703,11 @@ def _pd_swerling4(s, t, n):
         mm = np.where(valid, mm, m_lo[sl, None])
         nn = n[sl, None]
         log_w = (
-            special.gammaln(nn + 1.0) - special.gammaln(mm + 1.0) - special.gammaln(nn - mm + 1.0)
-            + mm * log_r[sl, None] + (nn - mm) * log_1mr[sl, None]
+            special.gammaln(nn + 1.0)
+            - special.gammaln(mm + 1.0)
+            - special.gammaln(nn - mm + 1.0)
+            + mm * log_r[sl, None]
+            + (nn - mm) * log_1mr[sl, None]
         )
         w = np.where(valid, np.exp(log_w - np.max(log_w, axis=1, keepdims=True)), 0.0)
         # normalized: the mass outside the window is < 1e-30, while the rounding of the
@@ -856,4 +861,3 @@ __all__ = [
     "required_snr_db",
     "sweep_time",
 ]
-
