@@ -56,6 +56,15 @@ MAX_STABILITY_LIMIT_DB = 150.0
 #: underflows) [1].
 WHITE_SPREAD_NORM = 10.0
 
+#: Gauss-Hermite order of the narrow-clutter quadrature of :func:`clutter_output_power` [1].
+GAUSS_HERMITE_ORDER = 64
+#: Spread times filter length up to which the clutter output uses the quadrature [1].
+NARROW_SPREAD_TAPS = 0.5
+_GH_T, _GH_W = np.polynomial.hermite.hermgauss(GAUSS_HERMITE_ORDER)
+# nodes t_k and weights w_k/√π of ∫ g(x) N(x; 0, 1/2) dx
+_GH_NODES = _GH_T
+_GH_WEIGHTS = _GH_W / np.sqrt(np.pi)
+
 #: [63] improvement factor above which the distribution loss decays [dB].
 DISTRIBUTION_LOSS_KNEE_DB = 20.0
 #: [63] decay scale: L_d = L_d0 exp(-(I_F - 20)² / 100), I_F in dB [dB²].
@@ -218,7 +227,9 @@ def clutter_lag_covariance(
 def filter_response(weights: ArrayLike, doppler_norm: ArrayLike) -> NDArray:
     """Power response ``|H(f)|² = |Σ_n conj(w_n) exp(-j2π f n)|²`` to a point target.
 
-    This is ``wᴴ M_s w`` of [57] with [55] at ``B -> 0`` and unit input power.
+    This is ``wᴴ M_s w`` of [57] with [55] at ``B -> 0`` and unit input power.  It is summed
+    as an amplitude and then squared, so that near a null the absolute error is of order
+    ``(1e-16 Σ|w|)²`` rather than the ``1e-16 Σ|w|²`` of the lag sum.
 
     Parameters
     ----------
@@ -232,9 +243,90 @@ def filter_response(weights: ArrayLike, doppler_norm: ArrayLike) -> NDArray:
     ndarray, shape (F..., doppler_norm.shape), float, ``>= 0``
         0 at a null of the filter (e.g. the blind speeds ``f_d/f_r ∈ Z`` of an MTI).
     """
+    w = np.asarray(weights, dtype=complex)
+    f = np.asarray(doppler_norm, dtype=float)
+    n = np.arange(w.shape[-1])
+    steering = np.exp(-2j * np.pi * np.mod(f[..., None] * n, 1.0))
+    return np.abs(np.tensordot(np.conj(w), steering, axes=([-1], [-1]))) ** 2
+
+
+def signal_output_power(
+    weights: ArrayLike, doppler_norm: ArrayLike, bandwidth_norm: ArrayLike = 0.0
+) -> NDArray:
+    """Signal output power ``wᴴ M_s w`` of [57] with the signal covariance [55].
+
+    Parameters
+    ----------
+    weights : array_like, shape (F..., N)
+        Filter weights [1].
+    doppler_norm : array_like
+        Target Doppler, or centre ``f_i`` of its uniform band, over the PRF [1].
+    bandwidth_norm : array_like, optional
+        Band ``B/f_r`` [1], ``>= 0``; all zeros (default) is a point target, evaluated by
+        :func:`filter_response`; otherwise the lag sum with [55].
+
+    Returns
+    -------
+    ndarray, shape (F..., broadcast(doppler_norm, bandwidth_norm)), float, ``>= 0``
+    """
     w = np.asarray(weights)
-    cov = signal_lag_covariance(w.shape[-1], doppler_norm)
+    f, b = np.broadcast_arrays(np.asarray(doppler_norm, float), np.asarray(bandwidth_norm, float))
+    if np.all(b == 0):
+        return filter_response(w, f)
+    cov = signal_lag_covariance(w.shape[-1], f, b)
     return np.maximum(quadratic_form_toeplitz(w, cov), 0.0)
+
+
+def clutter_output_power(
+    weights: ArrayLike, spread_norm: ArrayLike, mean_norm: ArrayLike = 0.0
+) -> NDArray:
+    """Clutter output power ``wᴴ M_c w`` of [57] with the Gaussian clutter covariance [56].
+
+    Two evaluations of the same quantity, chosen by the spread:
+
+    * narrow clutter, ``σ_s (N-1)/f_r <= NARROW_SPREAD_TAPS``: the spectral form
+      ``∫ |H(f)|² G(f; μ_c, σ_s) df`` by Gauss-Hermite quadrature
+      (:data:`GAUSS_HERMITE_ORDER` nodes; the periodic ``|H|²`` makes the aliasing of [56]
+      implicit).  ``|H|`` is summed as an amplitude, so an MTI's vanishing output
+      (``~σ^(2n)`` for ``n`` stages) keeps its relative precision as ``σ_s -> 0``, where [56]
+      becomes singular and the lag sum would cancel down to a rounding floor of ~1e-16 of the
+      filter energy.  The quadrature is exact to double precision here: ``|H|²`` is a sum of
+      ``exp(j2πfm)``, ``|m| <= N-1``, and the Gauss-Hermite remainder for ``exp(jat)`` is
+      ``K! √π a^(2K) / (2^K (2K)!)`` with ``a = 2√2 π σ m <= √2 π``: below 1e-60 for K = 64.
+    * wider clutter: the O(N) lag sum with [56], whose output is then far above that floor.
+
+    Parameters
+    ----------
+    weights : array_like, shape (F..., N)
+        Filter weights [1].
+    spread_norm : array_like
+        Clutter spectrum standard deviation over the PRF, ``σ_s/f_r`` [1], ``>= 0`` (``inf``
+        allowed: white clutter).
+    mean_norm : array_like, optional
+        Clutter mean Doppler over the PRF, ``μ_c/f_r`` [1].
+
+    Returns
+    -------
+    ndarray, shape (F..., broadcast(spread_norm, mean_norm)), float, ``>= 0``
+    """
+    w = np.asarray(weights, dtype=complex)
+    s, mu = np.broadcast_arrays(np.asarray(spread_norm, float), np.asarray(mean_norm, float))
+    if np.any(s < 0):
+        raise ValueError("spread_norm must be >= 0")
+    n = w.shape[-1]
+    lead = w.shape[:-1]
+    s_flat, mu_flat = s.ravel(), mu.ravel()
+    out = np.empty(lead + (s_flat.size,))
+    narrow = s_flat * max(n - 1, 1) <= NARROW_SPREAD_TAPS
+    idx = np.flatnonzero(narrow)
+    if idx.size:
+        nodes = mu_flat[idx, None] + np.sqrt(2.0) * s_flat[idx, None] * _GH_NODES
+        out[..., idx] = filter_response(w, nodes) @ _GH_WEIGHTS
+    idx = np.flatnonzero(~narrow)
+    if idx.size:
+        cov = clutter_lag_covariance(n, s_flat[idx], mu_flat[idx])
+        out[..., idx] = np.maximum(quadratic_form_toeplitz(w, cov), 0.0)
+    return out.reshape(lead + s.shape)
 
 
 # ----------------------------------------------------------------------------- improvement
@@ -254,16 +346,13 @@ def _signal_and_clutter(
 ) -> tuple[NDArray, NDArray, NDArray, tuple[int, ...]]:
     """Signal and clutter output powers with the instability residue, aligned for broadcast."""
     eps = stability_residue(stability_limit_db)
-    n = weights.shape[-1]
     n_lead = weights.ndim - 1
-    s_cov = signal_lag_covariance(n, doppler_norm, bandwidth_norm)
-    c_cov = clutter_lag_covariance(n, spread_norm, clutter_mean_norm)
+    signal = signal_output_power(weights, doppler_norm, bandwidth_norm)
+    clutter = clutter_output_power(weights, spread_norm, clutter_mean_norm)
     energy = np.sum(np.abs(weights) ** 2, axis=-1)
-    full = np.broadcast_shapes(s_cov.shape[:-1], c_cov.shape[:-1])
+    full = np.broadcast_shapes(signal.shape[n_lead:], clutter.shape[n_lead:])
     ndim = len(full)
     e = energy.reshape(energy.shape + (1,) * ndim)
-    signal = np.maximum(quadratic_form_toeplitz(weights, s_cov), 0.0)
-    clutter = np.maximum(quadratic_form_toeplitz(weights, c_cov), 0.0)
     signal = _append_axes(signal, n_lead, ndim) + eps * e
     clutter = _append_axes(clutter, n_lead, ndim) + eps * e
     return signal, clutter, e, full
