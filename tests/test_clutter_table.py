@@ -176,3 +176,23 @@ def test_weather_map_values_by_hand(table_cache):
 def test_weather_map_needs_precipitation():
     with pytest.raises(ValueError, match="precipitation"):
         tc.build_weather_clutter_map(**weather_kwargs(rain_rate_mm_h=0.0))
+
+
+def test_figures_written(tmp_path, vp_map):
+    from sim.figures.clutter import plot_clutter_ppi, plot_ducting_reflectivity
+
+    for p in (plot_ducting_reflectivity(tmp_path / "fig6.png"), plot_clutter_ppi(tmp_path / "ppi.png", vp_map)):
+        assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_reader_matches_table_lookup(vp_map):
+    reader = tc.ClutterMapReader(vp_map)
+    rng = np.random.default_rng(7)
+    r = np.concatenate([rng.uniform(0.0, 60e3, 200), [0.0, 60e3, 61e3, -1.0]])
+    for az in (0.0, 1.234, -2.0, 2 * math.pi, 7.5):
+        got = reader.read(r, az)
+        for name in (None, *vp_map.extra):
+            ref = tc.lookup_clutter(vp_map, r, az, name)
+            assert np.array_equal(np.isnan(got[name]), np.isnan(ref))
+            ok = ~np.isnan(ref)
+            assert got[name][ok] == pytest.approx(ref[ok], rel=1e-9, abs=1e-300)
