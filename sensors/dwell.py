@@ -35,7 +35,17 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import constants
 
-from sensors import antenna, detection, false_alarms, jamming, measurement, noise, rcs
+from sensors import (
+    antenna,
+    detection,
+    doppler_filters,
+    false_alarms,
+    jamming,
+    measurement,
+    noise,
+    rcs,
+    sea_clutter,
+)
 from sim.scenario import Platform, Radar, Scenario
 
 INTERFERENCE_NAMES = ("noise", "clutter", "jamming")
@@ -64,6 +74,97 @@ class _Jammers:
     bandwidth_hz: np.ndarray
 
 
+@dataclass(frozen=True)
+class RadarConstants:
+    """Per-radar quantities that do not change during a run (shared with the table builders).
+
+    Attributes: wavelength λ [m]; gain G and L_t/r (power ratios); K_r of [3] without the
+    atmospheric loss [W m²]; T_a, T_s [K] ([17]-[18]); N0' [W] ([19]); B_N [Hz]; range cell
+    C_R [m]; θ_b, φ_b and the elevation tilt [rad]; the losses L_x, L_c, L_CFAR, L_cd, L_B, L_r
+    (power ratios).
+    """
+
+    wavelength: float
+    gain: float
+    l_tr: float
+    k_r0: float
+    t_a: float
+    t_s: float
+    n0: float
+    bandwidth: float
+    range_cell: float
+    theta_b: float
+    phi_b: float
+    tilt: float
+    l_x: float
+    l_c: float
+    l_cfar: float
+    l_cd: float
+    l_b: float
+    l_r: float
+
+    def elevation_pattern(self, radar: Radar):
+        """The radar's elevation directivity g_el(elevation [rad]) (field) [8]-[14]."""
+        pe = radar.pattern_el
+        phi_b, tilt = self.phi_b, self.tilt
+
+        def g(elevation_rad):
+            return antenna.elevation_directivity(elevation_rad, phi_b, pe.type,
+                                                 sidelobe_db=pe.sidelobe_db, tilt_rad=tilt)
+
+        return g
+
+    def pattern_key(self, radar: Radar) -> tuple:
+        """Hashable description of :meth:`elevation_pattern` for table cache keys."""
+        return (radar.pattern_el.type, self.phi_b, radar.pattern_el.sidelobe_db, self.tilt)
+
+
+def radar_constants(scenario: Scenario, radar: Radar) -> RadarConstants:
+    """Compute the :class:`RadarConstants` of a radar in a scene ([3], [17]-[20], [46], [66]-[67])."""
+    env = scenario.environment
+    wavelength = constants.c / radar.frequency_hz
+    gain = float(noise.power_ratio(radar.gain_db))
+    l_tr = float(noise.power_ratio(radar.loss_tr_db))
+    los = radar.losses
+    l_x = float(noise.processing_loss(los.range_gate_db, los.limiter_db, los.matching_db))
+    phi_b = math.radians(radar.beamwidth_el_deg)
+    pe = radar.pattern_el
+    tilt = math.radians(pe.tilt_deg) if pe.tilt_deg is not None else 0.5 * phi_b
+    l_r = float(noise.receive_loss(l_tr))
+    bandwidth = float(noise.noise_bandwidth_hz(radar.pulse_width_s))
+    if radar.antenna_temperature_k is not None:
+        t_a = float(radar.antenna_temperature_k)
+    else:
+        # Blake's T'_a is for the beam axis: the sky model at the beam maximum, at least 0°
+        t_sky = noise.sky_temperature_k(
+            radar.frequency_hz, max(tilt, 0.0),
+            surface_temperature_k=env.temperature_c + 273.15, pressure_hpa=env.pressure_hpa,
+            water_vapour_density_g_m3=env.water_vapour_g_m3,
+            antenna_height_m=radar.antenna_height_m)
+        t_a = float(noise.antenna_temperature_k(t_sky))
+    t_s = float(noise.system_noise_temperature_k(t_a, l_r, noise.power_ratio(radar.noise_figure_db)))
+    return RadarConstants(
+        wavelength=wavelength,
+        gain=gain,
+        l_tr=l_tr,
+        k_r0=float(noise.radar_constant(radar.peak_power_w, gain, wavelength, l_tr)),
+        t_a=t_a,
+        t_s=t_s,
+        n0=float(noise.noise_power_w(t_s, bandwidth)),
+        bandwidth=bandwidth,
+        range_cell=constants.c * radar.pulse_width_s / 2.0,
+        theta_b=math.radians(radar.beamwidth_az_deg),
+        phi_b=phi_b,
+        tilt=tilt,
+        l_x=l_x,
+        l_c=l_x * float(noise.power_ratio(los.clutter_extra_db)),
+        l_cfar=float(noise.power_ratio(los.cfar_db)),
+        l_cd=float(noise.power_ratio(los.clutter_distribution_db)),
+        l_b=float(noise.power_ratio(los.beam_shape_db)),
+        l_r=l_r,
+    )
+
+
 class DwellModel:
     """On-line radar model of one radar in one scene."""
 
@@ -77,38 +178,16 @@ class DwellModel:
         fid = scenario.fidelity
         env = scenario.environment
         self.method = fid.pd_method
-        self.wavelength = constants.c / radar.frequency_hz
-        self.gain = noise.power_ratio(radar.gain_db)
-        self.l_tr = noise.power_ratio(radar.loss_tr_db)
-        self.k_r0 = float(noise.radar_constant(radar.peak_power_w, self.gain, self.wavelength,
-                                               self.l_tr))
-        los = radar.losses
-        self.l_x = float(noise.processing_loss(los.range_gate_db, los.limiter_db, los.matching_db))
-        self.l_c = self.l_x * float(noise.power_ratio(los.clutter_extra_db))
-        self.l_cfar = float(noise.power_ratio(los.cfar_db))
-        self.l_cd = float(noise.power_ratio(los.clutter_distribution_db))
-        self.l_b = float(noise.power_ratio(los.beam_shape_db))
-        self.l_r = float(noise.receive_loss(self.l_tr))
-        self.theta_b = math.radians(radar.beamwidth_az_deg)
-        self.phi_b = math.radians(radar.beamwidth_el_deg)
-        pe = radar.pattern_el
-        self.tilt = math.radians(pe.tilt_deg) if pe.tilt_deg is not None else 0.5 * self.phi_b
-        self.range_cell = constants.c * radar.pulse_width_s / 2.0
-        self.bandwidth = float(noise.noise_bandwidth_hz(radar.pulse_width_s))
-        # system noise [17]-[19]
-        if radar.antenna_temperature_k is not None:
-            self.t_a = float(radar.antenna_temperature_k)
-        else:
-            t_sky = noise.sky_temperature_k(
-                radar.frequency_hz, max(self.tilt, 0.0),
-                surface_temperature_k=env.temperature_c + 273.15,
-                pressure_hpa=env.pressure_hpa,
-                water_vapour_density_g_m3=env.water_vapour_g_m3,
-                antenna_height_m=radar.antenna_height_m)
-            self.t_a = float(noise.antenna_temperature_k(t_sky))
-        self.t_s = float(noise.system_noise_temperature_k(
-            self.t_a, self.l_r, noise.power_ratio(radar.noise_figure_db)))
-        self.n0 = float(noise.noise_power_w(self.t_s, self.bandwidth))
+        self.k = k = radar_constants(scenario, radar)
+        self.wavelength, self.gain, self.k_r0 = k.wavelength, k.gain, k.k_r0
+        self.l_x, self.l_c, self.l_r = k.l_x, k.l_c, k.l_r
+        self.l_cfar, self.l_cd, self.l_b = k.l_cfar, k.l_cd, k.l_b
+        self.theta_b, self.phi_b, self.tilt = k.theta_b, k.phi_b, k.tilt
+        self.range_cell, self.bandwidth = k.range_cell, k.bandwidth
+        self.t_a, self.t_s, self.n0 = k.t_a, k.t_s, k.n0
+        self.elevation_pattern = k.elevation_pattern(radar)
+        self.high_resolution = bool(sea_clutter.is_medium_high_resolution(
+            self.theta_b, radar.pulse_width_s))
         # false alarms and pulses [68]-[73], [90]
         self.pfa = float(detection.pfa_from_false_alarm_time(
             radar.false_alarm_time_s, self.theta_b, radar.scan_period_s, radar.prf_hz,
@@ -166,12 +245,6 @@ class DwellModel:
     def _prepare_propagation(self, scenario: Scenario) -> None:
         self.propagation_mode = scenario.fidelity.propagation
         self.wave_height = scenario.wave_height
-
-    def elevation_pattern(self, elevation_rad):
-        """Elevation directivity factor g_el (field) of this radar [8]-[14]."""
-        pe = self.radar.pattern_el
-        return antenna.elevation_directivity(
-            elevation_rad, self.phi_b, pe.type, sidelobe_db=pe.sidelobe_db, tilt_rad=self.tilt)
 
     def azimuth_pattern(self, offset_rad):
         """Azimuth directivity factor g_az (field) at an angle from the beam axis [8]-[13]."""
@@ -255,6 +328,71 @@ class DwellModel:
             self.jam.bandwidth_hz[None, :], l_r=self.l_r)
         return p.sum(axis=1)
 
+    def clutter_at(self, geom, tpos, antenna_en):
+        """Clutter at each target's cell and what the processor does to it.
+
+        Returns None when the scene has no clutter tables; otherwise a dict of arrays:
+        ``power_w`` P_sc + P_wc at the RF input [21], [39]; ``improvement`` I_F [57] of the
+        Doppler processor at the target's Doppler relative to the clutter mean; its
+        ``distribution_loss`` L_d [63]-[64] (sea clutter dominant and medium/high resolution);
+        ``spread_mps`` the clutter velocity spread σ_s' for [74].
+        """
+        sea, wx = self.tables.sea_clutter, self.tables.weather_clutter
+        if sea is None and wx is None:
+            return None
+        from tables.clutter import lookup_clutter
+
+        n = geom.ground_range.size
+        p_sc = np.zeros(n)
+        mean_sc = spread_sc = np.zeros(n)
+        if sea is not None:
+            p_sc = np.nan_to_num(lookup_clutter(sea, geom.ground_range, geom.azimuth))
+            mean_sc = np.nan_to_num(lookup_clutter(sea, geom.ground_range, geom.azimuth,
+                                                   "doppler_mean_hz"))
+            spread_sc = np.nan_to_num(lookup_clutter(sea, geom.ground_range, geom.azimuth,
+                                                     "doppler_spread_hz"))
+        p_wc = np.zeros(n)
+        mean_wc = spread_wc = np.zeros(n)
+        if wx is not None:
+            inside = self._inside_rain(tpos)
+            p_wc = inside * np.nan_to_num(lookup_clutter(wx, geom.ground_range, geom.azimuth))
+            mean_wc = np.nan_to_num(lookup_clutter(wx, geom.ground_range, geom.azimuth,
+                                                   "doppler_mean_hz"))
+            spread_wc = np.nan_to_num(lookup_clutter(wx, geom.ground_range, geom.azimuth,
+                                                     "doppler_spread_hz"))
+        sea_dom = p_sc >= p_wc
+        mean = np.where(sea_dom, mean_sc, mean_wc)
+        spread = np.where(sea_dom, spread_sc, spread_wc)
+        fd = -2.0 * geom.radial_velocity / self.wavelength
+        from tables.improvement import improvement_factor_db
+
+        prf = self.radar.prf_hz
+        i_f_db = improvement_factor_db(self.tables.improvement, spread / prf, (fd - mean) / prf)
+        l_d = np.ones(n)
+        if sea is not None and self.high_resolution:
+            a = np.nan_to_num(lookup_clutter(sea, geom.ground_range, geom.azimuth, "weibull_a"),
+                              nan=1.0)
+            d_mm = sea_clutter.median_mean_difference_db(a)
+            l_d = np.where(sea_dom, noise.power_ratio(
+                doppler_filters.distribution_loss_db(i_f_db, d_mm)), 1.0)
+        return {
+            "power_w": p_sc + p_wc,
+            "improvement": noise.power_ratio(i_f_db),
+            "distribution_loss": l_d,
+            "spread_mps": spread * self.wavelength / 2.0,
+        }
+
+    def _inside_rain(self, tpos):
+        """1 where a target's position is inside the rain volume, else 0."""
+        rain = self.scenario.environment.rain
+        if rain is None:
+            return np.zeros(tpos.shape[0])
+        below = tpos[:, 2] <= rain.cloud_base_m
+        if rain.region is None:
+            return below.astype(float)
+        d = np.hypot(tpos[:, 0] - rain.region.east_m, tpos[:, 1] - rain.region.north_m)
+        return (below & (d <= rain.region.radius_m)).astype(float)
+
     # ------------------------------------------------------------------ dwell
     def signal_to_interference(self, p_r, clutter_w, jam_w, improvement, dist_loss):
         """Per-pulse S/I [linear] and the dominant interference code [66]-[67]."""
@@ -269,7 +407,7 @@ class DwellModel:
         return si, code
 
     def process_targets(self, geom, rows, t, tpos, rng: np.random.Generator, *,
-                        antenna_en=None, jam_geom=None, clutter=None) -> dict:
+                        antenna_en=None, jam_geom=None) -> dict:
         """Plots of the targets ``rows`` crossed by the beam at times ``t`` [s].
 
         ``geom`` is their :class:`sim.kinematics.Geometry`, ``tpos`` their origin-frame
@@ -285,6 +423,7 @@ class DwellModel:
                                       tpos[:, 2])
         p_r = noise.received_power(self.k_r0 / l_atm**2, sigma, f, geom.slant_range)
         n = rows.size
+        clutter = self.clutter_at(geom, tpos, radar_en)
         clutter_w = np.zeros(n) if clutter is None else clutter["power_w"]
         improvement = np.ones(n) if clutter is None else clutter["improvement"]
         dist_loss = np.ones(n) if clutter is None else clutter["distribution_loss"]
@@ -355,10 +494,8 @@ class DwellModel:
         proc = self.radar.processor
         if proc.type not in ("dft_bank", "fir_bank", "mti_bank"):
             return np.zeros(radial_velocity.shape, dtype=np.int64)
-        from sensors.doppler_filters import doppler_filter_index
-
         fd = -2.0 * radial_velocity / self.wavelength
-        return np.asarray(doppler_filter_index(fd, self.radar.prf_hz, proc.n_coherent),
+        return np.asarray(doppler_filters.doppler_filter_index(fd, self.radar.prf_hz, proc.n_coherent),
                           dtype=np.int64)
 
     def _pulse_args(self, clutter, lead):

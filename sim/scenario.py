@@ -118,6 +118,9 @@ class Processor(_Model):
     n_coherent: int = Field(
         8, ge=2, le=256, description="N_c: pulses coherently integrated by the bank"
     )
+    n_filters: int | None = Field(
+        None, ge=1, le=256, description="filters in the bank; default N_c (a full DFT bank)"
+    )
     window: Window = Window()
     motion_compensated: bool = Field(
         True, description="platform motion removed from the clutter Doppler (μ_c = 0, [35])"

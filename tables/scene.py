@@ -10,6 +10,7 @@ the same files, and a Monte Carlo study builds each table once.
 
 from __future__ import annotations
 
+import math
 import sys
 import time
 from collections.abc import Callable
@@ -157,3 +158,132 @@ def build_scene_tables(scenario: Scenario, *, progress: bool = False,
         if log is not None:
             print(f"{spec.radar_id}: {spec.kind} {table.values.shape} in {dt:.2f} s", file=log)
     return {"scenario": scenario.name, "tables": rows}
+
+
+# --------------------------------------------------------------------------- providers
+def improvement_kwargs(scenario: Scenario, radar: Radar) -> dict[str, Any] | None:
+    """Keywords of :func:`tables.improvement.improvement_table` for a radar's processor."""
+    proc = radar.processor
+    if proc.type == "none":
+        return None
+    kw: dict[str, Any] = {"resolution": scenario.fidelity.improvement_grid}
+    if proc.type in ("mti", "mti_bank"):
+        kw["mti_pulses"] = proc.mti_order + 1  # an N_pc-order canceller uses N_pc + 1 pulses
+    if proc.type in ("dft_bank", "fir_bank", "mti_bank"):
+        kw["n_pulses"] = proc.n_coherent
+        kw["window"] = proc.window.type
+        if proc.window.type in ("taylor", "chebyshev"):
+            kw["window_sidelobe_db"] = proc.window.sidelobe_db
+        if proc.n_filters is not None:
+            kw["n_filters"] = proc.n_filters
+    if radar.stagger_prf_hz:
+        kw["prf_hz"] = radar.prf_hz
+        kw["stagger_prf_hz"] = list(radar.stagger_prf_hz)
+    return kw
+
+
+@provider
+def _improvement_specs(scenario: Scenario, platform: Platform, radar: Radar) -> list[TableSpec]:
+    """I_F(σ_s/f_r, f_d/f_r) [57]: read only when clutter can dominate, so only with clutter."""
+    kw = improvement_kwargs(scenario, radar)
+    if kw is None or not scenario.fidelity.clutter:
+        return []
+    from tables.improvement import improvement_table
+
+    def make() -> Table:
+        return improvement_table(radar.processor.type, **kw)[0]
+
+    return [TableSpec(radar.id, "improvement", "improvement factor vs spread and Doppler", make)]
+
+
+def _ship_motion(platform: Platform) -> tuple[float, float]:
+    """Speed [m/s] and course [rad] of the platform's first leg (0, heading if stationary)."""
+    w = platform.waypoints
+    if len(w) < 2 or w[0].east_m is None or w[1].east_m is None:
+        return 0.0, math.radians(platform.heading_deg)
+    de, dn = w[1].east_m - w[0].east_m, w[1].north_m - w[0].north_m
+    dt = w[1].time_s - w[0].time_s
+    return math.hypot(de, dn) / dt, math.atan2(de, dn) % (2 * math.pi)
+
+
+def clutter_grid_size(radar: Radar) -> tuple[int, int]:
+    """Clutter map grid: range step near a tenth of the range cell-limited detail, capped.
+
+    The map is smooth in range except near the horizon and the duct transition; 100 m steps
+    (at most 3001 nodes) and 1° in azimuth resolve both against the GIT's wind-direction term.
+    """
+    n_range = int(min(3001, max(201, radar.instrumented_range_m / 100.0 + 1)))
+    return n_range, 360
+
+
+@provider
+def _clutter_specs(scenario: Scenario, platform: Platform, radar: Radar) -> list[TableSpec]:
+    """Sea-clutter map [21]-[38] (and weather map [39]-[45] only when it rains)."""
+    if not scenario.fidelity.clutter:
+        return []
+    from sensors.dwell import radar_constants
+    from tables.clutter import sea_clutter_map, weather_clutter_map
+
+    env = scenario.environment
+    k = radar_constants(scenario, radar)
+    speed, course = _ship_motion(platform)
+    n_range, n_az = clutter_grid_size(radar)
+    duct = 0.0
+    if env.duct is not None:
+        duct = _duct_height(scenario)
+    common = {
+        "freq_hz": radar.frequency_hz,
+        "antenna_height_m": radar.antenna_height_m,
+        "beamwidth_az_rad": k.theta_b,
+        "pulse_width_s": radar.pulse_width_s,
+        "radar_constant_w_m2": k.k_r0,
+        "rotation_rate_rad_s": 2 * math.pi / radar.scan_period_s,
+        "wind_speed_mps": env.wind_speed_mps,
+        "wind_direction_rad": math.radians(env.wind_direction_deg),
+        "max_range_m": radar.instrumented_range_m,
+        "motion_compensated": radar.processor.motion_compensated,
+        "ship_speed_mps": speed,
+        "ship_heading_rad": course,
+        "n_range": n_range,
+        "n_azimuth": n_az,
+    }
+    specs = [TableSpec(
+        radar.id, "sea_clutter", "sea-clutter power, σ0*, Weibull a, spectrum vs range, azimuth",
+        lambda: sea_clutter_map(
+            elevation_directivity=k.elevation_pattern(radar),
+            polarization=radar.polarization,
+            elevation_pattern=k.pattern_key(radar),
+            noise_power_w=k.n0,
+            wave_height_m=scenario.wave_height,
+            sea_state=env.sea_state,
+            duct_height_m=duct,
+            a_min=radar.a_min,
+            **common,
+        )[0])]
+    if env.rain is not None:
+        specs.append(TableSpec(
+            radar.id, "weather_clutter", "weather-clutter power and spectrum vs range, azimuth",
+            lambda: weather_clutter_map(
+                beamwidth_el_rad=k.phi_b,
+                prf_hz=radar.prf_hz,
+                rain_rate_mm_h=env.rain.rate_mm_h,
+                cloud_base_m=env.rain.cloud_base_m,
+                precipitation=env.rain.kind,
+                **common,
+            )[0]))
+    return specs
+
+
+def _duct_height(scenario: Scenario) -> float:
+    """Evaporation duct height [m]: given, or from the bulk model of sensors.propagation."""
+    duct = scenario.environment.duct
+    if duct is None:
+        return 0.0
+    if duct.type == "height":
+        return duct.height_m
+    from sensors.propagation import evaporation_duct_height
+
+    env = scenario.environment
+    return float(evaporation_duct_height(
+        duct.air_temperature_c, duct.sea_temperature_c, duct.relative_humidity,
+        env.wind_speed_mps, duct.pressure_hpa))

@@ -81,13 +81,13 @@ def _noise_counts(t_fa, scans, rpm=60.0, seed=5):
     return model, per_scan, np.concatenate(ranges or [[]]), np.concatenate(azs or [[]])
 
 
-@pytest.mark.parametrize("t_fa,scans,regime", [
-    (0.3, 400, "normal"),     # η >= 9
-    (20.0, 800, "poisson"),   # 0.69/(2 N_ch) <= η < 9
-    (400.0, 1500, "bernoulli"),  # η < 0.69/(2 N_ch)
+@pytest.mark.parametrize("t_fa,rpm,scans,regime", [
+    (0.2, 6.0, 300, "normal"),      # η >= 9
+    (1.0, 60.0, 800, "poisson"),    # 0.69/(2 N_ch) <= η < 9
+    (5.0, 60.0, 1500, "bernoulli"),  # η < 0.69/(2 N_ch)
 ])
-def test_noise_false_alarm_counts(t_fa, scans, regime):
-    model, counts, ranges, azs = _noise_counts(t_fa, scans)
+def test_noise_false_alarm_counts(t_fa, rpm, scans, regime):
+    model, counts, ranges, azs = _noise_counts(t_fa, scans, rpm=rpm)
     eta = model.noise_false_alarms_per_scan
     lo = 0.69 / (2 * 2)
     assert {"normal": eta >= 9, "poisson": lo <= eta < 9, "bernoulli": eta < lo}[regime]
