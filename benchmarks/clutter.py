@@ -31,18 +31,33 @@ def cosec2_like(elev):
 
 RADARS = {
     "L-band 1.3 GHz HP 20 m, 20 us": dict(
-        freq_hz=1.3e9, polarization="H", antenna_height_m=20.0, beamwidth_az_rad=math.radians(1.4),
-        pulse_width_s=20e-6, radar_constant_w_m2=8.0e3, noise_power_w=1.38e-23 * 500 / 20e-6,
+        freq_hz=1.3e9,
+        polarization="H",
+        antenna_height_m=20.0,
+        beamwidth_az_rad=math.radians(1.4),
+        pulse_width_s=20e-6,
+        radar_constant_w_m2=8.0e3,
+        noise_power_w=1.38e-23 * 500 / 20e-6,
     ),
     "C-band 5.6 GHz VP 25 m, 0.25 us": dict(
-        freq_hz=5.6e9, polarization="V", antenna_height_m=25.0, beamwidth_az_rad=math.radians(1.5),
-        pulse_width_s=0.25e-6, radar_constant_w_m2=3.0e2, noise_power_w=1.38e-23 * 600 / 0.25e-6,
+        freq_hz=5.6e9,
+        polarization="V",
+        antenna_height_m=25.0,
+        beamwidth_az_rad=math.radians(1.5),
+        pulse_width_s=0.25e-6,
+        radar_constant_w_m2=3.0e2,
+        noise_power_w=1.38e-23 * 600 / 0.25e-6,
     ),
 }
 ENV = dict(
-    elevation_pattern=("gaussian", BW_EL, 0.0, BW_EL / 2), rotation_rate_rad_s=2 * math.pi / 4,
-    wind_speed_mps=9.0, wind_direction_rad=math.radians(30.0), wave_height_m=1.5, duct_height_m=12.0,
-    max_range_m=150e3, n_azimuth=360,
+    elevation_pattern=("gaussian", BW_EL, 0.0, BW_EL / 2),
+    rotation_rate_rad_s=2 * math.pi / 4,
+    wind_speed_mps=9.0,
+    wind_direction_rad=math.radians(30.0),
+    wave_height_m=1.5,
+    duct_height_m=12.0,
+    max_range_m=150e3,
+    n_azimuth=360,
 )
 
 
@@ -61,15 +76,19 @@ def main() -> None:
     for name, radar in RADARS.items():
         for n_range in (1501, 4001):
             kw = {**ENV, **radar, "n_range": n_range}
-            t_build, table = best_of(lambda kw=kw: build_sea_clutter_map(elevation_directivity=cosec2_like, **kw), 3)
+            t_build, table = best_of(
+                lambda kw=kw: build_sea_clutter_map(elevation_directivity=cosec2_like, **kw), 3
+            )
             cells = table.values.size
-            print(f"{name}: build {n_range}x361 map: {t_build * 1e3:.0f} ms "
-                  f"({t_build / cells * 1e9:.0f} ns/cell)")
+            print(
+                f"{name}: build {n_range}x361 map: {t_build * 1e3:.0f} ms "
+                f"({t_build / cells * 1e9:.0f} ns/cell)"
+            )
         for n_cells in (300, 3000):
             ranges = np.sort(rng.uniform(0.0, 150e3, n_cells))
             az = rng.uniform(0.0, 2 * math.pi)
 
-            def dwell():
+            def dwell(table=table, ranges=ranges, az=az):
                 p = lookup_clutter(table, ranges, az)
                 a = lookup_clutter(table, ranges, az, "weibull_a")
                 mu = lookup_clutter(table, ranges, az, "doppler_mean_hz")
@@ -77,15 +96,32 @@ def main() -> None:
                 return p, a, mu, sd
 
             t_dwell, _ = best_of(dwell, 200)
-            print(f"{name}: Table.lookup of {n_cells} cells x 4 arrays: {t_dwell * 1e6:.0f} us per dwell")
+            print(
+                f"{name}: Table.lookup of {n_cells} cells x 4 arrays: "
+                f"{t_dwell * 1e6:.0f} us per dwell"
+            )
             reader = ClutterMapReader(table)
-            t_fast, _ = best_of(lambda: reader.read(ranges, az), 200)
-            print(f"{name}: ClutterMapReader.read of {n_cells} cells x 6 arrays: {t_fast * 1e6:.0f} us per dwell")
+            t_fast, _ = best_of(lambda r=reader, x=ranges, a=az: r.read(x, a), 200)
+            print(
+                f"{name}: ClutterMapReader.read of {n_cells} cells x 6 arrays: "
+                f"{t_fast * 1e6:.0f} us per dwell"
+            )
     kw = dict(
-        freq_hz=5.6e9, antenna_height_m=25.0, beamwidth_az_rad=math.radians(1.5), beamwidth_el_rad=BW_EL,
-        pulse_width_s=0.25e-6, prf_hz=1000.0, radar_constant_w_m2=3.0e2, rain_rate_mm_h=4.0,
-        cloud_base_m=3000.0, rotation_rate_rad_s=2 * math.pi / 4, wind_speed_mps=9.0,
-        wind_direction_rad=0.5, max_range_m=150e3, n_range=1501, n_azimuth=360,
+        freq_hz=5.6e9,
+        antenna_height_m=25.0,
+        beamwidth_az_rad=math.radians(1.5),
+        beamwidth_el_rad=BW_EL,
+        pulse_width_s=0.25e-6,
+        prf_hz=1000.0,
+        radar_constant_w_m2=3.0e2,
+        rain_rate_mm_h=4.0,
+        cloud_base_m=3000.0,
+        rotation_rate_rad_s=2 * math.pi / 4,
+        wind_speed_mps=9.0,
+        wind_direction_rad=0.5,
+        max_range_m=150e3,
+        n_range=1501,
+        n_azimuth=360,
     )
     t_w, _ = best_of(lambda: build_weather_clutter_map(**kw), 3)
     print(f"C-band weather map 1501x361: build {t_w * 1e3:.0f} ms")

@@ -34,8 +34,10 @@ look direction relative to the wind (0 = looking into the wind, upwind), V_w the
     A_u = exp[0.2 cos φ (1 - 2.8 ψ) (λ + 0.015)^-0.4]    upwind/downwind factor
     A_w = [1.94 V_w / (1 + V_w/15.4)]^q,  q = 1.1 (λ + 0.015)^-0.4
     σ0_HH = 3.9e-6 λ ψ^0.4 A_i A_u A_w
-    σ0_VV[dB] = σ0_HH[dB] - 1.05 ln(h_av + 0.015) + 1.09 ln λ + 1.27 ln(ψ + 1e-4) + 9.70   (3-10 GHz)
-    σ0_VV[dB] = σ0_HH[dB] - 1.73 ln(h_av + 0.015) + 3.76 ln λ + 2.46 ln(ψ + 1e-4) + 22.2   (1-3 GHz)
+    σ0_VV[dB] = σ0_HH[dB] - 1.05 ln(h_av + 0.015) + 1.09 ln λ + 1.27 ln(ψ + 1e-4) + 9.70
+                (3-10 GHz)
+    σ0_VV[dB] = σ0_HH[dB] - 1.73 ln(h_av + 0.015) + 3.76 ln λ + 2.46 ln(ψ + 1e-4) + 22.2
+                (1-3 GHz)
 
 10-100 GHz::
 
@@ -239,11 +241,15 @@ def _average_wave_height(wave_height_m: ArrayLike | None, wind_speed_mps: ArrayL
     wh = _f(wave_height_m)
     if np.any(wh < 0.0):
         raise ValueError("wave height must be >= 0")
-    return np.where(np.isnan(wh), from_wind, np.nan_to_num(wh) / SIGNIFICANT_OVER_AVERAGE_WAVE_HEIGHT)
+    return np.where(
+        np.isnan(wh), from_wind, np.nan_to_num(wh) / SIGNIFICANT_OVER_AVERAGE_WAVE_HEIGHT
+    )
 
 
 def _significant_wave_height(wave_height_m: ArrayLike | None, wind_speed_mps: ArrayLike):
-    return SIGNIFICANT_OVER_AVERAGE_WAVE_HEIGHT * _average_wave_height(wave_height_m, wind_speed_mps)
+    return SIGNIFICANT_OVER_AVERAGE_WAVE_HEIGHT * _average_wave_height(
+        wave_height_m, wind_speed_mps
+    )
 
 
 # --------------------------------------------------------------------------- geometry
@@ -703,16 +709,26 @@ def ducted_reflectivity_db(
     )
     near = git_reflectivity(
         grazing_angle_rad(np.minimum(d, r_tr), antenna_height_m, k_factor),
-        freq_hz, wind_speed_mps, wind_relative_azimuth_rad, w_h, polarization,
+        freq_hz,
+        wind_speed_mps,
+        wind_relative_azimuth_rad,
+        w_h,
+        polarization,
     )
     at_tr = git_reflectivity(
         grazing_angle_rad(r_tr, antenna_height_m, k_factor),
-        freq_hz, wind_speed_mps, wind_relative_azimuth_rad, w_h, polarization,
+        freq_hz,
+        wind_speed_mps,
+        wind_relative_azimuth_rad,
+        w_h,
+        polarization,
     )
     beta = reflectivity_decrease_beta(duct_height_m, freq_hz, sea_state)
     loss = clutter_propagation_loss_db_per_km(duct_height_m, freq_hz, beta)
     ratio = np.maximum(d, r_tr) / r_tr
-    far_db = to_db(at_tr) - 10.0 * beta * np.log10(ratio) - loss * (np.maximum(d, r_tr) - r_tr) / 1e3
+    far_db = (
+        to_db(at_tr) - 10.0 * beta * np.log10(ratio) - loss * (np.maximum(d, r_tr) - r_tr) / 1e3
+    )
     far_db = np.where(to_db(at_tr) <= DB_FLOOR, DB_FLOOR, far_db)
     return np.maximum(np.where(d <= r_tr, to_db(near), far_db), DB_FLOOR)
 
@@ -810,7 +826,9 @@ def median_reflectivity_db(mean_db: ArrayLike, a: ArrayLike) -> NDArray[np.float
     return _f(mean_db) - median_mean_difference_db(a)
 
 
-def weibull_a_reference(wind_speed_mps: ArrayLike, a_min: ArrayLike = RAYLEIGH_A) -> NDArray[np.float64]:
+def weibull_a_reference(
+    wind_speed_mps: ArrayLike, a_min: ArrayLike = RAYLEIGH_A
+) -> NDArray[np.float64]:
     """Weibull parameter at the reference condition, a_ref = max(a_min, 3 log10 w_s), seed [31].
 
     X band (9.8 GHz), upwind, 3° grazing.  SPEC §4 item 12: log10(w_s) → -∞ as w_s → 0; the
@@ -912,7 +930,9 @@ def weibull_a_hp(
     ndarray
         a in [a_min, a_max].
     """
-    r, r0, r1 = np.broadcast_arrays(_f(ground_range_m), _f(reference_range_m), _f(noise_limit_range_m))
+    r, r0, r1 = np.broadcast_arrays(
+        _f(ground_range_m), _f(reference_range_m), _f(noise_limit_range_m)
+    )
     a_min, a_max = _f(a_min), _f(a_max)
     span = r1 - r0
     has_ramp = span > 0.0
@@ -922,7 +942,9 @@ def weibull_a_hp(
     return np.where(has_ramp, ramp, step)
 
 
-def is_medium_high_resolution(beamwidth_rad: ArrayLike, pulse_width_s: ArrayLike) -> NDArray[np.bool_]:
+def is_medium_high_resolution(
+    beamwidth_rad: ArrayLike, pulse_width_s: ArrayLike
+) -> NDArray[np.bool_]:
     """Whether sea clutter is non-Rayleigh: X = θ_b[deg] τ'[µs] < 4 and τ' < 4 µs (seed 4.1.2).
 
     Parameters
@@ -990,8 +1012,11 @@ def platform_doppler_hz(
         λ [m].
     """
     return (
-        2.0 * _f(ship_speed_mps) / _f(wavelength_m)
-        * np.cos(_f(beam_relative_azimuth_rad)) * np.cos(_f(depression_rad))
+        2.0
+        * _f(ship_speed_mps)
+        / _f(wavelength_m)
+        * np.cos(_f(beam_relative_azimuth_rad))
+        * np.cos(_f(depression_rad))
     )
 
 
@@ -1019,7 +1044,9 @@ def mean_clutter_doppler_hz(
     motion_compensated : bool
         Platform motion removed: μ_c = 0.
     """
-    f1, phi, lam = np.broadcast_arrays(_f(platform_doppler), _f(wind_relative_azimuth_rad), _f(wavelength_m))
+    f1, phi, lam = np.broadcast_arrays(
+        _f(platform_doppler), _f(wind_relative_azimuth_rad), _f(wavelength_m)
+    )
     if motion_compensated:
         return np.zeros(f1.shape)
     return f1 + 2.0 * WAVE_DRIFT_SPEED_MPS / lam * np.cos(phi)
@@ -1049,10 +1076,16 @@ def wind_spread_hz(
     ndarray
         σ1 [Hz], ≥ 0.
     """
-    return _f(wind_speed_mps) * np.abs(np.cos(_f(wind_relative_azimuth_rad))) / (2.0 * _f(wavelength_m))
+    return (
+        _f(wind_speed_mps)
+        * np.abs(np.cos(_f(wind_relative_azimuth_rad)))
+        / (2.0 * _f(wavelength_m))
+    )
 
 
-def rotation_spread_hz(rotation_rate_rad_s: ArrayLike, beamwidth_rad: ArrayLike) -> NDArray[np.float64]:
+def rotation_spread_hz(
+    rotation_rate_rad_s: ArrayLike, beamwidth_rad: ArrayLike
+) -> NDArray[np.float64]:
     """Spectrum spread from the antenna scan, σ_r = α / (5.35 θ_b), seed [37].
 
     Nathanson, Radar Design Principles, eq. 9.76.

@@ -47,7 +47,9 @@ def _f(x: ArrayLike) -> NDArray[np.float64]:
     return np.asarray(x, dtype=float)
 
 
-def rain_equivalent_rate_mm_h(rate_mm_h: ArrayLike, kind: Precipitation = "rain") -> NDArray[np.float64]:
+def rain_equivalent_rate_mm_h(
+    rate_mm_h: ArrayLike, kind: Precipitation = "rain"
+) -> NDArray[np.float64]:
     """Rain-equivalent precipitation rate (seed 4.1.4): dry snow ÷ 10, wet snow ÷ 5.
 
     Parameters
@@ -63,7 +65,9 @@ def rain_equivalent_rate_mm_h(rate_mm_h: ArrayLike, kind: Precipitation = "rain"
         Rain-equivalent p_r [mm/h].
     """
     if kind not in SNOW_TO_RAIN_DIVISOR:
-        raise ValueError(f"precipitation kind must be one of {sorted(SNOW_TO_RAIN_DIVISOR)}, got {kind!r}")
+        raise ValueError(
+            f"precipitation kind must be one of {sorted(SNOW_TO_RAIN_DIVISOR)}, got {kind!r}"
+        )
     p = _f(rate_mm_h)
     if np.any(p < 0.0):
         raise ValueError("precipitation rate must be >= 0")
@@ -218,7 +222,9 @@ def weather_clutter_power_w(
     return _f(radar_constant_w_m2) * _f(cross_section_m2) * frac / r**4
 
 
-def shear_spread_mps(range_m: ArrayLike, beamwidth_rad: ArrayLike, shear_per_s: ArrayLike = WIND_SHEAR_PER_S):
+def shear_spread_mps(
+    range_m: ArrayLike, beamwidth_rad: ArrayLike, shear_per_s: ArrayLike = WIND_SHEAR_PER_S
+):
     """Radial-velocity spread from wind shear σ_shear = 0.42 k R φ, seed [45] [m/s].
 
     The seed writes θ_b and calls the result Hz; it is a velocity (it is multiplied by 2/λ in
@@ -291,9 +297,8 @@ def weather_mean_doppler_hz(
     platform_doppler : array_like, optional
         f1 [Hz].
     """
-    return (
-        2.0 * _f(wind_speed_mps) * np.cos(_f(wind_relative_azimuth_rad)) / _f(wavelength_m)
-        + _f(platform_doppler)
+    return 2.0 * _f(wind_speed_mps) * np.cos(_f(wind_relative_azimuth_rad)) / _f(wavelength_m) + _f(
+        platform_doppler
     )
 
 

@@ -116,10 +116,14 @@ class ClutterMapReader:
         self._ranges, self._azimuths = table.axes
         # (n_azimuth, n_range, n_arrays), C-contiguous: one beam azimuth is one block
         self._stack = np.ascontiguousarray(
-            np.stack([table.values, *[table.extra[k] for k in self.names[1:]]], axis=-1).transpose(1, 0, 2)
+            np.stack([table.values, *[table.extra[k] for k in self.names[1:]]], axis=-1).transpose(
+                1, 0, 2
+            )
         )
 
-    def read(self, ground_range_m: ArrayLike, azimuth_rad: float) -> dict[str | None, NDArray[np.float64]]:
+    def read(
+        self, ground_range_m: ArrayLike, azimuth_rad: float
+    ) -> dict[str | None, NDArray[np.float64]]:
         """All arrays at the given ranges [m] for one beam azimuth [rad] (any real value).
 
         Returns a dict keyed like :attr:`Table.extra`, with ``None`` for the values (power).
@@ -135,7 +139,9 @@ class ClutterMapReader:
         i = np.clip(np.searchsorted(r_axis, rc, side="right") - 1, 0, len(r_axis) - 2)
         t = ((rc - r_axis[i]) / (r_axis[i + 1] - r_axis[i]))[:, None]
         c0, c1 = self._stack[j], self._stack[j + 1]
-        out = (1.0 - w) * ((1.0 - t) * c0[i] + t * c0[i + 1]) + w * ((1.0 - t) * c1[i] + t * c1[i + 1])
+        out = (1.0 - w) * ((1.0 - t) * c0[i] + t * c0[i + 1]) + w * (
+            (1.0 - t) * c1[i] + t * c1[i + 1]
+        )
         out[outside] = np.nan
         return {name: out[:, k].reshape(r.shape) for k, name in enumerate(self.names)}
 
@@ -348,7 +354,9 @@ def sea_clutter_map(
     """
     inputs = sea_clutter_map_inputs(**kwargs)
     return get_or_build(
-        SEA_MAP_NAME, SEA_MAP_VERSION, inputs,
+        SEA_MAP_NAME,
+        SEA_MAP_VERSION,
+        inputs,
         lambda: build_sea_clutter_map(elevation_directivity=elevation_directivity, **kwargs),
         root,
     )
@@ -378,7 +386,7 @@ def weather_clutter_map_inputs(
     n_azimuth: int = DEFAULT_N_AZIMUTH,
     k_factor: float = sc.STANDARD_K_FACTOR,
 ) -> dict[str, Any]:
-    """The hashable inputs of a weather-clutter map (arguments of :func:`build_weather_clutter_map`)."""
+    """The hashable inputs of a weather-clutter map (see :func:`build_weather_clutter_map`)."""
     if rain_rate_mm_h <= 0.0:
         raise ValueError("a weather-clutter map needs precipitation (rain_rate_mm_h > 0)")
     return {
@@ -449,10 +457,14 @@ def build_weather_clutter_map(**kwargs: Any) -> Table:
     phi = (azimuths - p["wind_direction_rad"])[None, :]
     f1 = 0.0
     if not p["motion_compensated"]:
-        f1 = sc.platform_doppler_hz(p["ship_speed_mps"], azimuths[None, :] - p["ship_heading_rad"], 0.0, lam)
+        f1 = sc.platform_doppler_hz(
+            p["ship_speed_mps"], azimuths[None, :] - p["ship_heading_rad"], 0.0, lam
+        )
     mean = wc.weather_mean_doppler_hz(p["wind_speed_mps"], phi, lam, f1)
     spread = wc.weather_spread_hz(
-        lam, wc.shear_spread_mps(ranges, phi_b), p["turbulence_spread_mps"],
+        lam,
+        wc.shear_spread_mps(ranges, phi_b),
+        p["turbulence_spread_mps"],
         sc.rotation_spread_hz(p["rotation_rate_rad_s"], theta_b),
     )
     shape = (len(ranges), len(azimuths))
@@ -477,5 +489,9 @@ def weather_clutter_map(*, root: Path | None = None, **kwargs: Any) -> tuple[Tab
     """The weather-clutter map from the table cache, built if missing: ``(table, built)``."""
     inputs = weather_clutter_map_inputs(**kwargs)
     return get_or_build(
-        WEATHER_MAP_NAME, WEATHER_MAP_VERSION, inputs, lambda: build_weather_clutter_map(**kwargs), root
+        WEATHER_MAP_NAME,
+        WEATHER_MAP_VERSION,
+        inputs,
+        lambda: build_weather_clutter_map(**kwargs),
+        root,
     )

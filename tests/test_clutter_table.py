@@ -21,11 +21,21 @@ def gaussian_el(elev):
 
 def sea_kwargs(**over):
     kw = dict(
-        freq_hz=9.8e9, polarization="V", antenna_height_m=25.0, beamwidth_az_rad=math.radians(1.5),
-        pulse_width_s=0.25e-6, radar_constant_w_m2=50.0, elevation_pattern=("gaussian", BW_EL, 0.0, TILT),
-        noise_power_w=1.38e-23 * 600 / 0.25e-6, rotation_rate_rad_s=2 * math.pi / 3,
-        wind_speed_mps=8.0, wind_direction_rad=math.radians(40.0), wave_height_m=1.2,
-        max_range_m=60e3, n_range=241, n_azimuth=72,
+        freq_hz=9.8e9,
+        polarization="V",
+        antenna_height_m=25.0,
+        beamwidth_az_rad=math.radians(1.5),
+        pulse_width_s=0.25e-6,
+        radar_constant_w_m2=50.0,
+        elevation_pattern=("gaussian", BW_EL, 0.0, TILT),
+        noise_power_w=1.38e-23 * 600 / 0.25e-6,
+        rotation_rate_rad_s=2 * math.pi / 3,
+        wind_speed_mps=8.0,
+        wind_direction_rad=math.radians(40.0),
+        wave_height_m=1.2,
+        max_range_m=60e3,
+        n_range=241,
+        n_azimuth=72,
     )
     kw.update(over)
     return kw
@@ -45,10 +55,20 @@ def test_sea_map_values_match_physics_functions(vp_map):
     slant = sc.slant_range_m(r, 25.0)
     g = gaussian_el(-sc.depression_angle_rad(r, 25.0))
     cr = 299_792_458.0 * 0.25e-6 / 2
-    p = 50.0 * g[:, None] ** 4 * slant[:, None] * kw["beamwidth_az_rad"] * cr * sc.from_db(s_db) / slant[:, None] ** 4
+    p = (
+        50.0
+        * g[:, None] ** 4
+        * slant[:, None]
+        * kw["beamwidth_az_rad"]
+        * cr
+        * sc.from_db(s_db)
+        / slant[:, None] ** 4
+    )
     got = vp_map.values[np.ix_([4, 40, 120], [0, 9, 30])]
     assert got == pytest.approx(p, rel=1e-12)
-    assert vp_map.extra["sigma0_db"][np.ix_([4, 40, 120], [0, 9, 30])] == pytest.approx(s_db, rel=1e-12)
+    assert vp_map.extra["sigma0_db"][np.ix_([4, 40, 120], [0, 9, 30])] == pytest.approx(
+        s_db, rel=1e-12
+    )
 
 
 def test_sea_map_wind_direction(vp_map):
@@ -61,7 +81,9 @@ def test_sea_map_wind_direction(vp_map):
     assert np.all(up > c1) and np.all(c1 > down)
     assert c1 == pytest.approx(c2, rel=1e-9)
     # azimuth wrap: -π/2 and 3π/2 read the same cell
-    assert tc.lookup_clutter(vp_map, r, -1.0) == pytest.approx(tc.lookup_clutter(vp_map, r, 2 * math.pi - 1.0))
+    assert tc.lookup_clutter(vp_map, r, -1.0) == pytest.approx(
+        tc.lookup_clutter(vp_map, r, 2 * math.pi - 1.0)
+    )
 
 
 def test_sea_map_finite_non_negative(vp_map):
@@ -82,7 +104,9 @@ def test_vp_a_equals_a_ref_at_reference_condition():
 
 
 def test_hp_a_falls_from_three_to_a_min():
-    m = tc.build_sea_clutter_map(elevation_directivity=gaussian_el, **sea_kwargs(polarization="H", a_min=0.8))
+    m = tc.build_sea_clutter_map(
+        elevation_directivity=gaussian_el, **sea_kwargs(polarization="H", a_min=0.8)
+    )
     a = m.extra["weibull_a"]
     r_ref = float(sc.ground_range_at_grazing_m(sc.REFERENCE_GRAZING_RAD, 25.0))
     ranges = m.axes[0]
@@ -97,7 +121,9 @@ def test_hp_a_falls_from_three_to_a_min():
 
 
 def test_low_resolution_is_rayleigh():
-    m = tc.build_sea_clutter_map(elevation_directivity=gaussian_el, **sea_kwargs(pulse_width_s=20e-6, n_range=21))
+    m = tc.build_sea_clutter_map(
+        elevation_directivity=gaussian_el, **sea_kwargs(pulse_width_s=20e-6, n_range=21)
+    )
     assert np.all(m.extra["weibull_a"] == 1.0)
 
 
@@ -110,7 +136,9 @@ def test_spectrum_extras(vp_map):
     assert spread == pytest.approx(math.hypot(8.0 / (2 * lam), sr), rel=1e-6)
     m = tc.build_sea_clutter_map(
         elevation_directivity=gaussian_el,
-        **sea_kwargs(motion_compensated=False, ship_speed_mps=10.0, ship_heading_rad=wind_from, n_range=11),
+        **sea_kwargs(
+            motion_compensated=False, ship_speed_mps=10.0, ship_heading_rad=wind_from, n_range=11
+        ),
     )
     j = int(round(wind_from / (2 * math.pi / 72)))
     assert m.axes[1][j] == pytest.approx(wind_from)
@@ -121,7 +149,9 @@ def test_spectrum_extras(vp_map):
 
 def test_ducted_map_above_standard_beyond_horizon():
     std = tc.build_sea_clutter_map(elevation_directivity=gaussian_el, **sea_kwargs(n_azimuth=4))
-    duct = tc.build_sea_clutter_map(elevation_directivity=gaussian_el, **sea_kwargs(n_azimuth=4, duct_height_m=10.0))
+    duct = tc.build_sea_clutter_map(
+        elevation_directivity=gaussian_el, **sea_kwargs(n_azimuth=4, duct_height_m=10.0)
+    )
     far = std.axes[0] > 25e3
     assert np.all(duct.values[far] > 1e3 * std.values[far])
 
@@ -134,7 +164,9 @@ def test_cache_round_trip(table_cache):
     assert np.array_equal(t1.values, t2.values)
     for k in t1.extra:
         assert np.array_equal(t1.extra[k], t2.extra[k])
-    _, built3 = tc.sea_clutter_map(elevation_directivity=gaussian_el, **{**kw, "duct_height_m": 5.0})
+    _, built3 = tc.sea_clutter_map(
+        elevation_directivity=gaussian_el, **{**kw, "duct_height_m": 5.0}
+    )
     assert built3
     loaded = Table.load(table_cache / f"sea_clutter_map-{t1.key}.npz")
     assert np.array_equal(loaded.values, t1.values) and loaded.inputs["duct_height_m"] == 0.0
@@ -142,15 +174,28 @@ def test_cache_round_trip(table_cache):
 
 def test_frequency_outside_git_refused():
     with pytest.raises(ValueError, match="1 to 100 GHz"):
-        tc.build_sea_clutter_map(elevation_directivity=gaussian_el, **sea_kwargs(freq_hz=0.6e9, n_range=5))
+        tc.build_sea_clutter_map(
+            elevation_directivity=gaussian_el, **sea_kwargs(freq_hz=0.6e9, n_range=5)
+        )
 
 
 def weather_kwargs(**over):
     kw = dict(
-        freq_hz=5.6e9, antenna_height_m=25.0, beamwidth_az_rad=math.radians(1.5), beamwidth_el_rad=BW_EL,
-        pulse_width_s=1e-6, prf_hz=1200.0, radar_constant_w_m2=50.0, rain_rate_mm_h=8.0, cloud_base_m=2000.0,
-        rotation_rate_rad_s=1.0, wind_speed_mps=8.0, wind_direction_rad=0.0, max_range_m=200e3,
-        n_range=401, n_azimuth=36,
+        freq_hz=5.6e9,
+        antenna_height_m=25.0,
+        beamwidth_az_rad=math.radians(1.5),
+        beamwidth_el_rad=BW_EL,
+        pulse_width_s=1e-6,
+        prf_hz=1200.0,
+        radar_constant_w_m2=50.0,
+        rain_rate_mm_h=8.0,
+        cloud_base_m=2000.0,
+        rotation_rate_rad_s=1.0,
+        wind_speed_mps=8.0,
+        wind_direction_rad=0.0,
+        max_range_m=200e3,
+        n_range=401,
+        n_azimuth=36,
     )
     kw.update(over)
     return kw
@@ -181,7 +226,10 @@ def test_weather_map_needs_precipitation():
 def test_figures_written(tmp_path, vp_map):
     from sim.figures.clutter import plot_clutter_ppi, plot_ducting_reflectivity
 
-    for p in (plot_ducting_reflectivity(tmp_path / "fig6.png"), plot_clutter_ppi(tmp_path / "ppi.png", vp_map)):
+    for p in (
+        plot_ducting_reflectivity(tmp_path / "fig6.png"),
+        plot_clutter_ppi(tmp_path / "ppi.png", vp_map),
+    ):
         assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 

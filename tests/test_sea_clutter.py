@@ -28,9 +28,21 @@ def git_by_hand(psi, f_hz, vw, phi, wh, pol):
         aw = (1.94 * vw / (1 + vw / 15.4)) ** q
         hh = 10 * math.log10(3.9e-6 * lam * psi**0.4 * ai * au * aw)
         if f_hz >= 3e9:
-            vv = hh - 1.05 * math.log(hav + 0.015) + 1.09 * math.log(lam) + 1.27 * math.log(psi + 0.0001) + 9.70
+            vv = (
+                hh
+                - 1.05 * math.log(hav + 0.015)
+                + 1.09 * math.log(lam)
+                + 1.27 * math.log(psi + 0.0001)
+                + 9.70
+            )
         else:
-            vv = hh - 1.73 * math.log(hav + 0.015) + 3.76 * math.log(lam) + 2.46 * math.log(psi + 0.0001) + 22.2
+            vv = (
+                hh
+                - 1.73 * math.log(hav + 0.015)
+                + 3.76 * math.log(lam)
+                + 2.46 * math.log(psi + 0.0001)
+                + 22.2
+            )
     else:
         au = math.exp(0.25 * math.cos(phi) * (1 - 2.8 * psi) * lam**-0.33)
         q = 1.93 * lam**-0.04
@@ -101,11 +113,15 @@ def test_git_vp_above_hp_at_low_grazing():
 
 
 def test_git_upwind_above_crosswind_above_downwind():
-    up, cross, down = sc.git_reflectivity(0.01, [3e9, 9.8e9, 35e9], 8.0, np.array([[0.0], [np.pi / 2], [np.pi]]), 1.5, "H")
+    up, cross, down = sc.git_reflectivity(
+        0.01, [3e9, 9.8e9, 35e9], 8.0, np.array([[0.0], [np.pi / 2], [np.pi]]), 1.5, "H"
+    )
     assert np.all(up > cross) and np.all(cross > down)
     # crosswind: A_u = 1 exactly
     no_dir = sc.git_reflectivity(0.01, 9.8e9, 8.0, np.pi / 2, 1.5, "H")
-    assert sc.git_reflectivity(0.01, 9.8e9, 8.0, -np.pi / 2, 1.5, "H") == pytest.approx(no_dir, rel=1e-12)
+    assert sc.git_reflectivity(0.01, 9.8e9, 8.0, -np.pi / 2, 1.5, "H") == pytest.approx(
+        no_dir, rel=1e-12
+    )
 
 
 def test_git_edges():
@@ -115,7 +131,8 @@ def test_git_edges():
     assert sc.git_reflectivity(0.02, 35e9, 7.0, 0.0, 0.0, "V") == 0.0
     # above 10° the model is held at 10°
     assert sc.git_reflectivity(np.deg2rad(30.0), 9.8e9, 7, 0, 1, "H") == pytest.approx(
-        sc.git_reflectivity(np.deg2rad(10.0), 9.8e9, 7, 0, 1, "H"), rel=1e-12)
+        sc.git_reflectivity(np.deg2rad(10.0), 9.8e9, 7, 0, 1, "H"), rel=1e-12
+    )
     for f in (0.99e9, 100.1e9, 500e6):
         with pytest.raises(ValueError, match="1 to 100 GHz"):
             sc.git_reflectivity(0.01, f, 7.0, 0.0, 1.0, "H")
@@ -133,12 +150,16 @@ def test_grazing_small_angle_approximation():
     assert sc.grazing_angle_rad(d, h) == pytest.approx(approx, rel=2e-3)
     assert sc.depression_angle_rad(d, h) == pytest.approx(h / d + d / (2 * A_E), rel=2e-3)
     # ψ_d - ψ is the central angle d/a_e exactly
-    assert sc.depression_angle_rad(d, h) - sc.grazing_angle_rad(d, h) == pytest.approx(d / A_E, rel=1e-6)
+    assert sc.depression_angle_rad(d, h) - sc.grazing_angle_rad(d, h) == pytest.approx(
+        d / A_E, rel=1e-6
+    )
 
 
 def test_grazing_flat_earth_limit_and_zero_range():
     d = np.array([10.0, 100.0, 1e3])
-    assert sc.grazing_angle_rad(d, 30.0, k_factor=1e9) == pytest.approx(np.arctan(30.0 / d), rel=1e-9)
+    assert sc.grazing_angle_rad(d, 30.0, k_factor=1e9) == pytest.approx(
+        np.arctan(30.0 / d), rel=1e-9
+    )
     assert sc.grazing_angle_rad(0.0, 30.0) == pytest.approx(np.pi / 2)
     assert sc.slant_range_m(0.0, 30.0) == pytest.approx(30.0)
 
@@ -155,13 +176,21 @@ def test_horizon_and_inverse_round_trip():
 
 
 # --------------------------------------------------------------------------- ducting
-FIG6 = dict(antenna_height_m=25.0, freq_hz=9.8e9, wind_speed_mps=4.5, wind_relative_azimuth_rad=0.0,
-            wave_height_m=1.0, polarization="V")
+FIG6 = dict(
+    antenna_height_m=25.0,
+    freq_hz=9.8e9,
+    wind_speed_mps=4.5,
+    wind_relative_azimuth_rad=0.0,
+    wave_height_m=1.0,
+    polarization="V",
+)
 
 
 def test_transition_range_by_hand():
     # [24]: R_H = 3.57 (√25 + √0.375) km; [25]: R_tc(10 m) = 7.1 - 3.6 = 3.5 km
-    assert sc.horizon_range_m(25.0, 1.0) == pytest.approx(3570.0 * (5 + math.sqrt(0.375)), rel=1e-12)
+    assert sc.horizon_range_m(25.0, 1.0) == pytest.approx(
+        3570.0 * (5 + math.sqrt(0.375)), rel=1e-12
+    )
     assert sc.transition_range_m(25.0, 1.0, 0.0) == pytest.approx(3570.0 * (5 + math.sqrt(0.375)))
     assert sc.transition_range_m(25.0, 1.0, 0.99) == pytest.approx(sc.horizon_range_m(25.0, 1.0))
     assert sc.transition_range_m(25.0, 1.0, 10.0) == pytest.approx(3500.0, rel=1e-12)
@@ -207,7 +236,9 @@ def test_beta_item10_singular_frequencies():
 def test_propagation_loss_item11():
     b = 2.0
     assert sc.clutter_propagation_loss_db_per_km(0.0, 5e9, b) == 3.6
-    assert sc.clutter_propagation_loss_db_per_km(5.0, 5e9, b) == pytest.approx(0.75 * math.log10(4.5), rel=1e-12)
+    assert sc.clutter_propagation_loss_db_per_km(5.0, 5e9, b) == pytest.approx(
+        0.75 * math.log10(4.5), rel=1e-12
+    )
     f = np.array([8.8e9, 8.8889e9, 8.9e9, 9.5e9, 9.999999e9, 10e9, 10.000001e9, 30e9])
     loss = sc.clutter_propagation_loss_db_per_km(5.0, f, b)
     assert np.all(np.isfinite(loss)) and np.all(loss >= 0.0)
@@ -218,7 +249,9 @@ def test_ducted_continuous_at_transition():
     for duct in (0.0, 10.0, 25.0):
         r_tr = min(sc.transition_range_m(25.0, 1.0, duct), sc.git_limit_range_m(25.0))
         eps = 1e-7 * r_tr
-        s = sc.ducted_reflectivity_db(np.array([r_tr - eps, r_tr, r_tr + eps]), duct_height_m=duct, **FIG6)
+        s = sc.ducted_reflectivity_db(
+            np.array([r_tr - eps, r_tr, r_tr + eps]), duct_height_m=duct, **FIG6
+        )
         assert np.max(s) - np.min(s) < 1e-3, duct
 
 
@@ -232,11 +265,15 @@ def test_ducted_equals_git_inside_transition():
 def test_ducted_extension_by_hand_beyond_transition():
     d = 20e3
     r_tr = 3500.0
-    s_tr = 10 * math.log10(sc.git_reflectivity(sc.grazing_angle_rad(r_tr, 25.0), 9.8e9, 4.5, 0.0, 1.0, "V"))
+    s_tr = 10 * math.log10(
+        sc.git_reflectivity(sc.grazing_angle_rad(r_tr, 25.0), 9.8e9, 4.5, 0.0, 1.0, "V")
+    )
     h_opt = 37 - 8.69 * math.log(9.8)
     beta = (4 - 3 / h_opt * 10) * ((3 - 2) / 4 + 1)  # 1 m waves: Douglas sea state 3
     expected = s_tr - 10 * beta * math.log10(d / r_tr) - 0.0 * (d - r_tr) / 1e3  # ℑ = 0 at 9.8 GHz
-    assert sc.ducted_reflectivity_db(d, duct_height_m=10.0, **FIG6) == pytest.approx(expected, abs=1e-9)
+    assert sc.ducted_reflectivity_db(d, duct_height_m=10.0, **FIG6) == pytest.approx(
+        expected, abs=1e-9
+    )
 
 
 def test_fig6_duct_far_above_no_duct_beyond_horizon():
@@ -285,10 +322,13 @@ def test_weibull_a_hp_falls_from_three_to_a_min():
 
 
 def test_median_mean_difference_closed_form_and_sampling():
-    assert sc.median_mean_difference_db(1.0) == pytest.approx(10 * math.log10(1 / math.log(2)), rel=1e-12)
+    assert sc.median_mean_difference_db(1.0) == pytest.approx(
+        10 * math.log10(1 / math.log(2)), rel=1e-12
+    )
     # [30] with the seed's rounded 1.6
     assert sc.median_reflectivity_db(-30.0, 2.0) == pytest.approx(
-        -30.0 - 1.6 * 2 - 10 * math.log10(math.gamma(3.0)), abs=0.02)
+        -30.0 - 1.6 * 2 - 10 * math.log10(math.gamma(3.0)), abs=0.02
+    )
     # second method: sample P(x > Y) = exp(-ln2 (Y/m)^(1/a)) and measure mean/median
     rng = np.random.default_rng(12345)
     a = 2.0
@@ -312,7 +352,8 @@ def test_spectrum_terms_by_hand():
     lam = 0.03
     assert sc.platform_doppler_hz(10.0, 0.0, 0.0, lam) == pytest.approx(2 * 10 / lam)
     assert sc.platform_doppler_hz(10.0, math.pi / 3, 0.1, lam) == pytest.approx(
-        2 * 10 / lam * 0.5 * math.cos(0.1), rel=1e-12)
+        2 * 10 / lam * 0.5 * math.cos(0.1), rel=1e-12
+    )
     f1 = 100.0
     assert sc.mean_clutter_doppler_hz(f1, 0.0, lam) == pytest.approx(f1 + 1 / lam)
     assert sc.mean_clutter_doppler_hz(f1, math.pi, lam) == pytest.approx(f1 - 1 / lam)
@@ -337,8 +378,10 @@ def test_clutter_power_by_hand_and_range_law():
 
 
 def test_signal_to_clutter_by_hand():
-    l_c = 10 ** 0.6
-    assert sc.signal_to_clutter(1e-12, 2e-13, 3e-13, l_c) == pytest.approx(1e-12 / (5e-13 * l_c), rel=1e-12)
+    l_c = 10**0.6
+    assert sc.signal_to_clutter(1e-12, 2e-13, 3e-13, l_c) == pytest.approx(
+        1e-12 / (5e-13 * l_c), rel=1e-12
+    )
     assert sc.signal_to_clutter(1e-12, 0.0, 0.0, l_c) == np.inf
     assert sc.signal_to_clutter(0.0, 1e-13, 0.0, l_c) == 0.0
 
@@ -346,8 +389,12 @@ def test_signal_to_clutter_by_hand():
 # --------------------------------------------------------------------------- properties
 @settings(max_examples=150, deadline=None)
 @given(
-    psi=st.floats(-0.2, np.pi / 2), f=st.floats(1e9, 1e11), w=st.floats(0.0, 60.0),
-    phi=st.floats(-10.0, 10.0), wh=st.floats(0.0, 20.0), pol=st.sampled_from("HV"),
+    psi=st.floats(-0.2, np.pi / 2),
+    f=st.floats(1e9, 1e11),
+    w=st.floats(0.0, 60.0),
+    phi=st.floats(-10.0, 10.0),
+    wh=st.floats(0.0, 20.0),
+    pol=st.sampled_from("HV"),
 )
 def test_git_finite_non_negative_at_extremes(psi, f, w, phi, wh, pol):
     s = sc.git_reflectivity(psi, f, w, phi, wh, pol)
@@ -356,8 +403,14 @@ def test_git_finite_non_negative_at_extremes(psi, f, w, phi, wh, pol):
 
 @settings(max_examples=150, deadline=None)
 @given(
-    d=st.floats(0.0, 1e6), h=st.floats(0.5, 200.0), f=st.floats(1e9, 1e11), w=st.floats(0.0, 60.0),
-    duct=st.floats(0.0, 300.0), wh=st.floats(0.0, 20.0), s=st.floats(0.0, 9.0), pol=st.sampled_from("HV"),
+    d=st.floats(0.0, 1e6),
+    h=st.floats(0.5, 200.0),
+    f=st.floats(1e9, 1e11),
+    w=st.floats(0.0, 60.0),
+    duct=st.floats(0.0, 300.0),
+    wh=st.floats(0.0, 20.0),
+    s=st.floats(0.0, 9.0),
+    pol=st.sampled_from("HV"),
 )
 def test_ducted_finite_at_extremes(d, h, f, w, duct, wh, s, pol):
     s_db = sc.ducted_reflectivity_db(d, h, f, w, 0.0, wh, pol, duct, s)

@@ -17,7 +17,9 @@ def test_rain_reflectivity_by_hand():
     assert wc.rain_reflectivity(3e9, 4.0) == pytest.approx(7e-48 * (3e9) ** 4 * 4.0**1.6, rel=1e-12)
     # 20 GHz: K interpolated linearly between 6 GHz (7e-48) and 35 GHz (13e-48)
     k20 = 7e-48 + (20 - 6) / (35 - 6) * 6e-48
-    assert wc.rain_reflectivity(20e9, 10.0) == pytest.approx(k20 * (20e9) ** 4 * 10.0**1.6, rel=1e-12)
+    assert wc.rain_reflectivity(20e9, 10.0) == pytest.approx(
+        k20 * (20e9) ** 4 * 10.0**1.6, rel=1e-12
+    )
     for f in (35e9, 60e9, 95e9):
         assert wc.reflectivity_constant(f) == pytest.approx(13e-48, rel=1e-12)
     for f in (1e9, 6e9):
@@ -36,7 +38,9 @@ def test_rain_reflectivity_rayleigh_marshall_palmer():
 def test_snow_rain_equivalent():
     assert wc.rain_equivalent_rate_mm_h(10.0, "dry_snow") == pytest.approx(1.0)
     assert wc.rain_equivalent_rate_mm_h(10.0, "wet_snow") == pytest.approx(2.0)
-    assert wc.rain_reflectivity(5e9, 10.0, "dry_snow") == pytest.approx(wc.rain_reflectivity(5e9, 1.0), rel=1e-12)
+    assert wc.rain_reflectivity(5e9, 10.0, "dry_snow") == pytest.approx(
+        wc.rain_reflectivity(5e9, 1.0), rel=1e-12
+    )
     with pytest.raises(ValueError):
         wc.rain_equivalent_rate_mm_h(1.0, "hail")
     assert wc.rain_reflectivity(5e9, 0.0) == 0.0
@@ -58,10 +62,14 @@ def test_volume_cell_by_hand():
     assert wc.volume_height_m(rc, ph, hc) == pytest.approx(3000.0)
     assert wc.volume_height_m(5e3, ph, hc) == pytest.approx(5e3 * ph)
     # [40]
-    assert wc.volume_cross_section_m2(eta, rc, th, ph, hc, cr) == pytest.approx(eta * rc * th * 3000.0 * cr, rel=1e-12)
+    assert wc.volume_cross_section_m2(eta, rc, th, ph, hc, cr) == pytest.approx(
+        eta * rc * th * 3000.0 * cr, rel=1e-12
+    )
     # [39]
     vol = eta * rc * th * 3000.0 * cr
-    assert wc.weather_clutter_power_w(2.0e3, vol, 20e3) == pytest.approx(2.0e3 * vol / 20e3**4, rel=1e-12)
+    assert wc.weather_clutter_power_w(2.0e3, vol, 20e3) == pytest.approx(
+        2.0e3 * vol / 20e3**4, rel=1e-12
+    )
     assert wc.weather_clutter_power_w(2.0e3, vol, 20e3, rain_fraction=0.0) == 0.0
     assert wc.volume_cross_section_m2(eta, 0.0, th, ph, hc, cr) == 0.0
     with pytest.raises(ValueError):
@@ -74,7 +82,9 @@ def test_weather_spread_by_hand():
     assert wc.shear_spread_mps(r, phi_b) == pytest.approx(shear, rel=1e-12)
     expected = 2 / lam * math.sqrt(shear**2 + 1.0**2)
     assert wc.weather_spread_hz(lam, shear, 1.0) == pytest.approx(expected, rel=1e-12)
-    assert wc.weather_spread_hz(lam, shear, 1.0, 30.0) == pytest.approx(math.hypot(expected, 30.0), rel=1e-12)
+    assert wc.weather_spread_hz(lam, shear, 1.0, 30.0) == pytest.approx(
+        math.hypot(expected, 30.0), rel=1e-12
+    )
     assert wc.weather_mean_doppler_hz(10.0, 0.0, lam) == pytest.approx(400.0)
     assert wc.weather_mean_doppler_hz(10.0, math.pi, lam, 5.0) == pytest.approx(-395.0)
 
@@ -87,8 +97,12 @@ def test_rain_cylinder_fraction():
 
 @settings(max_examples=100, deadline=None)
 @given(
-    f=st.floats(5e8, 1e11), rate=st.floats(0.0, 300.0), r=st.floats(1.0, 1e6),
-    prf=st.floats(50.0, 5e5), hc=st.floats(1.0, 15e3), kind=st.sampled_from(["rain", "dry_snow", "wet_snow"]),
+    f=st.floats(5e8, 1e11),
+    rate=st.floats(0.0, 300.0),
+    r=st.floats(1.0, 1e6),
+    prf=st.floats(50.0, 5e5),
+    hc=st.floats(1.0, 15e3),
+    kind=st.sampled_from(["rain", "dry_snow", "wet_snow"]),
 )
 def test_weather_power_finite_non_negative(f, rate, r, prf, hc, kind):
     eta = wc.rain_reflectivity(f, rate, kind)

@@ -49,8 +49,12 @@ def plot_ducting_reflectivity(
     path = Path(path)
     d = np.linspace(200.0, max_range_m, 1200)
     common = dict(
-        antenna_height_m=antenna_height_m, freq_hz=freq_hz, wind_speed_mps=wind_speed_mps,
-        wind_relative_azimuth_rad=0.0, wave_height_m=wave_height_m, polarization=polarization,
+        antenna_height_m=antenna_height_m,
+        freq_hz=freq_hz,
+        wind_speed_mps=wind_speed_mps,
+        wind_relative_azimuth_rad=0.0,
+        wave_height_m=wave_height_m,
+        polarization=polarization,
     )
     fig, ax = plt.subplots(figsize=(7, 4.5), dpi=110)
     for h, label in ((0.0, "no duct"), (duct_height_m, f"duct {duct_height_m:g} m")):
