@@ -1,0 +1,212 @@
+"""Tests of tables.improvement: the I_F table, its cache and its on-line lookup."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from sensors import doppler_filters as df
+from tables import improvement as imp
+from tables.store import Table, inputs_hash
+
+PROCESSORS = {
+    "mti3": dict(processor="mti", mti_pulses=3),
+    "dft16": dict(processor="dft_bank", n_pulses=16),
+    "fir5x32hann": dict(processor="fir_bank", n_pulses=32, n_filters=5, window="hann"),
+    "mti2+cheb": dict(
+        processor="mti_bank", n_pulses=17, mti_pulses=2, window="chebyshev", window_sidelobe_db=60
+    ),
+    "mti3-stagger": dict(processor="mti", mti_pulses=3, prf_hz=1000.0, stagger_prf_hz=[900, 1100]),
+}
+
+
+@pytest.fixture(scope="module")
+def tables():
+    return {k: imp.build_improvement_table(**v, resolution="coarse") for k, v in PROCESSORS.items()}
+
+
+def test_no_processing_builds_nothing_and_reads_zero_db():
+    assert imp.build_improvement_table("none") is None
+    assert imp.improvement_table("none") == (None, False)
+    got = imp.improvement_factor_db(None, np.array([0.0, 0.1]), np.array([[0.2], [0.7]]))
+    np.testing.assert_array_equal(got, np.zeros((2, 2)))
+    assert np.isnan(imp.improvement_factor_db(None, np.nan, 0.1))
+
+
+@pytest.mark.parametrize("name", list(PROCESSORS))
+def test_grid_values_are_the_physics_at_the_grid_points(tables, name):
+    table = tables[name]
+    inputs = table.inputs
+    w = imp.processor_weights(inputs)
+    ax_s, ax_d = table.axes
+    rng = np.random.default_rng(7)
+    i = rng.integers(0, len(ax_s), 12)
+    j = rng.integers(0, len(ax_d), 12)
+    spread, dop = 10.0 ** ax_s[i], ax_d[j]
+    if "stagger_prf_hz" in inputs:
+        expected = df.staggered_improvement_factor(
+            w, spread, dop, prf_hz=inputs["prf_hz"], stagger_prf_hz=inputs["stagger_prf_hz"]
+        )
+    else:
+        expected = df.bank_improvement_factor(w, spread, dop)
+    np.testing.assert_allclose(table.values[i, j], 10 * np.log10(expected), rtol=1e-12, atol=1e-9)
+    # the grid points read back exactly through the fast lookup
+    np.testing.assert_allclose(
+        imp.improvement_factor_db(table, spread, dop), table.values[i, j], rtol=0, atol=1e-9
+    )
+
+
+@pytest.mark.parametrize("name", list(PROCESSORS))
+def test_fast_lookup_equals_the_generic_store_interpolation(tables, name):
+    table = tables[name]
+    rng = np.random.default_rng(11)
+    log_s = rng.uniform(imp.LOG10_SPREAD_MIN, imp.LOG10_SPREAD_MAX, 2000)
+    dop = rng.uniform(0.0, table.axes[1][-1], 2000)
+    fast = imp.improvement_factor_db(table, 10.0**log_s, dop)
+    generic = table.lookup(log_s, dop)
+    np.testing.assert_allclose(fast, generic, rtol=0, atol=1e-9)
+    fast_gain = imp.improvement_factor_db(table, 10.0**log_s, dop, array="coherent_gain_db")
+    np.testing.assert_allclose(fast_gain, table.lookup(log_s, dop, array="coherent_gain_db"))
+
+
+@pytest.mark.parametrize("name", list(PROCESSORS))
+def test_lookup_is_periodic_in_doppler(tables, name):
+    table = tables[name]
+    period = table.axes[1][-1]
+    rng = np.random.default_rng(5)
+    spread = 10.0 ** rng.uniform(-6, -0.5, 500)
+    dop = rng.uniform(0.0, period, 500)
+    base = imp.improvement_factor_db(table, spread, dop)
+    for k in (-3, -1, 1, 7):
+        np.testing.assert_allclose(
+            imp.improvement_factor_db(table, spread, dop + k * period), base, atol=1e-6
+        )
+
+
+def test_constant_prf_period_is_one_and_stagger_period_is_the_lcm(tables):
+    assert tables["mti3"].axes[1][-1] == 1.0
+    # lcm(900 Hz, 1100 Hz) = 9900 Hz = 9.9 f_r with f_r = 1000 Hz
+    assert tables["mti3-stagger"].axes[1][-1] == pytest.approx(9.9, rel=1e-12)
+    capped = imp.improvement_table_inputs(
+        "mti", mti_pulses=2, prf_hz=1000.0, stagger_prf_hz=[1000.0, 1000.5]
+    )
+    assert imp.doppler_period(capped) == imp.MAX_STAGGER_PERIOD
+
+
+def test_mti_table_doppler_mean_is_the_classical_improvement_factor(tables):
+    # Parseval: the mean over one PRF of the point-target I_F is the B = f_r (Doppler-averaged)
+    # I_F, here the 3-pulse canceller's closed form 3 (1 + ε) / (3 - 4ρ + ρ⁴ + 3ε).
+    table = tables["mti3"]
+    eps = 10.0 ** (-table.inputs["stability_limit_db"] / 10.0)
+    spread = 10.0 ** table.axes[0]
+    linear_mean = np.mean(10.0 ** (table.values[:, :-1] / 10.0), axis=1)  # period excluded
+    x = 2.0 * (np.pi * spread) ** 2
+    closed = 6.0 * (1.0 + eps) / (-8.0 * np.expm1(-x) + 2.0 * np.expm1(-4.0 * x) + 6.0 * eps)
+    np.testing.assert_allclose(linear_mean, closed, rtol=1e-9)
+
+
+def test_spread_is_clamped_to_the_axis(tables):
+    table = tables["dft16"]
+    dop = np.linspace(0, 1, 9)
+    np.testing.assert_allclose(
+        imp.improvement_factor_db(table, 0.0, dop), imp.improvement_factor_db(table, 1e-7, dop)
+    )
+    np.testing.assert_allclose(
+        imp.improvement_factor_db(table, np.inf, dop), imp.improvement_factor_db(table, 1.0, dop)
+    )
+    # the white end of the axis is the coherent gain: 10 log10 16 at a filter centre
+    assert imp.improvement_factor_db(table, 1.0, 0.25) == pytest.approx(
+        10 * np.log10(16.0), abs=1e-6
+    )
+    with pytest.raises(ValueError):
+        imp.improvement_factor_db(table, -0.01, 0.1)
+    out = imp.improvement_factor_db(table, np.array([np.nan, 0.1, 0.1]), [0.1, np.nan, np.inf])
+    assert np.all(np.isnan(out))
+
+
+def test_fine_table_interpolates_the_physics_within_a_tenth_of_a_db():
+    # smooth region of a 3-pulse canceller (away from the blind speed's logarithmic null)
+    table = imp.build_improvement_table("mti", mti_pulses=3, resolution="fine")
+    rng = np.random.default_rng(2)
+    spread = 10.0 ** rng.uniform(-4, -0.5, 3000)
+    dop = rng.uniform(0.1, 0.9, 3000)
+    exact = 10 * np.log10(df.bank_improvement_factor(df.canceller_weights(3), spread, dop))
+    np.testing.assert_allclose(imp.improvement_factor_db(table, spread, dop), exact, atol=0.1)
+
+
+def test_staggered_table_fills_the_blind_speeds_of_the_reference_prf(tables):
+    constant, stagger = tables["mti3"], tables["mti3-stagger"]
+    for k in (1, 2, 3):
+        assert imp.improvement_factor_db(constant, 0.01, k) < -40.0
+        assert imp.improvement_factor_db(stagger, 0.01, k) > 20.0
+    # and lies between its bounds everywhere on its grid
+    w = df.canceller_weights(3)
+    s = 10.0 ** stagger.axes[0][:, None]
+    d = stagger.axes[1][None, :]
+    lo = 10 * np.log10(df.bank_improvement_factor(w, s * 1000 / 900, d * 1000 / 900))
+    hi = 10 * np.log10(df.bank_improvement_factor(w, s * 1000 / 1100, d * 1000 / 1100))
+    assert np.all(stagger.values >= np.minimum(lo, hi) - 1e-9)
+    assert np.all(stagger.values <= np.maximum(lo, hi) + 1e-9)
+
+
+def test_bank_table_reads_the_filter_holding_the_doppler(tables):
+    table = tables["dft16"]
+    bank = imp.processor_weights(table.inputs)
+    centres = df.filter_centres_norm(16)
+    for spread in (1e-3, 0.02, 0.2):
+        own = df.improvement_factor(bank, spread, centres)  # (filter, target)
+        np.testing.assert_allclose(
+            imp.improvement_factor_db(table, spread, centres),
+            10 * np.log10(np.diag(own)),
+            atol=0.5,  # interpolation along the spread axis of the coarse grid
+        )
+
+
+def test_cache_builds_once_and_keys_on_what_changes_the_table(table_cache):
+    kwargs = dict(n_pulses=8, window="taylor", window_sidelobe_db=35.0, resolution="coarse")
+    t1, built1 = imp.improvement_table("dft_bank", **kwargs)
+    t2, built2 = imp.improvement_table("dft_bank", **kwargs)
+    assert built1 and not built2
+    np.testing.assert_array_equal(t1.values, t2.values)
+    assert isinstance(t2, Table) and t2.inputs == t1.inputs
+    # the PRF does not change a constant-PRF table; the window level does
+    same = imp.improvement_table_inputs("dft_bank", prf_hz=3000.0, **kwargs)
+    other = imp.improvement_table_inputs("dft_bank", **{**kwargs, "window_sidelobe_db": 40.0})
+    key = inputs_hash(imp.BUILDER_NAME, imp.BUILDER_VERSION, t1.inputs)
+    assert inputs_hash(imp.BUILDER_NAME, imp.BUILDER_VERSION, same) == key
+    assert inputs_hash(imp.BUILDER_NAME, imp.BUILDER_VERSION, other) != key
+    _, built3 = imp.improvement_table("dft_bank", **{**kwargs, "window_sidelobe_db": 40.0})
+    assert built3
+    assert len(list(table_cache.glob("improvement_factor-*.npz"))) == 2
+
+
+def test_invalid_processors_raise():
+    bad = [
+        dict(processor="kalman"),
+        dict(processor="dft_bank"),  # no n_pulses
+        dict(processor="dft_bank", n_pulses=8, n_filters=4),
+        dict(processor="fir_bank", n_pulses=8, window="chebyshev"),
+        dict(processor="mti", mti_pulses=1),
+        dict(processor="mti_bank", n_pulses=2, mti_pulses=3),
+        dict(processor="mti", stagger_prf_hz=[900, 1100]),  # no reference PRF
+        dict(processor="mti", resolution="ultra"),
+        dict(processor="mti", stability_limit_db=0.0),
+    ]
+    for kw in bad:
+        with pytest.raises(ValueError):
+            imp.improvement_table_inputs(**kw)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    name=st.sampled_from(list(PROCESSORS)),
+    spread=st.one_of(st.just(0.0), st.floats(0.0, 1e3)),
+    doppler=st.floats(-1e4, 1e4),
+)
+def test_lookup_is_finite_and_bounded(tables, name, spread, doppler):
+    table = tables[name]
+    got = imp.improvement_factor_db(table, spread, doppler)
+    assert np.isfinite(got)
+    assert table.values.min() - 1e-9 <= got <= table.values.max() + 1e-9
