@@ -103,7 +103,7 @@ TABLE_II = {"square": 1.0, "linear": 0.915, "log": 0.608}
 SWERLING_CASES = (0, 1, 2, 3, 4)
 
 #: S/I beyond ±this [dB] is clipped (P_d is then P_fa or 1 to double precision).
-SNR_DB_LIMIT = 1000.0
+SNR_DB_LIMIT = 300.0
 #: Search interval of :func:`required_snr_db` (exact method) [dB].
 REQUIRED_SNR_DB_BRACKET = (-200.0, 400.0)
 _REQUIRED_SNR_ITERATIONS = 52
@@ -273,7 +273,7 @@ def effective_pulses(
     prf_hz: ArrayLike = 1.0,
     beamwidth_rad: ArrayLike = 1.0,
     rotation_rate_rad_s: ArrayLike = 1.0,
-    pulses_per_frequency: ArrayLike = 1.0,
+    pulses_per_frequency: ArrayLike = np.inf,
     mti_order: ArrayLike = 0,
     n_coherent: ArrayLike = 1,
 ) -> NDArray[np.float64]:
@@ -307,8 +307,8 @@ def effective_pulses(
     rotation_rate_rad_s : array_like
         Antenna rotation rate ω_rot [rad/s]; θ_b/ω_rot is the time on target.
     pulses_per_frequency : array_like
-        Pulses before a frequency change N_fc [-] (1 = pulse-to-pulse agility; set it to
-        N_n or more for a fixed frequency).
+        Pulses before a frequency change N_fc [-] (1 = pulse-to-pulse agility; default inf:
+        a fixed frequency, N_n / N_fc = 0).
     mti_order : array_like
         Order N_pc of the MTI canceller [-] (0: no MTI).
     n_coherent : array_like
@@ -334,10 +334,11 @@ def effective_pulses(
         ("prf_hz", f_r),
         ("beamwidth_rad", theta),
         ("rotation_rate_rad_s", omega),
-        ("pulses_per_frequency", n_fc),
         ("n_coherent", n_c),
     ):
         _require_positive(name, arr)
+    if np.any(~(n_fc > 0)):
+        raise ValueError("effective_pulses: pulses_per_frequency must be > 0 (inf: no agility)")
     if np.any(~(n_n >= 0)) or np.any(~(sigma >= 0)) or np.any(~(n_pc >= 0)):
         raise ValueError(
             "effective_pulses: n_pulses, clutter_velocity_spread_mps and mti_order must be >= 0"
@@ -653,7 +654,11 @@ def _pd_exact_integer(s, pfa, n, sw):
     out = np.empty(s.shape)
     m = sw == 0
     if np.any(m):
-        out[m] = stats.ncx2.sf(2.0 * t[m], 2.0 * n[m], 2.0 * n[m] * s[m])
+        nc = 2.0 * n[m] * s[m]
+        # far above the threshold (miss probability < Φ(-40)) P_d is 1; this also keeps
+        # ncx2.sf away from the huge non-centralities (> ~1e19) where it returns NaN
+        sure = np.sqrt(nc) - np.sqrt(2.0 * t[m]) > 40.0
+        out[m] = np.where(sure, 1.0, stats.ncx2.sf(2.0 * t[m], 2.0 * n[m], np.where(sure, 1.0, nc)))
     m = sw == 2
     if np.any(m):
         out[m] = special.gammaincc(n[m], t[m] / (1.0 + s[m]))
