@@ -1,0 +1,136 @@
+"""Tests of sensors.false_alarms: N_cells [90], counts [91]-[93], uniform positions."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy import stats
+
+from sensors import false_alarms
+from sensors.false_alarms import false_alarm_count, resolution_cells, uniform_positions
+
+DRAWS = 200_000
+
+
+def test_resolution_cells_hand_computation_and_degree_erratum():
+    # 60 km instrumented, θ_b = 1.5°, C_R = 150 m: 240 beams × 400 cells = 96 000
+    n = resolution_cells(60e3, np.deg2rad(1.5), 150.0)
+    assert n == pytest.approx(96_000.0, rel=1e-12)
+    # the seed's [90] with θ_b in degrees gives the same number (SPEC §4 item 7)
+    assert n == pytest.approx(360 * 60e3 / (1.5 * 150.0), rel=1e-12)
+    assert resolution_cells(0.0, 0.02, 150.0) == 0.0
+    with pytest.raises(ValueError):
+        resolution_cells(1e4, 0.0, 150.0)
+
+
+def test_bernoulli_limit_value():
+    assert false_alarms.bernoulli_limit(2) == pytest.approx(0.69 / 4, rel=1e-12)
+
+
+def _mean_var(eta, n_ch=2, seed=0):
+    counts = false_alarm_count(eta, n_ch, np.random.default_rng(seed), size=DRAWS)
+    assert counts.dtype == np.int64 and np.all(counts >= 0)
+    return counts, counts.mean(), counts.var(ddof=1)
+
+
+@pytest.mark.parametrize("eta", [0.001, 0.05, 0.17])
+def test_bernoulli_regime(eta):
+    counts, mean, var = _mean_var(eta, seed=1)
+    assert set(np.unique(counts)) <= {0, 1}
+    se = np.sqrt(eta * (1 - eta) / DRAWS)
+    assert abs(mean - eta) < 5 * se
+    assert var == pytest.approx(eta * (1 - eta), rel=10 * np.sqrt(2 / DRAWS) / np.sqrt(eta))
+
+
+@pytest.mark.parametrize("eta", [0.1726, 0.5, 2.0, 8.9])
+def test_poisson_regime_distribution(eta):
+    counts, mean, var = _mean_var(eta, seed=2)
+    assert abs(mean - eta) < 5 * np.sqrt(eta / DRAWS)
+    # variance of the sample variance of a Poisson: (μ + 2μ²)/n approximately
+    assert abs(var - eta) < 5 * np.sqrt((eta + 2 * eta**2) / DRAWS)
+    # chi-square goodness of fit against Poisson(η), pooled tail
+    k_max = int(stats.poisson.ppf(1 - 1e-4, eta))
+    obs = np.bincount(np.minimum(counts, k_max), minlength=k_max + 1)
+    exp = stats.poisson.pmf(np.arange(k_max + 1), eta) * DRAWS
+    exp[-1] = stats.poisson.sf(k_max - 1, eta) * DRAWS
+    assert stats.chisquare(obs, exp).pvalue > 1e-4
+
+
+@pytest.mark.parametrize("eta", [9.0, 40.0, 1e4])
+def test_normal_regime_with_squared_exponent(eta):
+    # erratum 1: N(η, η); rounding to integers adds 1/12 to the variance
+    counts, mean, var = _mean_var(eta, seed=3)
+    assert abs(mean - eta) < 5 * np.sqrt(eta / DRAWS)
+    assert abs(var - (eta + 1 / 12)) < 5 * eta * np.sqrt(2 / DRAWS)
+    # shape: symmetric (a Poisson(9) would have skewness 1/3)
+    assert abs(stats.skew(counts)) < 5 * np.sqrt(6 / DRAWS)
+
+
+def test_regime_depends_on_channels():
+    # η = 0.2 is Poisson for N_ch = 2 (limit 0.1725) and Bernoulli for N_ch = 1 (0.345)
+    c1 = false_alarm_count(0.2, 1, np.random.default_rng(4), size=DRAWS)
+    c2 = false_alarm_count(0.2, 2, np.random.default_rng(4), size=DRAWS)
+    assert c1.max() == 1 and c2.max() >= 2
+
+
+def test_vectorized_over_sectors_and_edge_values():
+    eta = np.array([0.0, 0.01, 1.0, 25.0, 1e6])
+    rng = np.random.default_rng(5)
+    counts = np.stack([false_alarm_count(eta, 2, rng) for _ in range(2000)])
+    assert counts.shape == (2000, 5)
+    assert np.all(counts[:, 0] == 0)
+    se = np.sqrt(eta[1:4] / 2000)
+    assert np.all(np.abs(counts.mean(axis=0)[1:4] - eta[1:4]) < 5 * se)
+    assert counts[:, 4].mean() == pytest.approx(1e6, rel=1e-3)
+    assert false_alarm_count(3.0, 2, rng).shape == ()
+    with pytest.raises(ValueError):
+        false_alarm_count(-1.0, 2, rng)
+    with pytest.raises(ValueError):
+        false_alarm_count(np.nan, 2, rng)
+
+
+def test_one_uniform_per_element_whatever_the_regime():
+    a = np.random.default_rng(9)
+    false_alarm_count(np.array([0.01, 3.0, 50.0]), 2, a)
+    b = np.random.default_rng(9)
+    b.random(3)
+    assert a.random() == b.random()
+
+
+def test_uniform_positions_ks():
+    rng = np.random.default_rng(6)
+    r, az = uniform_positions(20_000, 1e3, 60e3, 0.0, 2 * np.pi, rng)
+    assert r.size == az.size == 20_000
+    assert stats.kstest(r, stats.uniform(1e3, 59e3).cdf).pvalue > 1e-3
+    assert stats.kstest(az, stats.uniform(0, 2 * np.pi).cdf).pvalue > 1e-3
+    # uniform in R, not in area: the mean range is the midpoint, not 2/3 of the way out
+    assert r.mean() == pytest.approx(30.5e3, rel=0.01)
+
+
+def test_uniform_positions_per_sector_and_across_north():
+    rng = np.random.default_rng(8)
+    counts = np.array([3000, 0, 5000])
+    a0 = np.array([np.deg2rad(350), 1.0, 2.0])
+    a1 = a0 + np.deg2rad(20)
+    r, az = uniform_positions(counts, [0.0, 0.0, 5e3], [1e4, 1e4, 6e3], a0, a1, rng)
+    assert r.size == 8000
+    first, last = az[:3000], az[3000:]
+    assert np.all((first >= np.deg2rad(350)) | (first < np.deg2rad(10)))
+    assert np.all((last >= 2.0) & (last <= 2.0 + np.deg2rad(20)))
+    assert np.all((r[3000:] >= 5e3) & (r[3000:] < 6e3))
+    unwrapped = np.where(first < 1.0, first + 2 * np.pi, first)
+    assert stats.kstest(unwrapped, stats.uniform(a0[0], a1[0] - a0[0]).cdf).pvalue > 1e-3
+    with pytest.raises(ValueError):
+        uniform_positions(3, 10.0, 5.0, 0.0, 1.0, rng)
+    empty = uniform_positions(0, 0.0, 1.0, 0.0, 1.0, rng)
+    assert empty[0].size == 0
+
+
+@settings(max_examples=40, deadline=None)
+@given(eta=st.floats(0.0, 1e7), n_ch=st.integers(1, 4), seed=st.integers(0, 2**32 - 1))
+def test_property_counts_nonnegative_integers(eta, n_ch, seed):
+    c = false_alarm_count(np.array([eta, eta]), n_ch, np.random.default_rng(seed))
+    assert c.dtype == np.int64 and np.all(c >= 0)
+    assert np.all(c <= eta + 12 * np.sqrt(eta) + 40)
