@@ -472,7 +472,7 @@ def required_snr_db(
         lo = z <= -_SEED_Z_MAX
         hi = z >= _SEED_Z_MAX
         z_c = np.clip(z, -_SEED_Z_MAX, _SEED_Z_MAX)
-        req = _seed_required_snr(z_c, pfa_a, n_a, sw, h_n, zeta)
+        req = _seed_required_snr(z_c, g_fa(pfa_a), 1.0 / fluctuation_k(sw, n_a), h_n, zeta)
         out = np.full(req.shape, -np.inf)
         pos = req > 0
         out[pos] = 10.0 * np.log10(req[pos])
@@ -806,37 +806,38 @@ def g_d(z: ArrayLike) -> NDArray[np.float64]:
     return G_D_SLOPE * t / np.sqrt(1.0 - t * t) + (z - z_c)
 
 
-def _seed_required_snr(z, pfa, n, sw, h_n, zeta):
-    """D_0 [78] times L_f [83] at P_d = Φ(z): the seed's required per-pulse S/I (linear)."""
-    gf = g_fa(pfa)
+def _seed_required_snr(z, gf, inv_k, h_n, zeta):
+    """D_0 [78] times L_f [83] at P_d = Φ(z): the seed's required per-pulse S/I (linear).
+
+    ``gf`` is g_fa [80] and ``inv_k`` 1/K of Table III (0 for the steady target), both
+    computed once outside the iteration.
+    """
     gd = g_d(z)
     x0 = np.square(np.maximum(gf + gd, 0.0))  # [79], floored at the noise-only limit
     a = x0 / (4.0 * h_n)
     d0 = a + np.sqrt(a * a + x0 / (zeta * h_n))  # [78] rearranged: finite at X0 = 0
-    k = fluctuation_k(sw, n)
     base = -special.log_ndtr(z) * (1.0 + gd / gf)
-    usable = (base > 0) & (d0 > 0)
-    fluct = np.isfinite(k)
-    log_lf = np.where(
-        fluct & usable, -np.log(np.where(usable, base, 1.0)) / np.where(fluct, k, 1.0), 0.0
-    )
-    req = np.where(usable | ~fluct, d0 * np.exp(log_lf), 0.0)
-    return req
+    positive = base > 0
+    log_lf = -inv_k * np.log(np.where(positive, base, 1.0))  # [83]
+    # base <= 0 only where g_d <= -g_fa (X0 = 0, P_d below about P_fa): no signal needed
+    return np.where(positive | (inv_k == 0), d0 * np.exp(log_lf), 0.0)
 
 
 def _pd_seed(snr_db, pfa, n, sw, h_n, zeta):
     shape = snr_db.shape
     s = np.power(10.0, snr_db.ravel() / 10.0)
-    p, nn, ss, hh = pfa.ravel(), n.ravel(), sw.ravel(), np.broadcast_to(h_n, shape).ravel()
+    p, hh = pfa.ravel(), np.broadcast_to(h_n, shape).ravel()
+    gf = g_fa(p)
+    inv_k = 1.0 / fluctuation_k(sw.ravel(), n.ravel())
     lo = np.full(s.shape, -_SEED_Z_MAX)
     hi = np.full(s.shape, _SEED_Z_MAX)
     for _ in range(_SEED_ITERATIONS):
         mid = 0.5 * (lo + hi)
-        below = _seed_required_snr(mid, p, nn, ss, hh, zeta) < s
+        below = _seed_required_snr(mid, gf, inv_k, hh, zeta) < s
         lo = np.where(below, mid, lo)
         hi = np.where(below, hi, mid)
-    f_lo = _seed_required_snr(lo, p, nn, ss, hh, zeta)
-    f_hi = _seed_required_snr(hi, p, nn, ss, hh, zeta)
+    f_lo = _seed_required_snr(lo, gf, inv_k, hh, zeta)
+    f_hi = _seed_required_snr(hi, gf, inv_k, hh, zeta)
     # log-linear interpolation inside the final bracket: monotone in S/I within a bracket
     ok = (f_lo > 0) & (f_hi > f_lo) & (s > 0)
     num = np.log(np.where(ok, s, 1.0)) - np.log(np.where(ok, f_lo, 1.0))
