@@ -45,7 +45,7 @@ from sensors import doppler_filters as df
 from tables.store import Table, get_or_build
 
 BUILDER_NAME = "improvement_factor"
-BUILDER_VERSION = 1
+BUILDER_VERSION = 2
 
 #: Processor kinds: none (I_F = 1, no table), MTI canceller, DFT bank, FIR bank, MTI + bank.
 PROCESSORS = ("none", "mti", "dft_bank", "fir_bank", "mti_bank")
@@ -239,6 +239,59 @@ def _axes(inputs: dict[str, Any], n_taps: int) -> tuple[NDArray, NDArray]:
     return log_spread, doppler
 
 
+def _switch_aware_grid(
+    weights: NDArray, spread: NDArray, doppler: NDArray, limit_db: float
+) -> dict[str, NDArray]:
+    """I_F [linear] on the grid with the "response" pick, and the data to read its jumps.
+
+    The picked filter depends on the Doppler only; where it changes between two Doppler nodes
+    the I_F jumps.  For each cell ``[d_j, d_j+1]`` this returns ``ahead`` (the I_F of the filter
+    picked at ``d_j``, evaluated at ``d_j+1``), ``behind`` (the filter picked at ``d_j+1``,
+    evaluated at ``d_j``) and ``crossover``, the fraction of the cell where their responses are
+    equal (found by bisection; 1 where the pick does not change), so that the lookup follows
+    each filter up to the switch instead of smearing the jump over the cell.
+    """
+    eps = df.stability_residue(limit_db)
+    energy = np.sum(np.abs(weights) ** 2, axis=-1)
+    sig = df.signal_output_power(weights, doppler) + eps * energy[:, None]  # (F, D)
+    clu = df.clutter_output_power(weights, spread) + eps * energy[:, None]  # (F, S)
+    # the same rule (and the same tie-break) as df.bank_improvement_factor
+    pick = np.argmax(sig / energy[:, None], axis=0)
+    cols = np.arange(len(doppler))
+    values = sig[pick, cols][None, :] / clu[pick, :].T
+    nxt = np.append(pick[1:], pick[-1])
+    nxt_col = np.minimum(cols + 1, len(doppler) - 1)
+    ahead = sig[pick, nxt_col][None, :] / clu[pick, :].T
+    behind = sig[nxt, cols][None, :] / clu[nxt, :].T
+    crossover = np.ones(len(doppler))
+    cells = np.flatnonzero(pick != nxt)
+    if cells.size:
+        a, b = pick[cells], nxt[cells]
+        lo, hi = np.zeros(cells.size), np.ones(cells.size)
+        step = doppler[1] - doppler[0]
+        for _ in range(50):  # 2^-50 of a cell
+            mid = 0.5 * (lo + hi)
+            f = doppler[cells] + mid * step
+            r_a = np.abs(np.sum(np.conj(weights[a]) * _steer(f, weights.shape[-1]), axis=-1)) ** 2
+            r_b = np.abs(np.sum(np.conj(weights[b]) * _steer(f, weights.shape[-1]), axis=-1)) ** 2
+            left = r_a / energy[a] >= r_b / energy[b]
+            lo = np.where(left, mid, lo)
+            hi = np.where(left, hi, mid)
+        crossover[cells] = 0.5 * (lo + hi)
+    shape = values.shape
+    return {
+        "values": values,
+        "ahead": ahead,
+        "behind": behind,
+        "crossover": np.broadcast_to(crossover, shape).copy(),
+    }
+
+
+def _steer(f: NDArray, n: int) -> NDArray:
+    """exp(-j2π f n) for each f (rows) and tap n (columns)."""
+    return np.exp(-2j * np.pi * np.mod(f[:, None] * np.arange(n), 1.0))
+
+
 def build_improvement_table(processor: str, **kwargs: Any) -> Table | None:
     """Build the I_F table of a processor (keywords of :func:`improvement_table_inputs`).
 
@@ -246,44 +299,51 @@ def build_improvement_table(processor: str, **kwargs: Any) -> Table | None:
     accepts ``None``).  The table's ``values`` are I_F [dB] on (``log10(σ_s/f_r)``,
     ``f_d/f_r``) computed exactly at every grid point ([57], O(N) per point), with the pick
     rule and the stagger average (linear) of :mod:`sensors.doppler_filters`.
+
+    Extra arrays: ``coherent_gain_db`` (I_F against white noise, the ``σ_s -> ∞`` limit);
+    for the "response" pick at constant PRF, ``ahead_db``, ``behind_db`` and ``crossover``
+    locate the jumps of the I_F where the picked filter changes (see
+    :func:`improvement_factor_db`).  Stagger tables and the "best" pick (a maximum of
+    continuous functions, without jumps) have ``crossover = 1``: plain bilinear interpolation.
     """
     inputs = improvement_table_inputs(processor, **kwargs)
     if inputs is None:
         return None
     weights = processor_weights(inputs)
     log_spread, doppler = _axes(inputs, weights.shape[-1])
-    spread = 10.0 ** log_spread[:, None]
-    dop = doppler[None, :]
+    spread = 10.0**log_spread
     limit = inputs["stability_limit_db"]
     pick = inputs.get("pick", "response")
+    common = dict(pick=pick, stability_limit_db=limit)
     if "stagger_prf_hz" in inputs:
-        prfs = np.asarray(inputs["stagger_prf_hz"])
-        prf = inputs["prf_hz"]
+        stagger = dict(prf_hz=inputs["prf_hz"], stagger_prf_hz=np.asarray(inputs["stagger_prf_hz"]))
         i_f = df.staggered_improvement_factor(
-            weights,
-            spread,
-            dop,
-            prf_hz=prf,
-            stagger_prf_hz=prfs,
-            pick=pick,
-            stability_limit_db=limit,
+            weights, spread[:, None], doppler[None, :], **stagger, **common
         )
-        white = df.staggered_improvement_factor(
-            weights,
-            np.inf,
-            doppler,
-            prf_hz=prf,
-            stagger_prf_hz=prfs,
-            pick=pick,
-            stability_limit_db=limit,
-        )
+        white = df.staggered_improvement_factor(weights, np.inf, doppler, **stagger, **common)
+        grid = {"values": i_f}
     else:
-        i_f = df.bank_improvement_factor(weights, spread, dop, pick=pick, stability_limit_db=limit)
-        white = df.bank_improvement_factor(
-            weights, np.inf, doppler, pick=pick, stability_limit_db=limit
-        )
-    values = 10.0 * np.log10(i_f)
-    coherent = np.broadcast_to(10.0 * np.log10(white), values.shape).copy()
+        white = df.bank_improvement_factor(weights, np.inf, doppler, **common)
+        if pick == "response":
+            grid = _switch_aware_grid(weights, spread, doppler, limit)
+        else:
+            grid = {
+                "values": df.bank_improvement_factor(
+                    weights, spread[:, None], doppler[None, :], **common
+                )
+            }
+    values = 10.0 * np.log10(grid["values"])
+    if "ahead" not in grid:
+        # no jumps: the continuations are the neighbouring nodes themselves
+        grid["ahead"] = np.concatenate([grid["values"][:, 1:], grid["values"][:, -1:]], axis=1)
+        grid["behind"] = grid["values"]
+        grid["crossover"] = np.ones(values.shape)
+    extra = {
+        "coherent_gain_db": np.broadcast_to(10.0 * np.log10(white), values.shape).copy(),
+        "ahead_db": 10.0 * np.log10(grid["ahead"]),
+        "behind_db": 10.0 * np.log10(grid["behind"]),
+        "crossover": grid["crossover"],
+    }
     return Table(
         name=BUILDER_NAME,
         version=BUILDER_VERSION,
@@ -294,7 +354,7 @@ def build_improvement_table(processor: str, **kwargs: Any) -> Table | None:
         value_name="improvement_factor_db",
         value_unit="dB",
         inputs=inputs,
-        extra={"coherent_gain_db": coherent},
+        extra=extra,
     )
 
 
@@ -327,7 +387,10 @@ def improvement_factor_db(
     """Vectorized on-line lookup of the improvement factor I_F [dB].
 
     Bilinear interpolation (in dB, against ``log10 σ`` and ``f_d/f_r``) on the uniform grid,
-    by direct index arithmetic: O(1) per point, no search.
+    by direct index arithmetic: O(1) per point, no search.  In a Doppler cell where the
+    picked filter changes, each side of the crossover interpolates its own filter's I_F, so
+    the jump of the pick rule stays sharp.  Within one cell of a blind speed the dB
+    interpolation lies below the logarithmic null's true shape (conservative).
 
     Parameters
     ----------
@@ -353,7 +416,6 @@ def improvement_factor_db(
         return np.where(np.isnan(s) | np.isnan(d), np.nan, 0.0)
     if np.any(s < 0):
         raise ValueError("spread_norm must be >= 0")
-    data = table.values if array is None else table.extra[array]
     ax_s, ax_d = table.axes
     ok = ~np.isnan(s) & np.isfinite(d)
     s0 = 10.0 ** ax_s[0]
@@ -366,7 +428,17 @@ def improvement_factor_db(
     j = np.minimum(y.astype(np.intp), len(ax_d) - 2)
     tx = x - i
     ty = y - j
-    out = (1 - tx) * ((1 - ty) * data[i, j] + ty * data[i, j + 1]) + tx * (
-        (1 - ty) * data[i + 1, j] + ty * data[i + 1, j + 1]
-    )
+    if array is None:
+        # follow the filter picked at the cell's left node up to the crossover, then the one
+        # picked at its right node: the jump is placed where the responses cross
+        left = ty < table.extra["crossover"][0, j]
+        v, ahead, behind = table.values, table.extra["ahead_db"], table.extra["behind_db"]
+        lo0 = np.where(left, v[i, j], behind[i, j])
+        hi0 = np.where(left, ahead[i, j], v[i, j + 1])
+        lo1 = np.where(left, v[i + 1, j], behind[i + 1, j])
+        hi1 = np.where(left, ahead[i + 1, j], v[i + 1, j + 1])
+    else:
+        data = table.extra[array]
+        lo0, hi0, lo1, hi1 = data[i, j], data[i, j + 1], data[i + 1, j], data[i + 1, j + 1]
+    out = (1 - tx) * ((1 - ty) * lo0 + ty * hi0) + tx * ((1 - ty) * lo1 + ty * hi1)
     return np.where(ok, out, np.nan)
