@@ -29,9 +29,10 @@ from sim import protocol
 from sim.kinematics import (
     TWO_PI,
     Trajectories,
+    antenna_azimuth,
     antenna_geometry,
     beam_crossing_times,
-    enu_to_geodetic,
+    LocalFrame,
     waypoint_enu,
 )
 from sim.scenario import Platform, Radar, Scenario
@@ -94,11 +95,12 @@ class Simulation:
         self.progress = progress
         self.stats = RunStats()
         origin = scenario.origin
-        self.targets = Trajectories([waypoint_enu(t.waypoints, origin) for t in scenario.targets],
+        self.frame = LocalFrame(origin)
+        self.targets = Trajectories([waypoint_enu(t.waypoints, self.frame) for t in scenario.targets],
                                     hold=False)
         self.platforms = Trajectories(
-            [waypoint_enu(p.waypoints, origin) for p in scenario.platforms], hold=True)
-        self.jammers = Trajectories([waypoint_enu(j.waypoints, origin) for j in scenario.jammers],
+            [waypoint_enu(p.waypoints, self.frame) for p in scenario.platforms], hold=True)
+        self.jammers = Trajectories([waypoint_enu(j.waypoints, self.frame) for j in scenario.jammers],
                                     hold=True)
         self.tables = tables if tables is not None else load_scene_tables(scenario)
         seeds = np.random.SeedSequence(self.seed).spawn(len(scenario.radars()))
@@ -185,6 +187,8 @@ class _RadarProcess:
         self.sector_s = radar.scan_period_s / self.n_sectors
         self.plot_counter = 0
         self._fa = _EMPTY_FA
+        self._plan_rows = np.zeros(0, dtype=int)
+        self._plan_lo = self._plan_hi = np.zeros(0)
         self.target_ids = [t.id for t in sim.scenario.targets]
 
     # ------------------------------------------------------------------ helpers
@@ -201,7 +205,7 @@ class _RadarProcess:
         tpos, tvel, active = self.sim.targets.state(t, rows)
         ppos, pvel = self.platform_state(t)
         geom = antenna_geometry(ppos, pvel, self.radar.antenna_height_m, tpos, tvel,
-                                self.sim.scenario.origin)
+                                self.sim.frame)
         return geom, active, tpos
 
     def jammer_geometry(self, t: float):
@@ -215,7 +219,7 @@ class _RadarProcess:
         jpos, jvel, _ = jam.state(t)
         ppos, pvel = self.platform_state(np.full(jam.n, t))
         return antenna_geometry(ppos, pvel, self.radar.antenna_height_m, jpos, jvel,
-                                self.sim.scenario.origin)
+                                self.sim.frame)
 
     # ------------------------------------------------------------------ process
     def run(self, env: simpy.Environment):
@@ -228,6 +232,7 @@ class _RadarProcess:
                 return
             scan, sector = divmod(k, self.n_sectors)
             if sector == 0:
+                self._plan_scan(t_a)
                 self._draw_scan_false_alarms(t_a)
                 if scan > 0:
                     self._emit_meta(t_a, scan)
@@ -258,6 +263,64 @@ class _RadarProcess:
         }
         self.sim.emit(protocol.TOPIC_META, t, payload)
 
+    def _plan_scan(self, t_scan: float) -> None:
+        """Bracket, once per revolution, when the beam can meet each target.
+
+        From the azimuths at scan start and a bound on each target's angular rate (relative
+        horizontal speed over ground range), the crossing lies in
+        [t + ahead/(ω + r), t + ahead/(ω - r)]; a target faster than ω/2 in angle (very
+        close) is kept for the whole scan.  Sectors then solve exactly only for the targets
+        whose bracket overlaps them.
+        """
+        sim = self.sim
+        period = self.radar.scan_period_s
+        live = (sim.targets.t_last >= t_scan) & (sim.targets.t_first < t_scan + period)
+        rows = np.flatnonzero(live)
+        self._plan_rows = rows
+        if rows.size == 0:
+            self._plan_lo = self._plan_hi = np.zeros(0)
+            return
+        tpos, tvel, _ = sim.targets.state(t_scan, rows)
+        ppos, pvel = self.platform_state(np.full(rows.size, t_scan))
+        az, ground = antenna_azimuth(ppos, tpos, sim.frame)
+        ahead = np.mod(az - self.beam_azimuth(t_scan), TWO_PI)
+        rate = 1.5 * np.hypot(tvel[:, 0] - pvel[:, 0], tvel[:, 1] - pvel[:, 1]) / np.maximum(
+            ground, 1.0)
+        fast = rate > 0.5 * self.omega
+        lo = t_scan + ahead / (self.omega + rate) - 1e-6
+        hi = t_scan + ahead / np.maximum(self.omega - rate, 0.5 * self.omega) + 1e-6
+        self._plan_lo = np.where(fast, t_scan - 1e-6, lo)
+        self._plan_hi = np.where(fast, t_scan + 2.0 * period, hi)
+
+    def _candidates(self, t_a: float, t_b: float) -> np.ndarray:
+        """Targets whose planned crossing bracket overlaps the sector [t_a, t_b)."""
+        m = (self._plan_lo < t_b) & (self._plan_hi >= t_a)
+        return self._plan_rows[m]
+
+    def _dwell(self, rows: np.ndarray, tc: np.ndarray, t_a: float, t_b: float) -> list[dict]:
+        """Run the dwell model on the targets crossed at times ``tc``; update the counters."""
+        sim = self.sim
+        geom, active, tpos = self.geometry(tc, rows)
+        ppos, _ = self.platform_state(tc)
+        ok = active & (geom.ground_range <= self.radar.instrumented_range_m)
+        ok &= geom.slant_range > 0.0
+        if not np.any(ok):
+            return []
+        idx = np.flatnonzero(ok)
+        res = self.model.process_targets(
+            _take(geom, idx), rows[idx], tc[idx], tpos[idx], self.rng,
+            antenna_en=ppos[idx, :2], jam_geom=self.jammer_geometry(0.5 * (t_a + t_b)))
+        sim.stats.dwells += idx.size
+        sim.stats.missed_detections += res.pop("missed")
+        sim.stats.merged_targets += res.pop("merged")
+        sim.stats.propagation_fallbacks += res.pop("fallbacks", 0)
+        nplots = res["range_m"].size
+        sim.stats.target_plots += nplots
+        for code, name in enumerate(self.model.INTERFERENCE_NAMES):
+            sim.stats.by_interference[name] += int(np.count_nonzero(res["interference"] == code))
+        res["origin"] = np.full(nplots, ORIGIN_TARGET, dtype=np.uint8)
+        return [res]
+
     def _draw_scan_false_alarms(self, t_scan: float) -> None:
         """Noise-induced false alarms of one revolution ([90]-[93]), uniform in R and θ."""
         fa = self.model.noise_false_alarms(self.rng)
@@ -273,40 +336,17 @@ class _RadarProcess:
         n = sim.targets.n
         parts = []
         if n:
-            rows_all = np.arange(n)
-            # only targets existing at some time in the sector
-            live = (sim.targets.t_last >= t_a) & (sim.targets.t_first < t_b)
-            rows = rows_all[live]
+            rows = self._candidates(t_a, t_b)
             if rows.size:
                 def az_at(t, rows=rows):
-                    geom, _, _ = self.geometry(t, rows)
-                    return geom.azimuth
+                    tpos, _, _ = sim.targets.state(t, rows)
+                    ppos, _ = self.platform_state(t)
+                    return antenna_azimuth(ppos, tpos, sim.frame)[0]
 
                 tc = beam_crossing_times(az_at, t_a, self.beam_azimuth(t_a), self.omega, rows.size)
                 sel = (tc >= t_a) & (tc < t_b)
                 if np.any(sel):
-                    rows, tc = rows[sel], tc[sel]
-                    geom, active, tpos = self.geometry(tc, rows)
-                    ppos, _ = self.platform_state(tc)
-                    ok = active & (geom.ground_range <= self.radar.instrumented_range_m)
-                    ok &= geom.slant_range > 0.0
-                    if np.any(ok):
-                        idx = np.flatnonzero(ok)
-                        res = self.model.process_targets(
-                            _take(geom, idx), rows[idx], tc[idx], tpos[idx], self.rng,
-                            antenna_en=ppos[idx, :2],
-                            jam_geom=self.jammer_geometry(0.5 * (t_a + t_b)))
-                        sim.stats.dwells += idx.size
-                        sim.stats.missed_detections += res.pop("missed")
-                        sim.stats.merged_targets += res.pop("merged")
-                        sim.stats.propagation_fallbacks += res.pop("fallbacks", 0)
-                        nplots = res["range_m"].size
-                        sim.stats.target_plots += nplots
-                        for code, name in enumerate(self.model.INTERFERENCE_NAMES):
-                            sim.stats.by_interference[name] += int(
-                                np.count_nonzero(res["interference"] == code))
-                        res["origin"] = np.full(nplots, ORIGIN_TARGET, dtype=np.uint8)
-                        parts.append(res)
+                    parts.extend(self._dwell(rows[sel], tc[sel], t_a, t_b))
         # noise false alarms swept in this sector
         fa = self._fa
         if fa["time_s"].size:
@@ -373,7 +413,7 @@ class _RadarProcess:
         sim = self.sim
         sim.stats.scans += 1
         pos, vel = self.platform_state(np.array([t]))
-        lat, lon = enu_to_geodetic(pos, sim.scenario.origin)
+        lat, lon, _ = sim.frame.geodetic(pos)
         speed = float(np.hypot(vel[0, 0], vel[0, 1]))
         heading = (math.degrees(math.atan2(vel[0, 0], vel[0, 1])) % 360.0 if speed > 0
                    else self.platform.heading_deg)

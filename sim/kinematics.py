@@ -27,13 +27,65 @@ K_FACTOR = 4.0 / 3.0
 TWO_PI = 2.0 * np.pi
 
 
-def waypoint_enu(waypoints: Sequence[Waypoint], origin: Origin) -> np.ndarray:
+class LocalFrame:
+    """The scenario's local east/north frame, mapped onto the sphere osculating at the origin.
+
+    East/north [m] are coordinates on the plane tangent to the WGS-84 ellipsoid at the origin;
+    a point (e, n, altitude) is the point of that plane projected from the centre of the
+    sphere of Gaussian radius R = √(M N) tangent at the origin, raised by its altitude along
+    the sphere's vertical.  Over a few hundred kilometres the sphere departs from the ellipsoid
+    by decimetres, while every geometric quantity becomes a handful of vector operations
+    (no iterative geodetic conversion on the hot path).  Latitude/longitude waypoints enter,
+    and reported positions leave, through ``pymap3d`` on the ellipsoid.
+    """
+
+    def __init__(self, origin: Origin):
+        self.origin = origin
+        lat, lon = np.radians(origin.lat_deg), np.radians(origin.lon_deg)
+        self.radius = float(gaussian_radius_m(origin.lat_deg))
+        self.up0 = np.array([np.cos(lat) * np.cos(lon), np.cos(lat) * np.sin(lon), np.sin(lat)])
+        self.east0 = np.array([-np.sin(lon), np.cos(lon), 0.0])
+        self.north0 = np.cross(self.up0, self.east0)
+        o = np.array(pymap3d.geodetic2ecef(origin.lat_deg, origin.lon_deg, 0.0), dtype=float)
+        self.centre = o - self.radius * self.up0
+
+    def unit(self, en: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Unit vertical (from the sphere centre, ECEF axes) of east/north points, and |T|/R."""
+        t = (self.radius * self.up0[None, :] + en[:, 0:1] * self.east0[None, :]
+             + en[:, 1:2] * self.north0[None, :])
+        norm = np.linalg.norm(t, axis=1)
+        return t / norm[:, None], norm / self.radius
+
+    def velocity(self, u: np.ndarray, stretch: np.ndarray, alt: np.ndarray,
+                 vel: np.ndarray) -> np.ndarray:
+        """Velocity (ECEF axes) of points moving with origin-frame velocity ``vel`` (N, 3)."""
+        v = vel[:, 0:1] * self.east0[None, :] + vel[:, 1:2] * self.north0[None, :]
+        v = v - np.sum(v * u, axis=1, keepdims=True) * u
+        scale = (self.radius + alt) / (self.radius * stretch)
+        return v * scale[:, None] / stretch[:, None] + vel[:, 2:3] * u
+
+    def en_of_geodetic(self, lat_deg, lon_deg) -> tuple[float, float]:
+        """East/north [m] of a latitude/longitude (inverse of the projection)."""
+        x = np.array(pymap3d.geodetic2ecef(lat_deg, lon_deg, 0.0), dtype=float) - self.centre
+        u = x / np.linalg.norm(x)
+        t = u * self.radius / float(u @ self.up0)
+        return float(t @ self.east0), float(t @ self.north0)
+
+    def geodetic(self, enu: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Latitude, longitude [deg] and height above the ellipsoid [m] of (N, 3) points."""
+        u, _ = self.unit(enu)
+        x = self.centre[None, :] + (self.radius + enu[:, 2:3]) * u
+        lat, lon, h = pymap3d.ecef2geodetic(x[:, 0], x[:, 1], x[:, 2])
+        return np.asarray(lat, float), np.asarray(lon, float), np.asarray(h, float)
+
+
+def waypoint_enu(waypoints: Sequence[Waypoint], frame: LocalFrame | Origin) -> np.ndarray:
     """Waypoints as an ``(W, 4)`` array of (time [s], east [m], north [m], altitude [m])."""
+    frame = frame if isinstance(frame, LocalFrame) else LocalFrame(frame)
     out = np.empty((len(waypoints), 4))
     for i, w in enumerate(waypoints):
         if w.lat_deg is not None:
-            e, n, _ = pymap3d.geodetic2enu(w.lat_deg, w.lon_deg, 0.0,
-                                           origin.lat_deg, origin.lon_deg, 0.0)
+            e, n = frame.en_of_geodetic(w.lat_deg, w.lon_deg)
         else:
             e, n = w.east_m, w.north_m
         out[i] = (w.time_s, e, n, w.altitude_m)
@@ -67,6 +119,18 @@ class Trajectories:
             self.pos[i, k:] = t[-1, 1:]
         self.t_first = self.times[:, 0] if self.n else np.zeros(0)
         self.t_last = self.times[np.arange(self.n), self.count - 1] if self.n else np.zeros(0)
+        # per-segment start time, duration and velocity (segment i: waypoint i -> i+1);
+        # an object with one waypoint has one segment of zero velocity
+        self.last_seg = np.maximum(self.count - 2, 0)
+        # padding times are +inf: mask them out instead of computing inf - inf
+        real = np.arange(w)[None, :] < (self.count - 1)[:, None]
+        nxt = np.concatenate([self.times[:, 1:], self.times[:, -1:]], axis=1)
+        self.seg_dt = np.where(real, np.where(real, nxt, 0.0) - np.where(real, self.times, 0.0),
+                               0.0)
+        dpos = np.concatenate([self.pos[:, 1:] - self.pos[:, :-1],
+                               np.zeros((self.n, 1, 3))], axis=1)
+        self.vel = np.where(real[:, :, None],
+                            dpos / np.where(real, self.seg_dt, 1.0)[:, :, None], 0.0)
 
     def state(
         self, t: float | np.ndarray, rows: np.ndarray | None = None
@@ -78,21 +142,16 @@ class Trajectories:
         """
         rows = np.arange(self.n) if rows is None else np.asarray(rows, dtype=int)
         t = np.broadcast_to(np.asarray(t, dtype=float), rows.shape)
-        times, count = self.times[rows], self.count[rows]
-        # segment index: last waypoint with time <= t, limited so that i+1 exists
-        i = np.sum(times <= t[:, None], axis=1) - 1
-        i = np.clip(i, 0, np.maximum(count - 2, 0))
-        single = count == 1
-        j = np.where(single, i, i + 1)
-        t0, t1 = self.times[rows, i], self.times[rows, j]
-        p0, p1 = self.pos[rows, i], self.pos[rows, j]
-        dt = np.where(single, 1.0, t1 - t0)
-        vel = np.where(single[:, None], 0.0, (p1 - p0) / dt[:, None])
-        tau = np.clip(t - t0, 0.0, np.where(single, 0.0, dt))
-        pos = p0 + vel * tau[:, None]
+        times = self.times[rows]
+        i = np.count_nonzero(times <= t[:, None], axis=1) - 1
+        i = np.minimum(np.maximum(i, 0), self.last_seg[rows])
+        t0 = times[np.arange(rows.size), i]
+        vel = self.vel[rows, i]
+        tau = np.minimum(np.maximum(t - t0, 0.0), self.seg_dt[rows, i])
+        pos = self.pos[rows, i] + vel * tau[:, None]
         inside = (t >= self.t_first[rows]) & (t <= self.t_last[rows])
         if self.hold:
-            vel = np.where(inside[:, None], vel, 0.0)
+            vel = vel * inside[:, None]
             active = np.ones(rows.shape, dtype=bool)
         else:
             active = inside
@@ -124,7 +183,8 @@ class Geometry:
 
 
 def slant_range_elevation(
-    ground_range_m: np.ndarray, h1_m: np.ndarray, h2_m: np.ndarray, k_factor: float = K_FACTOR
+    ground_range_m: np.ndarray, h1_m: np.ndarray, h2_m: np.ndarray, k_factor: float = K_FACTOR,
+    radius_m: float = EARTH_RADIUS_M,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Slant range [m] and elevation [rad] between heights h1 and h2 a ground range apart.
 
@@ -132,7 +192,7 @@ def slant_range_elevation(
     the slant range, and elevation atan2((a_e+h2) cos γ - (a_e+h1), (a_e+h2) sin γ).  At zero
     ground range the elevation is ±90° (or 0 if the heights are equal, where R = 0).
     """
-    a_e = k_factor * EARTH_RADIUS_M
+    a_e = k_factor * radius_m
     g = np.asarray(ground_range_m, dtype=float) / a_e
     r1 = a_e + np.asarray(h1_m, dtype=float)
     r2 = a_e + np.asarray(h2_m, dtype=float)
@@ -142,11 +202,37 @@ def slant_range_elevation(
     return slant, elev
 
 
-def enu_to_geodetic(enu: np.ndarray, origin: Origin) -> tuple[np.ndarray, np.ndarray]:
-    """Latitude and longitude [deg] of origin-frame east/north positions ``(N, >=2)``."""
-    lat, lon, _ = pymap3d.enu2geodetic(enu[..., 0], enu[..., 1], 0.0,
-                                       origin.lat_deg, origin.lon_deg, 0.0)
-    return np.asarray(lat, dtype=float), np.asarray(lon, dtype=float)
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise cross product of (N, 3) arrays (np.cross is several times slower here)."""
+    return np.stack([a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1],
+                     a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
+                     a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]], axis=1)
+
+
+def _north_east(u_a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unit east and true-north vectors (ECEF axes) at sphere points ``u_a`` (N, 3).
+
+    east = ẑ × up / |ẑ × up| with ẑ the earth's axis; north = up × east.
+    """
+    horiz = np.hypot(u_a[:, 0], u_a[:, 1])
+    east = np.stack([-u_a[:, 1] / horiz, u_a[:, 0] / horiz, np.zeros(u_a.shape[0])], axis=1)
+    return _cross(u_a, east), east
+
+
+def antenna_azimuth(antenna_enu: np.ndarray, obj_enu: np.ndarray, frame: LocalFrame
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """True-north azimuth [rad] and great-circle ground range [m] only (the fast path of
+    :func:`antenna_geometry`, used while solving for beam-crossing times)."""
+    obj_enu = np.atleast_2d(obj_enu)
+    u_a, _ = frame.unit(np.broadcast_to(antenna_enu, obj_enu.shape))
+    u_t, _ = frame.unit(obj_enu)
+    north, east = _north_east(u_a)
+    chord = u_t - u_a
+    az = np.mod(np.arctan2(np.einsum("ij,ij->i", chord, east),
+                           np.einsum("ij,ij->i", chord, north)), TWO_PI)
+    cross = np.linalg.norm(_cross(u_a, u_t), axis=1)
+    ground = frame.radius * np.arctan2(cross, np.einsum("ij,ij->i", u_a, u_t))
+    return az, ground
 
 
 def antenna_geometry(
@@ -155,7 +241,7 @@ def antenna_geometry(
     antenna_height_m: float,
     obj_enu: np.ndarray,
     obj_vel: np.ndarray,
-    origin: Origin,
+    frame: LocalFrame,
     k_factor: float = K_FACTOR,
 ) -> Geometry:
     """Geometry from one antenna to N objects.
@@ -167,40 +253,39 @@ def antenna_geometry(
     antenna_vel : (3,) or (N, 3) platform velocity in the origin frame [m/s]
     antenna_height_m : height of the antenna above the platform's waterline [m]
     obj_enu, obj_vel : (N, 3) object positions [m] and velocities [m/s] in the origin frame
-    origin : the scenario origin
+    frame : the scenario's :class:`LocalFrame`
+
+    Azimuth is the initial great-circle bearing at the antenna from true north (exact on the
+    sphere), the terrestrial range the great-circle arc, slant range and elevation those of
+    the 4/3 earth (:func:`slant_range_elevation`), the radial velocity the rate of the true
+    straight-line distance.
     """
-    obj_enu = np.atleast_2d(obj_enu)
+    obj_enu = np.atleast_2d(np.asarray(obj_enu, dtype=float))
+    obj_vel = np.atleast_2d(np.asarray(obj_vel, dtype=float))
     ant = np.broadcast_to(np.asarray(antenna_enu, dtype=float), obj_enu.shape)
     ant_vel = np.broadcast_to(np.asarray(antenna_vel, dtype=float), obj_enu.shape)
-    lat_a, lon_a = enu_to_geodetic(ant, origin)
-    lat_o, lon_o = enu_to_geodetic(obj_enu, origin)
+    r = frame.radius
+    u_a, s_a = frame.unit(ant)
+    u_t, s_t = frame.unit(obj_enu)
     h_a = ant[:, 2] + antenna_height_m
-    x, y, z = pymap3d.geodetic2ecef(lat_o, lon_o, obj_enu[:, 2])
-    e, n, u = pymap3d.ecef2enu(x, y, z, lat_a, lon_a, h_a)
-    e, n, u = (np.asarray(c, dtype=float) for c in (e, n, u))
-    azimuth = np.mod(np.arctan2(e, n), TWO_PI)
-    # terrestrial range: arc on the sphere of the local Gaussian radius that osculates the
-    # ellipsoid at the antenna, centre (R + h_a) below it in its own frame
-    r_loc = gaussian_radius_m(lat_a)
-    ground = r_loc * np.arctan2(np.hypot(e, n), u + r_loc + h_a)
-    slant, elev = slant_range_elevation(ground, h_a, obj_enu[:, 2], k_factor)
+    h_t = obj_enu[:, 2]
+    north, east = _north_east(u_a)  # local true-north frame at the antenna
+    chord = u_t - u_a
+    cross = np.linalg.norm(_cross(u_a, u_t), axis=1)
+    ground = r * np.arctan2(cross, np.sum(u_a * u_t, axis=1))
+    azimuth = np.mod(np.arctan2(np.sum(chord * east, axis=1), np.sum(chord * north, axis=1)),
+                     TWO_PI)
+    slant, elev = slant_range_elevation(ground, h_a, h_t, k_factor, radius_m=r)
     los = np.stack([np.sin(azimuth) * np.cos(elev), np.cos(azimuth) * np.cos(elev), np.sin(elev)],
                    axis=-1)
-    # velocities: origin frame -> ECEF -> antenna frame (the frames differ by the convergence
-    # of the meridians, about a degree per 100 km at mid latitude)
-    rel = np.asarray(obj_vel, dtype=float) - ant_vel
-    vel_enu = _rotate_origin_to_local(np.asarray(obj_vel, dtype=float), origin, lat_a, lon_a)
-    rel_enu = _rotate_origin_to_local(rel, origin, lat_a, lon_a)
-    radial = np.sum(rel_enu * los, axis=-1)
+    v_t = frame.velocity(u_t, s_t, h_t, obj_vel)
+    v_a = frame.velocity(u_a, s_a, h_a, ant_vel)
+    d = (r + h_t)[:, None] * u_t - (r + h_a)[:, None] * u_a
+    dn = np.linalg.norm(d, axis=1)
+    radial = np.sum((v_t - v_a) * d, axis=1) / np.where(dn > 0, dn, 1.0)
+    vel_enu = np.stack([np.sum(v_t * east, axis=1), np.sum(v_t * north, axis=1),
+                        np.sum(v_t * u_a, axis=1)], axis=-1)
     return Geometry(azimuth, ground, slant, elev, radial, los, vel_enu)
-
-
-def _rotate_origin_to_local(
-    v: np.ndarray, origin: Origin, lat: np.ndarray, lon: np.ndarray
-) -> np.ndarray:
-    u, w, s = pymap3d.enu2uvw(v[:, 0], v[:, 1], v[:, 2], origin.lat_deg, origin.lon_deg)
-    e, n, up = pymap3d.uvw2enu(u, w, s, lat, lon)
-    return np.stack([np.asarray(e), np.asarray(n), np.asarray(up)], axis=-1).astype(float)
 
 
 def gaussian_radius_m(lat_deg: np.ndarray) -> np.ndarray:
@@ -243,5 +328,8 @@ def beam_crossing_times(
     t = t0 + np.mod(azimuth_at(t0) - beam_azimuth_start, TWO_PI) / rate_rad_s
     for _ in range(iterations):
         beam = beam_azimuth_start + rate_rad_s * (t - t_start)
-        t = t + wrap_pi(azimuth_at(t) - beam) / rate_rad_s
+        step = wrap_pi(azimuth_at(t) - beam) / rate_rad_s
+        t = t + step
+        if np.all(np.abs(step) < 1e-10):
+            break
     return t

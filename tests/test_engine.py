@@ -11,7 +11,7 @@ from scipy import constants, stats
 from sensors.dwell import DwellModel
 from sim import protocol
 from sim.engine import ORIGIN_NOISE, Simulation
-from sim.kinematics import antenna_geometry
+from sim.kinematics import LocalFrame, antenna_geometry
 from tables.scene import SceneTables
 
 from .helpers import CaptureBus, bare_scene, quiet_radar
@@ -29,7 +29,7 @@ def test_free_space_snr_by_hand():
     radar = s.platforms[0].radars[0]
     m = DwellModel(s, s.platforms[0], radar, SceneTables())
     geom = antenna_geometry(np.zeros(3), np.zeros(3), 20.0, np.array([[0.0, 20e3, 20.0]]),
-                            np.zeros((1, 3)), s.origin)
+                            np.zeros((1, 3)), LocalFrame(s.origin))
     # hand computation, seed [2]-[3], [17]-[20]; L_r = sqrt(L_t/r) (half in dB)
     lam = constants.c / 5.6e9
     g = 10 ** 3.0
@@ -57,7 +57,7 @@ def test_snr_falls_as_r4(r1, k):
     out = []
     for r in (r1, k * r1):
         pos = np.array([[0.0, r, 20.0]])
-        geom = antenna_geometry(np.zeros(3), np.zeros(3), 20.0, pos, np.zeros((1, 3)), s.origin)
+        geom = antenna_geometry(np.zeros(3), np.zeros(3), 20.0, pos, np.zeros((1, 3)), LocalFrame(s.origin))
         res = m.process_targets(geom, np.array([0]), np.zeros(1), pos, np.random.default_rng(1))
         out.append((res["snr_db"][0], geom.slant_range[0]))
     expected = 40 * math.log10(out[1][1] / out[0][1])
