@@ -81,6 +81,10 @@ STANDARD_K_FACTOR = 4.0 / 3.0
 
 #: Frequency range of the GIT model [Hz] (Horst et al. 1978).
 GIT_MIN_FREQ_HZ = 1.0e9
+#: Lowest frequency accepted [Hz]: between this and GIT_MIN_FREQ_HZ the GIT formulas, which are
+#: continuous in λ, are extrapolated (UHF long-range radars such as the AN/SPS-49 at ~0.9 GHz);
+#: the fit was made from 1 GHz up, so treat UHF sea clutter as indicative.
+GIT_EXTRAPOLATION_MIN_FREQ_HZ = 0.5e9
 GIT_MAX_FREQ_HZ = 100.0e9
 #: The GIT's low-frequency (1-10 GHz) and high-frequency (10-100 GHz) formulas meet here [Hz].
 GIT_HIGH_BAND_FREQ_HZ = 10.0e9
@@ -407,10 +411,10 @@ def git_reflectivity(
     """
     pol = _polarization(polarization)
     f = _f(freq_hz)
-    if np.any(~((f >= GIT_MIN_FREQ_HZ) & (f <= GIT_MAX_FREQ_HZ))):
+    if np.any(~((f >= GIT_EXTRAPOLATION_MIN_FREQ_HZ) & (f <= GIT_MAX_FREQ_HZ))):
         raise ValueError(
-            f"the GIT sea clutter model is valid from 1 to 100 GHz; got {np.min(f):.4g}"
-            f"-{np.max(f):.4g} Hz"
+            f"the GIT sea clutter model is valid from 1 to 100 GHz (extrapolated down to "
+            f"0.5 GHz); got {np.min(f):.4g}-{np.max(f):.4g} Hz"
         )
     w = _f(wind_speed_mps)
     if np.any(w < 0.0):

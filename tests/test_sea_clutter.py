@@ -133,9 +133,13 @@ def test_git_edges():
     assert sc.git_reflectivity(np.deg2rad(30.0), 9.8e9, 7, 0, 1, "H") == pytest.approx(
         sc.git_reflectivity(np.deg2rad(10.0), 9.8e9, 7, 0, 1, "H"), rel=1e-12
     )
-    for f in (0.99e9, 100.1e9, 500e6):
+    for f in (0.49e9, 100.1e9, 300e6):
         with pytest.raises(ValueError, match="1 to 100 GHz"):
             sc.git_reflectivity(0.01, f, 7.0, 0.0, 1.0, "H")
+    # UHF extrapolation (0.5-1 GHz) is continuous at 1 GHz and falls with frequency
+    s_1 = sc.git_reflectivity(0.01, 1e9, 7.0, 0.0, 1.0, "H")
+    assert sc.git_reflectivity(0.01, 0.9999e9, 7.0, 0.0, 1.0, "H") == pytest.approx(s_1, rel=1e-3)
+    assert 0 < sc.git_reflectivity(0.01, 0.9e9, 7.0, 0.0, 1.0, "H") < s_1
     for f in (1e9, 100e9):
         assert np.isfinite(sc.git_reflectivity(0.01, f, 7.0, 0.0, 1.0, "V"))
     with pytest.raises(ValueError):
