@@ -516,3 +516,14 @@ def test_improvement_factor_is_finite_positive_bounded_and_periodic(
     assert eps / (n + eps) * (1 - 1e-9) <= i_f <= (n + eps) / eps * (1 + 1e-9)
     shifted = df.improvement_factor(w, spread, doppler + 3.0, **kw)
     assert shifted == pytest.approx(i_f, rel=1e-6)
+
+
+def test_stagger_average_is_linear_where_one_bound_is_blind():
+    # at 9000 Hz the 900 Hz PRF is blind, the 1100 Hz one is not: the linear average is half
+    # the 1100 Hz value (-3 dB), where a dB average would sit tens of dB lower
+    w = df.canceller_weights(3)
+    high = df.bank_improvement_factor(w, 0.01 * 1000 / 1100, 9.0 * 1000 / 1100)
+    stagger = df.staggered_improvement_factor(
+        w, 0.01, 9.0, prf_hz=1000.0, stagger_prf_hz=[900.0, 1100.0]
+    )
+    assert stagger == pytest.approx(high / 2, rel=1e-6)
