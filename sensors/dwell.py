@@ -47,6 +47,7 @@ from sensors import (
     sea_clutter,
 )
 from sim.scenario import Platform, Radar, Scenario
+from tables.store import StackedLookup2D
 
 INTERFERENCE_NAMES = ("noise", "clutter", "jamming")
 NOISE, CLUTTER, JAMMING = 0, 1, 2
@@ -200,6 +201,11 @@ class DwellModel:
         self._prepare_targets(scenario)
         self._prepare_jammers(scenario)
         self._prepare_propagation(scenario)
+        spectrum = (None, "doppler_mean_hz", "doppler_spread_hz")
+        self._sea_reader = (None if self.tables.sea_clutter is None else StackedLookup2D(
+            self.tables.sea_clutter, (*spectrum, "weibull_a"), periodic1=True))
+        self._wx_reader = (None if self.tables.weather_clutter is None else StackedLookup2D(
+            self.tables.weather_clutter, spectrum, periodic1=True))
         self.rain_gamma_db_per_km = 0.0
         if env.rain is not None and fid.atmosphere:
             from sensors.atmosphere import rain_specific_attenuation_db_per_km
@@ -337,29 +343,19 @@ class DwellModel:
         ``distribution_loss`` L_d [63]-[64] (sea clutter dominant and medium/high resolution);
         ``spread_mps`` the clutter velocity spread σ_s' for [74].
         """
-        sea, wx = self.tables.sea_clutter, self.tables.weather_clutter
-        if sea is None and wx is None:
+        if self._sea_reader is None and self._wx_reader is None:
             return None
-        from tables.clutter import lookup_clutter
-
         n = geom.ground_range.size
-        p_sc = np.zeros(n)
-        mean_sc = spread_sc = np.zeros(n)
-        if sea is not None:
-            p_sc = np.nan_to_num(lookup_clutter(sea, geom.ground_range, geom.azimuth))
-            mean_sc = np.nan_to_num(lookup_clutter(sea, geom.ground_range, geom.azimuth,
-                                                   "doppler_mean_hz"))
-            spread_sc = np.nan_to_num(lookup_clutter(sea, geom.ground_range, geom.azimuth,
-                                                     "doppler_spread_hz"))
-        p_wc = np.zeros(n)
-        mean_wc = spread_wc = np.zeros(n)
-        if wx is not None:
-            inside = self._inside_rain(tpos)
-            p_wc = inside * np.nan_to_num(lookup_clutter(wx, geom.ground_range, geom.azimuth))
-            mean_wc = np.nan_to_num(lookup_clutter(wx, geom.ground_range, geom.azimuth,
-                                                   "doppler_mean_hz"))
-            spread_wc = np.nan_to_num(lookup_clutter(wx, geom.ground_range, geom.azimuth,
-                                                     "doppler_spread_hz"))
+        zero = np.zeros(n)
+        p_sc = mean_sc = spread_sc = a = zero
+        if self._sea_reader is not None:
+            v = np.nan_to_num(self._sea_reader(geom.ground_range, geom.azimuth))
+            p_sc, mean_sc, spread_sc, a = v[:, 0], v[:, 1], v[:, 2], v[:, 3]
+        p_wc = mean_wc = spread_wc = zero
+        if self._wx_reader is not None:
+            v = np.nan_to_num(self._wx_reader(geom.ground_range, geom.azimuth))
+            p_wc = self._inside_rain(tpos) * v[:, 0]
+            mean_wc, spread_wc = v[:, 1], v[:, 2]
         sea_dom = p_sc >= p_wc
         mean = np.where(sea_dom, mean_sc, mean_wc)
         spread = np.where(sea_dom, spread_sc, spread_wc)
@@ -369,9 +365,7 @@ class DwellModel:
         prf = self.radar.prf_hz
         i_f_db = improvement_factor_db(self.tables.improvement, spread / prf, (fd - mean) / prf)
         l_d = np.ones(n)
-        if sea is not None and self.high_resolution:
-            a = np.nan_to_num(lookup_clutter(sea, geom.ground_range, geom.azimuth, "weibull_a"),
-                              nan=1.0)
+        if self._sea_reader is not None and self.high_resolution:
             d_mm = sea_clutter.median_mean_difference_db(a)
             l_d = np.where(sea_dom, noise.power_ratio(
                 doppler_filters.distribution_loss_db(i_f_db, d_mm)), 1.0)

@@ -186,7 +186,8 @@ class _RadarProcess:
         self.n_sectors = sim.scenario.fidelity.sectors_per_scan
         self.sector_s = radar.scan_period_s / self.n_sectors
         self.plot_counter = 0
-        self._fa = _EMPTY_FA
+        self._scan = _merge_parts([])
+        self._cursor = 0
         self._plan_rows = np.zeros(0, dtype=int)
         self._plan_lo = self._plan_hi = np.zeros(0)
         self.target_ids = [t.id for t in sim.scenario.targets]
@@ -232,13 +233,14 @@ class _RadarProcess:
                 return
             scan, sector = divmod(k, self.n_sectors)
             if sector == 0:
-                self._plan_scan(t_a)
-                self._draw_scan_false_alarms(t_a)
                 if scan > 0:
                     self._emit_meta(t_a, scan)
+                t_end = min(t_a + self.radar.scan_period_s, sim.duration)
+                self._scan = self._compute_scan(t_a, t_end)
+                self._cursor = 0
             t_b = min((k + 1) * self.sector_s, sim.duration)
             yield env.timeout(t_b - env.now)
-            self._process_sector(t_a, t_b, scan)
+            self._emit_sector(t_a, t_b, scan, last=sector == self.n_sectors - 1)
             sim.stats.sectors += 1
             if sector == self.n_sectors - 1 or t_b >= sim.duration:
                 self._end_of_scan(t_b, scan)
@@ -286,16 +288,16 @@ class _RadarProcess:
         ahead = np.mod(az - self.beam_azimuth(t_scan), TWO_PI)
         rate = 1.5 * np.hypot(tvel[:, 0] - pvel[:, 0], tvel[:, 1] - pvel[:, 1]) / np.maximum(
             ground, 1.0)
+        # beyond the instrumented range for the whole scan: nothing to process
+        reach = np.hypot(tvel[:, 0] - pvel[:, 0], tvel[:, 1] - pvel[:, 1]) * period
+        keep = ground <= self.radar.instrumented_range_m + reach
+        rows, ahead, rate = rows[keep], ahead[keep], rate[keep]
+        self._plan_rows = rows
         fast = rate > 0.5 * self.omega
         lo = t_scan + ahead / (self.omega + rate) - 1e-6
         hi = t_scan + ahead / np.maximum(self.omega - rate, 0.5 * self.omega) + 1e-6
         self._plan_lo = np.where(fast, t_scan - 1e-6, lo)
         self._plan_hi = np.where(fast, t_scan + 2.0 * period, hi)
-
-    def _candidates(self, t_a: float, t_b: float) -> np.ndarray:
-        """Targets whose planned crossing bracket overlaps the sector [t_a, t_b)."""
-        m = (self._plan_lo < t_b) & (self._plan_hi >= t_a)
-        return self._plan_rows[m]
 
     def _dwell(self, rows: np.ndarray, tc: np.ndarray, t_a: float, t_b: float) -> list[dict]:
         """Run the dwell model on the targets crossed at times ``tc``; update the counters."""
@@ -321,91 +323,80 @@ class _RadarProcess:
         res["origin"] = np.full(nplots, ORIGIN_TARGET, dtype=np.uint8)
         return [res]
 
-    def _draw_scan_false_alarms(self, t_scan: float) -> None:
-        """Noise-induced false alarms of one revolution ([90]-[93]), uniform in R and θ."""
+    def _scan_false_alarms(self, t_scan: float, t_end: float) -> dict | None:
+        """Noise-induced false alarms of one revolution ([90]-[93]), uniform in R and θ,
+        timed when the beam sweeps their azimuths."""
         fa = self.model.noise_false_alarms(self.rng)
-        # time at which the beam sweeps each azimuth, from the beam position at scan start
-        beam = self.beam_azimuth(t_scan)
-        t = t_scan + np.mod(fa["azimuth_rad"] - beam, TWO_PI) / self.omega
-        order = np.argsort(t, kind="stable")
-        self._fa = {k: v[order] for k, v in fa.items()}
-        self._fa["time_s"] = t[order]
+        t = t_scan + np.mod(fa["azimuth_rad"] - self.beam_azimuth(t_scan), TWO_PI) / self.omega
+        keep = t < t_end
+        if not np.any(keep):
+            return None
+        plots = self.model.false_alarm_plots(fa["range_m"][keep], fa["azimuth_rad"][keep],
+                                             t[keep], self.rng)
+        plots["origin"] = np.full(int(keep.sum()), ORIGIN_NOISE, dtype=np.uint8)
+        self.sim.stats.noise_false_alarms += int(keep.sum())
+        return plots
 
-    def _process_sector(self, t_a: float, t_b: float, scan: int) -> None:
+    def _compute_scan(self, t_scan: float, t_end: float) -> dict:
+        """Every plot of one revolution, sorted by time (emitted sector by sector).
+
+        The beam-crossing times of all targets are solved together, the dwell model runs
+        once on every target crossed, and the false alarms of the revolution are drawn: the
+        on-line level is vectorized per scan, while the plots still leave at the end of the
+        sector in which the beam made them.
+        """
         sim = self.sim
-        n = sim.targets.n
         parts = []
-        if n:
-            rows = self._candidates(t_a, t_b)
+        if sim.targets.n:
+            self._plan_scan(t_scan)
+            rows = self._plan_rows
             if rows.size:
                 def az_at(t, rows=rows):
                     tpos, _, _ = sim.targets.state(t, rows)
                     ppos, _ = self.platform_state(t)
                     return antenna_azimuth(ppos, tpos, sim.frame)[0]
 
-                tc = beam_crossing_times(az_at, t_a, self.beam_azimuth(t_a), self.omega, rows.size)
-                sel = (tc >= t_a) & (tc < t_b)
+                tc = beam_crossing_times(az_at, t_scan, self.beam_azimuth(t_scan), self.omega,
+                                         rows.size)
+                sel = (tc >= t_scan) & (tc < t_end)
                 if np.any(sel):
-                    parts.extend(self._dwell(rows[sel], tc[sel], t_a, t_b))
-        # noise false alarms swept in this sector
-        fa = self._fa
-        if fa["time_s"].size:
-            m = (fa["time_s"] >= t_a) & (fa["time_s"] < t_b)
-            if np.any(m):
-                plots = self.model.false_alarm_plots(
-                    fa["range_m"][m], fa["azimuth_rad"][m], fa["time_s"][m], self.rng)
-                plots["origin"] = np.full(int(m.sum()), ORIGIN_NOISE, dtype=np.uint8)
-                sim.stats.noise_false_alarms += int(m.sum())
-                parts.append(plots)
-        # sea-clutter false alarms of this sector
-        clutter = self.model.clutter_false_alarms(t_a, t_b, self.beam_azimuth(t_a), self.omega,
-                                                  self.rng)
+                    parts.extend(self._dwell(rows[sel], tc[sel], t_scan, t_end))
+        noise_fa = self._scan_false_alarms(t_scan, t_end)
+        if noise_fa is not None:
+            parts.append(noise_fa)
+        clutter = self.model.clutter_false_alarms(t_scan, t_end, self.beam_azimuth(t_scan),
+                                                  self.omega, self.rng)
         if clutter is not None and clutter["range_m"].size:
             clutter["origin"] = np.full(clutter["range_m"].size, ORIGIN_SEA_CLUTTER, np.uint8)
             sim.stats.clutter_false_alarms += clutter["range_m"].size
             parts.append(clutter)
-        if parts:
-            self._emit_plots(parts, t_b, scan)
+        return _merge_parts(parts)
 
-    def _emit_plots(self, parts: list[dict], t_b: float, scan: int) -> None:
-        cols = ("time_s", "range_m", "azimuth_rad", "snr_db", "sigma_range_m",
-                "sigma_azimuth_rad", "interference")
-        merged = {c: np.concatenate([p[c] for p in parts]) for c in cols}
-        origin = np.concatenate([p["origin"] for p in parts])
-        target = np.concatenate(
-            [p.get("target", np.full(p["range_m"].size, -1, dtype=np.int32)) for p in parts])
-        # contributors (targets merged into one plot, seed 2.2.1) as (start, count) per plot
-        starts, counts, pool, base = [], [], [], 0
-        for p in parts:
-            off = p.get("contrib_offsets")
-            if off is None:
-                off = np.zeros(p["range_m"].size + 1, dtype=np.int64)
-            starts.append(off[:-1] + base)
-            counts.append(np.diff(off))
-            c_idx = p.get("contrib_targets", np.zeros(0, dtype=np.int32))
-            pool.append(c_idx)
-            base += c_idx.size
-        starts, counts, pool = np.concatenate(starts), np.concatenate(counts), np.concatenate(pool)
-        order = np.argsort(merged["time_s"], kind="stable")
-        n = order.size
+    def _emit_sector(self, t_a: float, t_b: float, scan: int, last: bool) -> None:
+        """Publish the plots (and their truth) whose times fall in the sector [t_a, t_b)."""
+        scan_plots = self._scan
+        times = scan_plots["time_s"]
+        i0 = self._cursor
+        i1 = times.size if last else int(np.searchsorted(times, t_b, side="left"))
+        self._cursor = i1
+        if i1 <= i0:
+            return
+        n = i1 - i0
         plot_id = np.arange(self.plot_counter, self.plot_counter + n, dtype=np.int64)
         self.plot_counter += n
         payload = {"sensor": self.radar.id, "scan": scan, "plot_id": plot_id}
-        payload.update({c: merged[c][order] for c in cols})
+        payload.update({c: scan_plots[c][i0:i1] for c in PLOT_COLUMNS})
         self.sim.emit(protocol.TOPIC_PLOTS, t_b, payload)
-        c_sorted, s_sorted = counts[order], starts[order]
-        new_off = np.concatenate([[0], np.cumsum(c_sorted)]).astype(np.int64)
-        within = np.arange(new_off[-1]) - np.repeat(new_off[:-1], c_sorted)
-        gather = np.repeat(s_sorted, c_sorted) + within
+        off = scan_plots["contrib_offsets"]
         truth = {
             "sensor": self.radar.id,
             "scan": scan,
             "kind": "plots",
             "plot_id": plot_id,
-            "origin": origin[order],
-            "target": target[order].astype(np.int32),
-            "contrib_offsets": new_off,
-            "contrib_targets": pool[gather].astype(np.int32),
+            "origin": scan_plots["origin"][i0:i1],
+            "target": scan_plots["target"][i0:i1],
+            "contrib_offsets": (off[i0:i1 + 1] - off[i0]).astype(np.int64),
+            "contrib_targets": scan_plots["contrib_targets"][off[i0]:off[i1]],
         }
         self.sim.emit(protocol.TOPIC_TRUTH, t_b, truth)
 
@@ -446,7 +437,48 @@ class _RadarProcess:
             sim.bus.flush()
 
 
-_EMPTY_FA = {"time_s": np.zeros(0), "range_m": np.zeros(0), "azimuth_rad": np.zeros(0)}
+#: Plot-topic columns, in the order they are published.
+PLOT_COLUMNS = ("time_s", "range_m", "azimuth_rad", "snr_db", "sigma_range_m",
+                "sigma_azimuth_rad", "interference")
+
+
+def _merge_parts(parts: list[dict]) -> dict:
+    """Concatenate plot batches (targets, noise and clutter false alarms) sorted by time.
+
+    Each batch may carry the targets merged into each plot as ``contrib_offsets`` (one more
+    than its plots) and ``contrib_targets``; batches without them have no contributors.
+    """
+    if not parts:
+        out = {c: np.zeros(0) for c in PLOT_COLUMNS}
+        out["interference"] = np.zeros(0, dtype=np.uint8)
+        out.update(origin=np.zeros(0, dtype=np.uint8), target=np.zeros(0, dtype=np.int32),
+                   contrib_offsets=np.zeros(1, dtype=np.int64),
+                   contrib_targets=np.zeros(0, dtype=np.int32))
+        return out
+    merged = {c: np.concatenate([p[c] for p in parts]) for c in PLOT_COLUMNS}
+    origin = np.concatenate([p["origin"] for p in parts])
+    target = np.concatenate(
+        [p.get("target", np.full(p["range_m"].size, -1, dtype=np.int32)) for p in parts])
+    starts, counts, pool, base = [], [], [], 0
+    for p in parts:
+        off = p.get("contrib_offsets")
+        if off is None:
+            off = np.zeros(p["range_m"].size + 1, dtype=np.int64)
+        starts.append(off[:-1] + base)
+        counts.append(np.diff(off))
+        c_idx = p.get("contrib_targets", np.zeros(0, dtype=np.int32))
+        pool.append(c_idx)
+        base += c_idx.size
+    starts, counts, pool = np.concatenate(starts), np.concatenate(counts), np.concatenate(pool)
+    order = np.argsort(merged["time_s"], kind="stable")
+    out = {c: merged[c][order] for c in PLOT_COLUMNS}
+    c_sorted, s_sorted = counts[order], starts[order]
+    new_off = np.concatenate([[0], np.cumsum(c_sorted)]).astype(np.int64)
+    gather = np.repeat(s_sorted, c_sorted) + (np.arange(new_off[-1])
+                                              - np.repeat(new_off[:-1], c_sorted))
+    out.update(origin=origin[order], target=target[order].astype(np.int32),
+               contrib_offsets=new_off, contrib_targets=pool[gather].astype(np.int32))
+    return out
 
 
 def _take(geom, idx):

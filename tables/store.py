@@ -260,3 +260,48 @@ def get_or_build(name: str, version: int, inputs: dict[str, Any], build, root: P
         raise RuntimeError(f"builder for {name!r} returned a table with other inputs")
     table.save(cache_path(name, table.key, root))
     return table, True
+
+
+class StackedLookup2D:
+    """Bilinear interpolation of several arrays of one 2-D table at once.
+
+    The on-line level reads several quantities of a clutter map at the same cells (power,
+    spectrum mean and spread, Weibull a); computing the cell indices and weights once and
+    gathering all arrays from one (n0, n1, k) stack is several times cheaper than one
+    :meth:`Table.lookup` per array.  Points outside the grid give NaN.
+
+    Parameters
+    ----------
+    table : a 2-D :class:`Table`
+    arrays : names of the arrays to read, ``None`` for ``values``
+    periodic1 : wrap the second coordinate into the axis span (azimuth tables)
+    """
+
+    def __init__(self, table: Table, arrays: Sequence[str | None], periodic1: bool = False):
+        if len(table.axes) != 2:
+            raise ValueError("StackedLookup2D needs a 2-D table")
+        self.names = tuple(arrays)
+        self.ax0, self.ax1 = table.axes
+        self.periodic1 = periodic1
+        self.stack = np.ascontiguousarray(np.stack(
+            [table.values if a is None else table.extra[a] for a in self.names], axis=-1))
+
+    def __call__(self, x0: np.ndarray, x1: np.ndarray) -> np.ndarray:
+        """``(N, len(arrays))`` interpolated values at the points (x0, x1)."""
+        a0, a1 = self.ax0, self.ax1
+        x0 = np.asarray(x0, dtype=float).ravel()
+        x1 = np.asarray(x1, dtype=float).ravel()
+        if self.periodic1:
+            x1 = a1[0] + np.mod(x1 - a1[0], a1[-1] - a1[0])
+        outside = ~((x0 >= a0[0]) & (x0 <= a0[-1]) & (x1 >= a1[0]) & (x1 <= a1[-1]))
+        x0c = np.where(outside, a0[0], x0)
+        x1c = np.where(outside, a1[0], x1)
+        i = np.clip(np.searchsorted(a0, x0c, side="right") - 1, 0, len(a0) - 2)
+        j = np.clip(np.searchsorted(a1, x1c, side="right") - 1, 0, len(a1) - 2)
+        t = ((x0c - a0[i]) / (a0[i + 1] - a0[i]))[:, None]
+        u = ((x1c - a1[j]) / (a1[j + 1] - a1[j]))[:, None]
+        s = self.stack
+        out = ((1 - t) * ((1 - u) * s[i, j] + u * s[i, j + 1])
+               + t * ((1 - u) * s[i + 1, j] + u * s[i + 1, j + 1]))
+        out[outside] = np.nan
+        return out
