@@ -114,7 +114,10 @@ def wilson_interval(successes, trials, confidence: float = CONFIDENCE):
     denom = 1.0 + z * z / n
     centre = (p + z * z / (2.0 * n)) / denom
     half = z * np.sqrt(p * (1.0 - p) / n + z * z / (4.0 * n * n)) / denom
-    return np.clip(centre - half, 0.0, 1.0), np.clip(centre + half, 0.0, 1.0)
+    # exact ends at x = 0 and x = n (the formula leaves rounding residue of ~1e-17 there)
+    lo = np.where(x <= 0.0, 0.0, np.clip(centre - half, 0.0, 1.0))
+    hi = np.where(x >= n, 1.0, np.clip(centre + half, 0.0, 1.0))
+    return (lo[()], hi[()])
 
 
 def poisson_interval(count, exposure, confidence: float = CONFIDENCE):
