@@ -186,6 +186,7 @@ class _RadarProcess:
         self.n_sectors = sim.scenario.fidelity.sectors_per_scan
         self.sector_s = radar.scan_period_s / self.n_sectors
         self.plot_counter = 0
+        self._radar_dump = radar.model_dump(mode="json")
         self._scan = _merge_parts([])
         self._cursor = 0
         self._plan_rows = np.zeros(0, dtype=int)
@@ -252,7 +253,7 @@ class _RadarProcess:
             "sensor": r.id,
             "platform": self.platform.id,
             "scan": scan,
-            "radar": r.model_dump(mode="json"),
+            "radar": self._radar_dump,
             "scan_period_s": r.scan_period_s,
             "sectors_per_scan": self.n_sectors,
             "pfa": self.model.pfa,
