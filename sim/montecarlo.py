@@ -488,13 +488,15 @@ class _PdRecorder:
         return pd
 
 
-def model_pd_looks(scenario, *, tables=None, duration_s: float | None = None) -> list[dict]:
+def model_pd_looks(scenario, *, tables=None, duration_s: float | None = None, bus=None,
+                   seed: int | None = None) -> list[dict]:
     """The dwell model's P_d at every beam crossing of every target (no random draw used).
 
     Runs the engine once (no bus) and records, for each target the beam crosses inside the
     instrumented range, the P_d the dwell model computed before its detection draw: the
     exact probability every replication draws from, since crossings depend on the
-    kinematics only. Rows: ``sensor, target, kind, scan, time_s, ground_range_m, pd``.
+    kinematics only. ``bus`` (optional) receives the run's messages, so the same run can
+    feed a figure. Rows: ``sensor, target, kind, scan, time_s, ground_range_m, pd``.
 
     Notes
     -----
@@ -507,7 +509,7 @@ def model_pd_looks(scenario, *, tables=None, duration_s: float | None = None) ->
     import sensors.dwell as dwell_mod
     from sim.engine import Simulation
 
-    sim = Simulation(scenario, tables=tables, duration_s=duration_s)
+    sim = Simulation(scenario, tables=tables, duration_s=duration_s, bus=bus, seed=seed)
     kinds = [t.kind for t in scenario.targets]
     ids = [t.id for t in scenario.targets]
     rows: list[dict] = []

@@ -1,0 +1,445 @@
+"""The study report of one scene: a folder of PNG figures and an index page.
+
+``shipradar report SCENARIO [--out DIR] [--montecarlo STUDY.csv]`` (entry :func:`cli_main`).
+
+Figures (each skipped with a note in the index when its inputs or module are missing):
+
+- ``pd_range.png``: P_d against ground range per target — the dwell model's P_d at every
+  beam crossing along the target's track (:func:`sim.montecarlo.model_pd_looks`), and, when a
+  Monte Carlo study is given or found, its empirical P_d per target kind with 95 % Wilson
+  intervals (``*_pd_range.csv`` of :mod:`sim.montecarlo`).
+- the propagation figures of :mod:`sim.figures.propagation` (F against range, coverage
+  diagram), whatever ``plot_*`` functions that module has whose arguments the scene
+  provides;
+- ``sigma0_range.png``: σ0* against range with and without the scene's duct
+  (:func:`sim.figures.clutter.plot_ducting_reflectivity`), and the scene's clutter map when
+  it has one (:func:`sim.figures.clutter.plot_clutter_ppi`);
+- ``improvement_doppler.png``: I_F against Doppler for the radar's processor
+  (:func:`sim.figures.doppler.plot_improvement_vs_doppler`);
+- ``false_alarms_range.png``: histograms of false-alarm range by origin, from the dwell
+  model's own per-scan draws (noise [90]-[93], sea clutter 7.2) over ``fa_scans`` scans — the
+  code the engine runs every scan, repeated to get a visible histogram;
+- ``ppi.png``: one scan of a run (the scan with the most plots), plots coloured by origin,
+  with the targets' tracks.
+
+Only the first radar of the scene is drawn. matplotlib runs with the Agg backend.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import html
+import inspect
+import json
+import os
+import sys
+from pathlib import Path
+from typing import Any
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+__all__ = ["build_report", "cli_main"]
+
+ORIGIN_NAMES = ("target", "noise", "sea_clutter")
+ORIGIN_COLOURS = {"target": "tab:red", "noise": "tab:blue", "sea_clutter": "tab:green"}
+
+
+class _Bus:
+    def __init__(self):
+        self.messages = []
+
+    def emit(self, topic, t, payload):
+        self.messages.append((topic, t, payload))
+
+    def flush(self):
+        pass
+
+
+def _first_line(doc: str | None) -> str:
+    return (doc or "").strip().split("\n")[0].strip()
+
+
+def _call_with_pool(fn, path: Path, pool: dict[str, Any]) -> tuple[bool, str]:
+    """Call ``fn(path, **kwargs)`` with the keyword arguments ``pool`` can fill.
+
+    Returns (called, note): not called when a required argument is missing from the pool.
+    """
+    sig = inspect.signature(fn)
+    params = list(sig.parameters.values())
+    kwargs = {}
+    for p in params[1:]:
+        if p.kind in (p.VAR_POSITIONAL, p.VAR_KEYWORD):
+            continue
+        if p.name in pool and pool[p.name] is not None:
+            kwargs[p.name] = pool[p.name]
+        elif p.default is inspect.Parameter.empty:
+            return False, f"{fn.__module__}.{fn.__name__}: needs {p.name!r}, which the scene " \
+                          "does not provide"
+    if params[0].kind == params[0].KEYWORD_ONLY:
+        kwargs[params[0].name] = path
+        fn(**kwargs)
+    else:
+        fn(path, **kwargs)
+    return True, ""
+
+
+def _pool(scenario, tables) -> dict[str, Any]:
+    """Arguments figure functions may ask for, from the scene's first radar."""
+    platform, radar = scenario.radars()[0]
+    env = scenario.environment
+    rt = tables.for_radar(radar.id) if tables is not None else None
+    duct_h = env.duct.height_m if env.duct is not None and env.duct.type == "height" else None
+    target_h = scenario.targets[0].waypoints[0].altitude_m if scenario.targets else 10.0
+    return {
+        "scenario": scenario, "radar": radar, "platform": platform, "tables": tables,
+        "table": rt.propagation if rt is not None else None,
+        "freq_hz": radar.frequency_hz, "frequency_hz": radar.frequency_hz,
+        "polarization": radar.polarization, "antenna_height_m": radar.antenna_height_m,
+        "duct_height_m": duct_h if duct_h is not None else 0.0,
+        "wind_speed_mps": env.wind_speed_mps, "wave_height_m": scenario.wave_height,
+        "max_range_m": radar.instrumented_range_m,
+        "height_m": target_h, "target_height_m": target_h,
+    }
+
+
+# --------------------------------------------------------------------------- figures
+def _fig_pd(path: Path, model_rows: list[dict], study_csv: Path | None) -> str:
+    fig, ax = plt.subplots(figsize=(8, 5))
+    by_target: dict[str, list[dict]] = {}
+    for r in model_rows:
+        by_target.setdefault(r["target"], []).append(r)
+    for tid, rows in sorted(by_target.items()):
+        rows.sort(key=lambda r: r["ground_range_m"])
+        ax.plot([r["ground_range_m"] / 1e3 for r in rows], [r["pd"] for r in rows], ".-",
+                ms=3, lw=1, label=f"model: {tid} ({rows[0]['kind']})")
+    caption = "P_d against ground range: the dwell model at each beam crossing"
+    if study_csv is not None:
+        with open(study_csv) as f:
+            agg = list(csv.DictReader(f))
+        kinds = sorted({r["kind"] for r in agg})
+        for kind in kinds:
+            rows = [r for r in agg if r["kind"] == kind]
+            mid = np.array([(float(r["range_lo_m"]) + float(r["range_hi_m"])) / 2e3
+                            for r in rows])
+            pd = np.array([float(r["pd"]) for r in rows])
+            lo = np.array([float(r["ci_lo"]) for r in rows])
+            hi = np.array([float(r["ci_hi"]) for r in rows])
+            ax.errorbar(mid, pd, yerr=[pd - lo, hi - pd], fmt="o", ms=4, capsize=2,
+                        label=f"runs: {kind} (95 % Wilson)")
+        caption += f"; points: Monte Carlo study {study_csv.name}"
+    ax.set_xlabel("ground range [km]")
+    ax.set_ylabel("P_d")
+    ax.set_ylim(-0.02, 1.02)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return caption
+
+
+def _fig_false_alarms(path: Path, sim, scans: int, seed: int) -> str:
+    rp = sim.radars[0]
+    model = rp.model
+    rng = np.random.default_rng(seed)
+    ranges: dict[str, list[np.ndarray]] = {"noise": [], "sea_clutter": []}
+    for k in range(scans):
+        fa = model.noise_false_alarms(rng)
+        ranges["noise"].append(np.asarray(fa["range_m"], float))
+        for s in range(rp.n_sectors):
+            t_a = (k * rp.n_sectors + s) * rp.sector_s
+            c = model.clutter_false_alarms(t_a, t_a + rp.sector_s, rp.beam_azimuth(t_a),
+                                           rp.omega, rng)
+            if c is not None and np.size(c["range_m"]):
+                ranges["sea_clutter"].append(np.asarray(c["range_m"], float))
+    r_max = rp.radar.instrumented_range_m / 1e3
+    bins = np.linspace(0.0, r_max, 41)
+    fig, axes = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
+    for ax, origin in zip(axes, ("noise", "sea_clutter"), strict=True):
+        r = np.concatenate(ranges[origin]) / 1e3 if ranges[origin] else np.zeros(0)
+        ax.hist(r, bins=bins, color=ORIGIN_COLOURS[origin])
+        ax.set_ylabel("false alarms")
+        ax.set_title(f"{origin}: {r.size} in {scans} scans ({r.size / scans:.3g} per scan)",
+                     fontsize=9)
+        ax.grid(alpha=0.3)
+    axes[-1].set_xlabel("range [km]")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return (f"False alarms against range by origin: the dwell model's per-scan draws over "
+            f"{scans} scans")
+
+
+def _fig_ppi(path: Path, messages: list, sensor: str, r_max_m: float) -> str:
+    plots, truth_plots, targets, eos = {}, {}, [], {}
+    for topic, _t, p in messages:
+        if p.get("sensor") != sensor:
+            continue
+        if topic == b"plots":
+            plots.setdefault(p["scan"], []).append(p)
+        elif topic == b"truth" and p["kind"] == "plots":
+            truth_plots.setdefault(p["scan"], []).append(p)
+        elif topic == b"truth" and p["kind"] == "targets":
+            targets.append(p)
+        elif topic == b"eos":
+            eos[p["scan"]] = p
+
+    def count(scan):
+        n = sum(np.size(p["range_m"]) for p in plots.get(scan, []))
+        n_t = sum(int(np.count_nonzero(np.asarray(p["origin"]) == 0))
+                  for p in truth_plots.get(scan, []))
+        return (n_t > 0, n, -scan)  # ties: the earliest, target farthest out
+
+    scan = max(eos, key=count) if eos else None
+    fig = plt.figure(figsize=(7, 7))
+    ax = fig.add_subplot(projection="polar")
+    ax.set_theta_zero_location("N")
+    ax.set_theta_direction(-1)
+    caption = "PPI: no scan in the run"
+    if scan is not None:
+        rng = np.concatenate([np.asarray(p["range_m"]) for p in plots.get(scan, [])] or
+                             [np.zeros(0)])
+        az = np.concatenate([np.asarray(p["azimuth_rad"]) for p in plots.get(scan, [])] or
+                            [np.zeros(0)])
+        origin = np.concatenate([np.asarray(p["origin"]) for p in truth_plots.get(scan, [])]
+                                or [np.zeros(0, np.uint8)])
+        # the ship's tracks of the targets, relative to its position at that scan
+        pe, pn = eos[scan]["position"]["east_m"], eos[scan]["position"]["north_m"]
+        if targets:
+            e = np.array([np.asarray(t["east_m"]) for t in targets]) - pe
+            n = np.array([np.asarray(t["north_m"]) for t in targets]) - pn
+            act = np.array([np.asarray(t["active"]) for t in targets])
+            for j in range(e.shape[1]):
+                m = act[:, j]
+                ax.plot(np.arctan2(e[m, j], n[m, j]), np.hypot(e[m, j], n[m, j]) / 1e3,
+                        color="0.6", lw=0.8)
+        for code, name in enumerate(ORIGIN_NAMES):
+            m = origin == code
+            ax.scatter(az[m], rng[m] / 1e3, s=14, color=ORIGIN_COLOURS[name],
+                       label=f"{name} ({int(m.sum())})")
+        ax.set_rlim(0, r_max_m / 1e3)
+        ax.legend(loc="lower left", bbox_to_anchor=(-0.1, -0.1), fontsize=8)
+        ax.set_title(f"scan {scan} (t = {eos[scan]['time_s']:.1f} s), range in km", fontsize=9)
+        caption = (f"PPI of scan {scan}: plots coloured by origin (truth topic), grey: target "
+                   "tracks of the run relative to the ship")
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return caption
+
+
+def _doppler_kwargs(radar) -> dict[str, Any] | None:
+    proc = radar.processor
+    if proc.type not in ("dft_bank", "fir_bank", "mti_bank"):
+        return None
+    kw = {"n_taps": proc.n_coherent, "n_filters": proc.n_filters or proc.n_coherent,
+          "window": "rectangular" if proc.type == "dft_bank" else proc.window.type}
+    if proc.window.type in ("taylor", "chebyshev") and proc.type != "dft_bank":
+        kw["sidelobe_db"] = proc.window.sidelobe_db
+    if proc.type == "mti_bank":
+        kw["mti_pulses"] = proc.mti_order + 1
+    return kw
+
+
+def _find_study(scenario_path: Path | None, out_dir: Path, name: str) -> Path | None:
+    """A ``*_pd_range.csv`` of a study of this scene: beside the report, the scenario, or
+    the working directory (``montecarlo_pd_range.csv``, the CLI's default, or ``NAME``)."""
+    dirs = [out_dir, Path.cwd()] + ([scenario_path.parent] if scenario_path else [])
+    for d in dirs:
+        for stem in ("montecarlo", name, f"{name}_montecarlo", "study"):
+            p = d / f"{stem}_pd_range.csv"
+            if p.exists():
+                return p
+    return None
+
+
+# --------------------------------------------------------------------------- report
+def build_report(scenario, out_dir: str | os.PathLike = "report", *,
+                 montecarlo: str | os.PathLike | None = None, duration_s: float | None = None,
+                 seed: int | None = None, fa_scans: int = 300, tables=None) -> dict[str, Any]:
+    """Write the scene's figures and ``index.html`` into ``out_dir``.
+
+    Parameters
+    ----------
+    scenario : str, path-like or sim.scenario.Scenario
+    out_dir : path-like
+        Output folder (created).
+    montecarlo : path-like or None
+        A study's results CSV or its ``*_pd_range.csv``; None looks for one
+        (:func:`_find_study`), "" (empty) uses none.
+    duration_s : float or None
+        Duration of the run behind the model P_d and the PPI [s]; default the scenario's.
+    seed : int or None
+        Seed of that run; default the scenario's.
+    fa_scans : int
+        Scans of false-alarm draws for the histograms.
+    tables : tables.scene.SceneTables or None
+        The scene's tables (default: loaded or built through the cache).
+
+    Returns
+    -------
+    dict
+        ``index`` (path), ``figures``: list of ``{"file", "caption"}``, ``notes``: list of
+        str (figures skipped and why).
+    """
+    from sim.engine import Simulation
+    from sim.montecarlo import model_pd_looks, study_paths
+    from sim.scenario import Scenario, load_scenario
+    from tables.scene import load_scene_tables
+
+    scenario_path = None
+    if not isinstance(scenario, Scenario):
+        scenario_path = Path(scenario)
+        scenario = load_scenario(scenario_path)
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    if tables is None:
+        tables = load_scene_tables(scenario)
+    platform, radar = scenario.radars()[0]
+    figures: list[dict[str, str]] = []
+    notes: list[str] = []
+
+    def add(name: str, caption: str) -> None:
+        figures.append({"file": name, "caption": caption})
+
+    # one run: model P_d at every crossing, and the stream for the PPI
+    bus = _Bus()
+    model_rows = model_pd_looks(scenario, tables=tables, duration_s=duration_s, bus=bus,
+                                seed=seed)
+    model_rows = [r for r in model_rows if r["sensor"] == radar.id]
+    study = None
+    if montecarlo is None:
+        study = _find_study(scenario_path, out, scenario.name)
+    elif str(montecarlo):
+        m = Path(montecarlo)
+        study = m if m.name.endswith("_pd_range.csv") else study_paths(m)["pd_range"]
+        if not study.exists():
+            notes.append(f"Monte Carlo file {study} not found: model curve only")
+            study = None
+    if study is None:
+        notes.append("P_d against range: no Monte Carlo study given or found (run "
+                     "`shipradar montecarlo` first for the empirical points)")
+    if model_rows or study is not None:
+        add("pd_range.png", _fig_pd(out / "pd_range.png", model_rows, study))
+    else:
+        notes.append("P_d against range: the beam crossed no target in the run")
+
+    pool = _pool(scenario, tables)
+    # propagation figures (another module; whatever it offers)
+    try:
+        from sim.figures import propagation as prop_fig
+    except ImportError as exc:
+        notes.append(f"F against range and coverage diagram: sim.figures.propagation is not "
+                     f"available ({exc})")
+    else:
+        fns = [(n, f) for n, f in inspect.getmembers(prop_fig, inspect.isfunction)
+               if n.startswith("plot_") and f.__module__ == prop_fig.__name__]
+        if not fns:
+            notes.append("sim.figures.propagation has no plot_* function")
+        for name, fn in fns:
+            fname = f"propagation_{name[5:]}.png"
+            try:
+                ok, why = _call_with_pool(fn, out / fname, pool)
+            except Exception as exc:  # another module's figure must not sink the report
+                ok, why = False, f"sim.figures.propagation.{name} failed: {exc!r}"
+            if ok:
+                add(fname, _first_line(fn.__doc__) or name)
+            else:
+                notes.append(why)
+    # clutter figures
+    try:
+        from sim.figures import clutter as clutter_fig
+    except ImportError as exc:
+        notes.append(f"σ0* against range: sim.figures.clutter is not available ({exc})")
+    else:
+        try:
+            ok, why = _call_with_pool(clutter_fig.plot_ducting_reflectivity,
+                                      out / "sigma0_range.png", pool)
+        except Exception as exc:
+            ok, why = False, f"σ0* against range failed: {exc!r}"
+        if ok:
+            add("sigma0_range.png", "σ0* against range, standard atmosphere and with the "
+                "scene's duct (seed Fig. 6), at the radar's frequency and polarization")
+        else:
+            notes.append(why)
+        sea_map = tables.for_radar(radar.id).sea_clutter
+        if sea_map is not None and hasattr(clutter_fig, "plot_clutter_ppi"):
+            try:
+                clutter_fig.plot_clutter_ppi(out / "clutter_map.png", sea_map)
+                add("clutter_map.png", "The scene's sea-clutter map (PPI)")
+            except Exception as exc:
+                notes.append(f"clutter map failed: {exc!r}")
+        elif sea_map is None:
+            notes.append("clutter map: the scene has no sea-clutter table (clutter off)")
+    # improvement factor
+    kw = _doppler_kwargs(radar)
+    if kw is None:
+        notes.append(f"I_F against Doppler: processor {radar.processor.type!r} has no "
+                     "filter bank")
+    else:
+        try:
+            from sim.figures.doppler import plot_improvement_vs_doppler
+
+            plot_improvement_vs_doppler(out / "improvement_doppler.png", **kw)
+            add("improvement_doppler.png",
+                f"I_F against normalized Doppler f_d/f_r for the radar's processor ({kw})")
+        except Exception as exc:
+            notes.append(f"I_F against Doppler failed: {exc!r}")
+    # false alarms and PPI
+    sim = Simulation(scenario, tables=tables, seed=seed)
+    add("false_alarms_range.png", _fig_false_alarms(
+        out / "false_alarms_range.png", sim, fa_scans,
+        scenario.seed if seed is None else seed))
+    add("ppi.png", _fig_ppi(out / "ppi.png", bus.messages, radar.id,
+                            radar.instrumented_range_m))
+    index = _write_index(out, scenario, figures, notes)
+    return {"index": str(index), "figures": figures, "notes": notes}
+
+
+def _write_index(out: Path, scenario, figures, notes) -> Path:
+    e = html.escape
+    parts = [
+        "<!doctype html>", "<html><head><meta charset='utf-8'>",
+        f"<title>shipradar report: {e(scenario.name)}</title>",
+        "<style>body{font-family:sans-serif;max-width:60em;margin:auto}"
+        "img{max-width:100%;border:1px solid #ccc}figure{margin:2em 0}</style>",
+        "</head><body>", f"<h1>{e(scenario.name)}</h1>", f"<p>{e(scenario.description)}</p>",
+    ]
+    for f in figures:
+        parts.append(f"<figure><img src='{e(f['file'])}' alt='{e(f['file'])}'>"
+                     f"<figcaption>{e(f['caption'])}</figcaption></figure>")
+    if notes:
+        parts.append("<h2>Not drawn</h2><ul>")
+        parts += [f"<li>{e(n)}</li>" for n in notes]
+        parts.append("</ul>")
+    parts.append("</body></html>")
+    path = out / "index.html"
+    path.write_text("\n".join(parts) + "\n", encoding="utf-8")
+    return path
+
+
+def cli_main(argv: list[str] | None = None) -> int:
+    """``shipradar report SCENARIO [--out DIR] [--montecarlo CSV]``; returns 0."""
+    ap = argparse.ArgumentParser(prog="shipradar report",
+                                 description="Write a scene's figures and an index page.")
+    ap.add_argument("scenario", help="scenario YAML")
+    ap.add_argument("--out", default="report", help="output folder (default: report)")
+    ap.add_argument("--montecarlo", default=None,
+                    help="Monte Carlo results CSV (default: look for one; '' for none)")
+    ap.add_argument("--duration", type=float, default=None, help="run duration [s]")
+    ap.add_argument("--seed", type=int, default=None, help="run seed")
+    ap.add_argument("--fa-scans", type=int, default=300, help="scans of false-alarm draws")
+    a = ap.parse_args(argv)
+    res = build_report(a.scenario, a.out, montecarlo=a.montecarlo, duration_s=a.duration,
+                       seed=a.seed, fa_scans=a.fa_scans)
+    print(json.dumps({"index": res["index"], "figures": len(res["figures"]),
+                      "notes": res["notes"]}))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(cli_main())

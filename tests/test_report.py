@@ -1,0 +1,77 @@
+"""The study report: every figure it lists is written, as a valid non-empty PNG."""
+
+from __future__ import annotations
+
+import struct
+import zlib
+
+import pytest
+
+from sim import montecarlo as mc
+from sim.report import build_report, cli_main
+from sim.scenario import load_scenario
+
+from .helpers import ROOT
+
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+
+def check_png(path):
+    """PNG signature, a CRC-valid IHDR of non-zero size, and an IEND chunk."""
+    data = path.read_bytes()
+    assert data[:8] == PNG_SIGNATURE, path
+    length, kind = struct.unpack(">I4s", data[8:16])
+    assert kind == b"IHDR" and length == 13
+    width, height = struct.unpack(">II", data[16:24])
+    assert width > 0 and height > 0
+    (crc,) = struct.unpack(">I", data[16 + length:20 + length])
+    assert crc == zlib.crc32(data[12:16 + length])
+    assert data[-12:] == b"\x00\x00\x00\x00IEND\xaeB`\x82"  # empty IEND chunk and its CRC
+    return width, height
+
+
+@pytest.fixture(scope="module")
+def scene():
+    return load_scenario(ROOT / "scenarios" / "single_missile.yaml")
+
+
+def test_report_writes_every_listed_figure(tmp_path, scene):
+    # a fake study file beside the report: the report must find it and draw its points
+    mc._write_csv(tmp_path / "montecarlo_pd_range.csv", mc.PD_COLUMNS, [
+        {"sensor": "giraffe", "kind": "missile", "range_lo_m": 0.0, "range_hi_m": 2000.0,
+         "looks": 10, "detections": 9, "pd": 0.9, "ci_lo": 0.6, "ci_hi": 0.98}])
+    res = build_report(scene, tmp_path, duration_s=30.0, fa_scans=20)
+    names = [f["file"] for f in res["figures"]]
+    # always drawn: model P_d, false alarms, PPI, I_F (the scene has an FIR bank)
+    for required in ("pd_range.png", "false_alarms_range.png", "ppi.png",
+                     "improvement_doppler.png"):
+        assert required in names
+    assert len(names) == len(set(names))
+    index = (tmp_path / "index.html").read_text()
+    for name in names:
+        check_png(tmp_path / name)
+        assert f"src='{name}'" in index
+    pd_caption = next(f["caption"] for f in res["figures"] if f["file"] == "pd_range.png")
+    assert "montecarlo_pd_range.csv" in pd_caption
+    for note in res["notes"]:  # every skipped figure is explained on the page
+        assert note.split(":")[0] in index
+    # nothing else was written
+    assert {p.name for p in tmp_path.iterdir()} == set(names) | {
+        "index.html", "montecarlo_pd_range.csv"}
+
+
+def test_report_without_study_notes_it(tmp_path, scene, capsys):
+    out = tmp_path / "rep"
+    assert cli_main([str(ROOT / "scenarios" / "single_missile.yaml"), "--out", str(out),
+                     "--duration", "10", "--fa-scans", "5", "--montecarlo", ""]) == 0
+    assert "index.html" in capsys.readouterr().out
+    index = (out / "index.html").read_text()
+    assert "no Monte Carlo study" in index
+    check_png(out / "ppi.png")
+
+
+def test_png_check_rejects_garbage(tmp_path):
+    bad = tmp_path / "x.png"
+    bad.write_bytes(b"GIF89a" + b"\0" * 40)
+    with pytest.raises(AssertionError):
+        check_png(bad)
