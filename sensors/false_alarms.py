@@ -22,6 +22,28 @@ Choices where the seed is silent or wrong
 * **Positions.**  Uniform in range and in azimuth, as the seed says (7.1 and Fig. 8a: "the
   false alarms are uniformly distributed in range"), not uniform in area: each range cell
   of a sector is equally likely to hold a false alarm, as each has the same P_fa.
+
+Sea-clutter-induced false alarms, seed 7.2, [94]-[96]
+-----------------------------------------------------
+* **[95] (SPEC §4 item 6).**  Y_R is in dB and [94] takes the linear ratio Y/σ0.  The seed's
+  1.6 dB is -10 log10(ln 2) = 1.592 dB exactly, so the threshold over the mean is
+  Y/σ0 = (ln(1/P_fa) / ln 2)^a_min (:func:`clutter_threshold_ratio`), and at a = a_min [94]
+  returns P_fa exactly (the threshold's definition).  As the seed says, the mean σ0 stands
+  in for the median on both sides of the ratio, so σ0 cancels: in VP P_fac depends on a only
+  (and a on σ0 through [32]).
+* **Cut-off.**  P_fac = 0 where a ≤ a_min or P_sc < 2 N0' (the seed: the CFAR is fully
+  efficient there).  Just above a_min [94] gives ≈ P_fa: the jump to 0 is of order P_fa.
+* **[96].**  K_clutter ≥ 1 divides every P_fac, VP and HP (also a user-given P_facmax), so
+  it is the user's one knob on the global clutter false-alarm density.
+* **HP heuristic.**  P_facmax up to the 3° grazing range R_ref, then a raised-cosine taper
+  P_facmax (1 + cos πt)/2, t = (R - R_ref)/(R_end - R_ref), to 0 at R_end, the first range
+  beyond R_ref where a reaches a_min or P_sc falls to 2 N0' (:func:`hp_clutter_fa_probability`):
+  smooth (zero slope at both ends) and, as 7.2 asks, flatter in range than VP.
+  P_facmax is the user's, or [94]-[95] at a = 3 (:func:`default_p_fac_max`).
+* **Spike S/I.**  A clutter false alarm is a Weibull return x above the threshold Y; its
+  size is drawn from the conditional tail, (x/σ0)^(1/a) = (Y/σ0)^(1/a) + E/ln 2 with
+  E ~ Exp(1) (exact inverse CDF of [94] given x > Y), and the plot reports the excess over
+  the mean clutter, S/I = x/σ0 - 1 (the noise plots' "excess over the mean" convention).
 """
 
 from __future__ import annotations
@@ -31,6 +53,8 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import special, stats
 
 from sensors.detection import LN2_SEED, N_CHANNELS
+from sensors.measurement import expected_errors
+from sensors.sea_clutter import STANDARD_K_FACTOR, slant_range_m
 
 #: [91]: the normal approximation is used for η ≥ 9.
 NORMAL_MIN_ETA = 9.0
@@ -204,10 +228,399 @@ def uniform_positions(
     return rng_r, np.where(az >= TWO_PI, 0.0, az)
 
 
+# --------------------------------------------------------------------------- sea clutter 7.2
+#: 1.6 dB of [95] written exactly: -10 log10(ln 2) = 1.592 dB (SPEC §4 item 6).
+LN2_DB = float(-10.0 * np.log10(np.log(2.0)))
+#: 7.2: P_facmax for HP defaults to the VP value at this Weibull parameter.
+HP_DEFAULT_A = 3.0
+#: 7.2: clutter below this many N0' behaves like noise (P_fac = 0).
+NOISE_LIKE_FACTOR = 2.0
+
+
+def _pfa_checked(pfa: ArrayLike) -> NDArray[np.float64]:
+    p = np.asarray(pfa, dtype=float)
+    if np.any(~((p > 0.0) & (p <= 1.0))):
+        raise ValueError("P_fa must be in (0, 1]")
+    return p
+
+
+def clutter_threshold_db(pfa: ArrayLike, a_min: ArrayLike = 1.0) -> NDArray[np.float64]:
+    """Threshold over the mean clutter, Y_R - σ0 = a_min (10 log10 ln(1/P_fa) + 1.6), seed [95].
+
+    Parameters
+    ----------
+    pfa : array_like
+        Required noise false-alarm probability per cell P_fa [-], in (0, 1].
+    a_min : array_like, optional
+        a_min [-] (1: the CFAR threshold of Rayleigh clutter).
+
+    Returns
+    -------
+    ndarray
+        Y_R - σ0 [dB] (SPEC §4 item 6: Y_R in dB, 1.6 = -10 log10(ln 2) exactly).
+        -inf at P_fa = 1 (threshold 0).
+    """
+    p = _pfa_checked(pfa)
+    lnp = -np.log(p)
+    with np.errstate(divide="ignore"):
+        return np.asarray(a_min, dtype=float) * (10.0 * np.log10(lnp) + LN2_DB)
+
+
+def clutter_threshold_ratio(pfa: ArrayLike, a_min: ArrayLike = 1.0) -> NDArray[np.float64]:
+    """Linear threshold ratio Y/σ0 = (ln(1/P_fa)/ln 2)^a_min, seed [95] in linear form.
+
+    Parameters
+    ----------
+    pfa : array_like
+        P_fa [-], in (0, 1].
+    a_min : array_like, optional
+        a_min [-].
+
+    Returns
+    -------
+    ndarray
+        Y/σ0 [-] ≥ 0 (0 at P_fa = 1); 10^(:func:`clutter_threshold_db`/10).
+    """
+    p = _pfa_checked(pfa)
+    return (-np.log(p) / np.log(2.0)) ** np.asarray(a_min, dtype=float)
+
+
+def weibull_exceedance(threshold_ratio: ArrayLike, a: ArrayLike) -> NDArray[np.float64]:
+    """Probability that Weibull clutter exceeds Y, exp(-ln 2 (Y/σ0)^(1/a)), seed [94].
+
+    Parameters
+    ----------
+    threshold_ratio : array_like
+        Y/σ0 [-] ≥ 0, linear (the mean σ0 stands for the median, as in the seed).
+    a : array_like
+        Weibull parameter a [-] > 0 (1: Rayleigh clutter, exponential power).
+
+    Returns
+    -------
+    ndarray
+        P_Weibull(Y, a) in [0, 1]: 1 at Y = 0, → 0 as Y → ∞; underflows to 0 quietly.
+    """
+    y = np.asarray(threshold_ratio, dtype=float)
+    a = np.asarray(a, dtype=float)
+    if np.any(~(y >= 0.0)) or np.any(~(a > 0.0)):
+        raise ValueError("weibull_exceedance: need Y/σ0 >= 0 and a > 0")
+    with np.errstate(under="ignore"):
+        return np.exp(-np.log(2.0) * y ** (1.0 / a))
+
+
+def clutter_fa_probability(
+    a: ArrayLike,
+    pfa: ArrayLike,
+    a_min: ArrayLike = 1.0,
+    k_clutter: ArrayLike = 1.0,
+    clutter_power_w: ArrayLike | None = None,
+    noise_power_w: ArrayLike | None = None,
+) -> NDArray[np.float64]:
+    """Sea-clutter false-alarm probability per cell for VP, seed [94]-[96].
+
+    P_fac = P_Weibull(Y_R, a) / K_clutter with Y_R of [95]; 0 where a ≤ a_min or, when the
+    powers are given, where P_sc < 2 N0' (seed 7.2: clutter then behaves like noise and the
+    CFAR is fully efficient).
+
+    Parameters
+    ----------
+    a : array_like
+        Weibull parameter of the cell [-] (the clutter map's ``weibull_a``), > 0.
+    pfa : array_like
+        P_fa [-], in (0, 1].
+    a_min : array_like, optional
+        a_min [-], > 0.
+    k_clutter : array_like, optional
+        K_clutter [-] ≥ 1 ([96]).
+    clutter_power_w, noise_power_w : array_like, optional
+        Mean sea-clutter power P_sc and noise power N0' [W].
+
+    Returns
+    -------
+    ndarray
+        P_fac in [0, 1/K_clutter].
+    """
+    k = np.asarray(k_clutter, dtype=float)
+    if np.any(~(k >= 1.0)):
+        raise ValueError("K_clutter must be >= 1")
+    a = np.asarray(a, dtype=float)
+    a_min = np.asarray(a_min, dtype=float)
+    if np.any(~(a_min > 0.0)):
+        raise ValueError("a_min must be > 0")
+    p = weibull_exceedance(clutter_threshold_ratio(pfa, a_min), np.maximum(a, a_min)) / k
+    off = a <= a_min
+    if clutter_power_w is not None or noise_power_w is not None:
+        if clutter_power_w is None or noise_power_w is None:
+            raise ValueError("give both clutter_power_w and noise_power_w, or neither")
+        off = off | (np.asarray(clutter_power_w, dtype=float)
+                     < NOISE_LIKE_FACTOR * np.asarray(noise_power_w, dtype=float))
+    return np.where(off, 0.0, p)
+
+
+def default_p_fac_max(pfa: ArrayLike, a_min: ArrayLike = 1.0) -> NDArray[np.float64]:
+    """HP P_facmax taken from VP with a = 3, seed 7.2 ([94]-[95], before K_clutter).
+
+    Parameters
+    ----------
+    pfa : array_like
+        P_fa [-], in (0, 1].
+    a_min : array_like, optional
+        a_min [-] (< 3, else P_fac would be 0 in VP: then P_fa is returned).
+
+    Returns
+    -------
+    ndarray
+        P_facmax [-] (0.133 at P_fa = 3.6e-8, a_min = 1).
+    """
+    p = weibull_exceedance(clutter_threshold_ratio(pfa, a_min), HP_DEFAULT_A)
+    return np.where(np.asarray(a_min, dtype=float) < HP_DEFAULT_A, p, _pfa_checked(pfa))
+
+
+def hp_clutter_fa_probability(
+    ground_range_m: ArrayLike,
+    reference_range_m: ArrayLike,
+    end_range_m: ArrayLike,
+    p_fac_max: ArrayLike,
+    k_clutter: ArrayLike = 1.0,
+) -> NDArray[np.float64]:
+    """Sea-clutter false-alarm probability per cell for HP, the heuristic of seed 7.2.
+
+    P_facmax up to the reference range (3° grazing), then a raised-cosine decrease
+    P_facmax (1 + cos π t)/2 with t = (R - R_ref)/(R_end - R_ref), reaching 0 at R_end (where
+    a reaches a_min or P_sc falls to 2 N0'), and 0 beyond; all divided by K_clutter [96].
+    If R_end ≤ R_ref there is no ramp: P_facmax before R_end, 0 from it on.
+
+    Parameters
+    ----------
+    ground_range_m : array_like
+        Ground range R [m].
+    reference_range_m : array_like
+        Ground range of 3° grazing R_ref [m].
+    end_range_m : array_like
+        R_end [m].
+    p_fac_max : array_like
+        P_facmax [-] in [0, 1] (the seed suggests 1e-3 to 1e-2, or :func:`default_p_fac_max`).
+    k_clutter : array_like, optional
+        K_clutter [-] ≥ 1.
+
+    Returns
+    -------
+    ndarray
+        P_fac in [0, P_facmax/K_clutter], non-increasing in R.
+    """
+    k = np.asarray(k_clutter, dtype=float)
+    pmax = np.asarray(p_fac_max, dtype=float)
+    if np.any(~(k >= 1.0)) or np.any(~((pmax >= 0.0) & (pmax <= 1.0))):
+        raise ValueError("need K_clutter >= 1 and 0 <= P_facmax <= 1")
+    r, r0, r1 = np.broadcast_arrays(*(np.asarray(v, dtype=float)
+                                      for v in (ground_range_m, reference_range_m, end_range_m)))
+    span = r1 - r0
+    ramp = span > 0.0
+    t = np.clip((r - r0) / np.where(ramp, span, 1.0), 0.0, 1.0)
+    shape = np.where(ramp, 0.5 * (1.0 + np.cos(np.pi * t)), (r < r1).astype(float))
+    return pmax * shape / k
+
+
+def sector_cells(
+    range_extent_m: ArrayLike,
+    azimuth_extent_rad: ArrayLike,
+    range_cell_m: ArrayLike,
+    beamwidth_rad: ArrayLike,
+) -> NDArray[np.float64]:
+    """Resolution cells in a (range, azimuth) sector, ΔR/C_R × Δθ/θ_b ([90] per sector).
+
+    Parameters
+    ----------
+    range_extent_m : array_like
+        ΔR [m] ≥ 0.
+    azimuth_extent_rad : array_like
+        Δθ [rad] ≥ 0.
+    range_cell_m : array_like
+        C_R [m] > 0.
+    beamwidth_rad : array_like
+        θ_b [rad] > 0.
+
+    Returns
+    -------
+    ndarray
+        Cells [-] (not rounded); summed over 2π and R_inst it is :func:`resolution_cells`.
+    """
+    c_r = np.asarray(range_cell_m, dtype=float)
+    th = np.asarray(beamwidth_rad, dtype=float)
+    if np.any(~(c_r > 0.0)) or np.any(~(th > 0.0)):
+        raise ValueError("sector_cells: C_R and θ_b must be > 0")
+    return np.asarray(range_extent_m, dtype=float) / c_r * (
+        np.asarray(azimuth_extent_rad, dtype=float) / th)
+
+
+def spike_excess(
+    threshold_ratio: ArrayLike, a: ArrayLike, rng: np.random.Generator
+) -> NDArray[np.float64]:
+    """A clutter return x/σ0 drawn from the Weibull tail of [94] above the threshold Y/σ0.
+
+    Given x > Y, (x/σ0)^(1/a) - (Y/σ0)^(1/a) is exponential with mean 1/ln 2 (the tail of
+    [94] is exp(-ln 2 (x/σ0)^(1/a))), so x/σ0 = ((Y/σ0)^(1/a) + E/ln 2)^a, E ~ Exp(1).
+
+    Parameters
+    ----------
+    threshold_ratio : array_like
+        Y/σ0 [-] ≥ 0.
+    a : array_like
+        Weibull parameter [-] > 0, one per draw (broadcast against ``threshold_ratio``).
+    rng : numpy.random.Generator
+        One standard exponential per draw.
+
+    Returns
+    -------
+    ndarray
+        x/σ0 [-] ≥ Y/σ0.
+    """
+    y, a = np.broadcast_arrays(np.asarray(threshold_ratio, dtype=float),
+                               np.asarray(a, dtype=float))
+    if np.any(~(y >= 0.0)) or np.any(~(a > 0.0)):
+        raise ValueError("spike_excess: need Y/σ0 >= 0 and a > 0")
+    e = rng.standard_exponential(y.shape)
+    return (y ** (1.0 / a) + e / np.log(2.0)) ** a
+
+
+class ClutterFalseAlarms:
+    """Per-scan generator of sea-clutter-induced false alarms, seed 7.2 with 7.1's method.
+
+    Built once per radar from the P_fac map (:mod:`tables.pfac`); only the sectors with
+    P_fac > 0 are kept.  :meth:`scan` draws one revolution, vectorized over sectors and
+    plots: the count of each sector by [91]-[93] from η = P_fac × cells
+    (:func:`false_alarm_count`, one uniform per sector), positions uniform in ground range
+    and azimuth inside the sector (:func:`uniform_positions`), the time at which the beam
+    sweeps the azimuth, and the spike's S/I from the Weibull tail (:func:`spike_excess`).
+
+    Parameters
+    ----------
+    r_min_m, r_max_m : array_like
+        Ground-range bounds of each sector [m].
+    az_min_rad, az_max_rad : array_like
+        Azimuth bounds of each sector, true north [rad], az_min < az_max ≤ az_min + 2π.
+    p_fac : array_like
+        P_fac of each sector [-] in [0, 1].
+    cells : array_like
+        Resolution cells in each sector [-] (:func:`sector_cells`).
+    weibull_a : array_like
+        Weibull parameter of each sector [-] > 0 (for the spike's S/I).
+    threshold_ratio : float
+        Y/σ0 of [95] [-] (:func:`clutter_threshold_ratio`).
+    n_channels : int
+        N_ch (the Bernoulli limit of [92]).
+    n_pulses : float
+        Pulses integrated N_e [-] (measurement errors [84]-[85]).
+    range_cell_m, beamwidth_rad : float
+        C_R [m] and θ_b [rad] (measurement errors).
+    antenna_height_m : float
+        h_a [m]: the plots report the slant range of the sea point.
+    k_factor : float, optional
+        Effective earth radius factor (slant range).
+    h_range, h_azimuth : float, optional
+        H_r, H_θ of [84]-[85].
+    """
+
+    def __init__(self, r_min_m, r_max_m, az_min_rad, az_max_rad, p_fac, cells, weibull_a, *,
+                 threshold_ratio: float, n_channels: int, n_pulses: float, range_cell_m: float,
+                 beamwidth_rad: float, antenna_height_m: float,
+                 k_factor: float = STANDARD_K_FACTOR,
+                 h_range: float = 4.0, h_azimuth: float = 4.0) -> None:
+        arrs = np.broadcast_arrays(*(np.asarray(v, dtype=float).ravel() for v in (
+            r_min_m, r_max_m, az_min_rad, az_max_rad, p_fac, cells, weibull_a)))
+        p = arrs[4]
+        if np.any(~((p >= 0.0) & (p <= 1.0))):
+            raise ValueError("ClutterFalseAlarms: P_fac must be in [0, 1]")
+        eta = p * arrs[5]
+        keep = eta > 0.0
+        (self.r_min_m, self.r_max_m, self.az_min_rad, self.az_max_rad, self.p_fac, self.cells,
+         self.weibull_a) = (np.ascontiguousarray(v[keep]) for v in arrs)
+        #: Expected count per active sector per scan, η = P_fac × cells [-].
+        self.eta = np.ascontiguousarray(eta[keep])
+        self.threshold_ratio = float(threshold_ratio)
+        self.n_channels = int(n_channels)
+        self.n_pulses = float(n_pulses)
+        self.range_cell_m = float(range_cell_m)
+        self.beamwidth_rad = float(beamwidth_rad)
+        self.antenna_height_m = float(antenna_height_m)
+        self.k_factor = float(k_factor)
+        self.h_range, self.h_azimuth = float(h_range), float(h_azimuth)
+
+    @property
+    def expected_per_scan(self) -> float:
+        """Expected clutter false alarms per full revolution, Σ η [-]."""
+        return float(self.eta.sum())
+
+    def draw(self, rng: np.random.Generator) -> tuple[NDArray[np.int64], NDArray, NDArray]:
+        """One revolution's counts per active sector and the positions (ground range [m],
+        azimuth [rad]), sector after sector."""
+        counts = false_alarm_count(self.eta, self.n_channels, rng)
+        r, az = uniform_positions(counts, self.r_min_m, self.r_max_m, self.az_min_rad,
+                                  self.az_max_rad, rng)
+        return counts, r, az
+
+    def scan(self, t_scan: float, t_end: float, beam_start_rad: float, omega_rad_s: float,
+             rng: np.random.Generator) -> dict[str, NDArray] | None:
+        """Plot columns of one revolution's clutter false alarms, or None if there are none.
+
+        Parameters
+        ----------
+        t_scan : float
+            Start of the revolution [s].
+        t_end : float
+            End of the revolution or of the run [s]: later plots are dropped.
+        beam_start_rad : float
+            Beam azimuth at ``t_scan`` [rad].
+        omega_rad_s : float
+            Rotation rate [rad/s] > 0.
+        rng : numpy.random.Generator
+
+        Returns
+        -------
+        dict or None
+            ``time_s`` (t_scan + mod(θ - θ_start, 2π)/ω), ``range_m`` (slant range of the sea
+            point), ``azimuth_rad``, ``snr_db`` (spike excess x/σ0 - 1 in dB),
+            ``sigma_range_m``, ``sigma_azimuth_rad`` ([84]-[85] / 3), ``interference``
+            (uint8, 1 = clutter), and ``ground_range_m``; None without active sectors.
+        """
+        if self.eta.size == 0:
+            return None
+        counts, ground, az = self.draw(rng)
+        t = t_scan + np.mod(az - beam_start_rad, TWO_PI) / omega_rad_s
+        keep = t < t_end
+        a = np.repeat(self.weibull_a, counts)[keep]
+        ground, az, t = ground[keep], az[keep], t[keep]
+        x = spike_excess(self.threshold_ratio, a, rng)
+        si = np.maximum(x - 1.0, 1e-3)
+        eps_r, eps_t = expected_errors(si, self.n_pulses, self.range_cell_m, self.beamwidth_rad,
+                                       h_range=self.h_range, h_azimuth=self.h_azimuth)
+        slant = slant_range_m(ground, self.antenna_height_m, self.k_factor)
+        n = t.size
+        return {
+            "time_s": t,
+            "range_m": slant,
+            "azimuth_rad": az,
+            "snr_db": 10.0 * np.log10(si),
+            "sigma_range_m": np.broadcast_to(eps_r / 3.0, (n,)).copy(),
+            "sigma_azimuth_rad": np.broadcast_to(eps_t / 3.0, (n,)).copy(),
+            "interference": np.ones(n, dtype=np.uint8),
+            "ground_range_m": ground,
+        }
+
+
 __all__ = [
     "NORMAL_MIN_ETA",
+    "ClutterFalseAlarms",
     "bernoulli_limit",
+    "clutter_fa_probability",
+    "clutter_threshold_db",
+    "clutter_threshold_ratio",
+    "default_p_fac_max",
     "false_alarm_count",
+    "hp_clutter_fa_probability",
     "resolution_cells",
+    "sector_cells",
+    "spike_excess",
     "uniform_positions",
+    "weibull_exceedance",
 ]
