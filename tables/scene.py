@@ -287,3 +287,11 @@ def _duct_height(scenario: Scenario) -> float:
     return float(evaporation_duct_height(
         duct.air_temperature_c, duct.sea_temperature_c, duct.relative_humidity,
         env.wind_speed_mps, duct.pressure_hpa))
+
+
+@provider
+def _pfac_specs(scenario: Scenario, platform: Platform, radar: Radar) -> list[TableSpec]:
+    """P_fac map (seed 7.2): clutter on and a medium/high-resolution radar only (tables.pfac)."""
+    from tables.pfac import pfac_specs
+
+    return pfac_specs(scenario, platform, radar)
