@@ -546,8 +546,23 @@ class DwellModel:
         }
 
     def clutter_false_alarms(self, t_a, t_b, beam_start, omega, rng):
-        """Sea-clutter-induced false alarms of one sector (seed 7.2); None without a P_fac map."""
-        return None
+        """Sea-clutter-induced false alarms of one revolution [t_a, t_b) (seed 7.2, [94]-[96]).
+
+        Per P_fac-map sector: a count by [91]-[93] from η = P_fac × cells, uniform positions,
+        times when the beam (at ``beam_start`` [rad] at t_a, ``omega`` [rad/s]) sweeps them
+        (:class:`sensors.false_alarms.ClutterFalseAlarms`).  None without a P_fac map.
+        """
+        if self.tables.pfac is None:
+            return None
+        gen = self.__dict__.get("_clutter_fa_generator")
+        if gen is None:
+            from tables.pfac import clutter_false_alarm_generator
+
+            gen = self._clutter_fa_generator = clutter_false_alarm_generator(
+                self.tables.pfac, pfa=self.pfa, n_channels=self.radar.n_channels,
+                n_pulses=self.n_pulses, h_range=self.radar.h_range,
+                h_azimuth=self.radar.h_azimuth)
+        return gen.scan(t_a, t_b, beam_start, omega, rng)
 
 
 def _argmax_by_group(group: np.ndarray, value: np.ndarray, n_groups: int) -> np.ndarray:
