@@ -295,3 +295,50 @@ def _pfac_specs(scenario: Scenario, platform: Platform, radar: Radar) -> list[Ta
     from tables.pfac import pfac_specs
 
     return pfac_specs(scenario, platform, radar)
+
+
+#: Highest height of a PE table [m]: above it targets are at elevations where ducts and the
+#: parabolic equation add nothing over the two-ray model, which takes over there (counted).
+PE_MAX_HEIGHT_M = 1500.0
+
+
+def refractivity_profile(scenario: Scenario) -> dict[str, Any]:
+    """The M-profile description of the scene: evaporation duct [7] or standard atmosphere."""
+    h = _duct_height(scenario)
+    if h > 0.0:
+        return {"kind": "evaporation", "duct_height_m": h}
+    return {"kind": "standard"}
+
+
+@provider
+def _propagation_specs(scenario: Scenario, platform: Platform, radar: Radar) -> list[TableSpec]:
+    """F(R_t, h) by the split-step PE [5]-[7], only when the scene asks for it."""
+    if scenario.fidelity.propagation != "pe":
+        return []
+    from sensors.dwell import radar_constants
+    from tables.propagation import get_propagation_table
+
+    k = radar_constants(scenario, radar)
+    top = max((w.altitude_m for t in scenario.targets for w in t.waypoints), default=0.0)
+    top = max((w.altitude_m for j in scenario.jammers for w in j.waypoints), default=top)
+    max_height = min(PE_MAX_HEIGHT_M, max(100.0, 1.2 * top + 20.0))
+    kind, phi_b, sidelobe, tilt = k.pattern_key(radar)
+    description = {"kind": kind, "beamwidth_rad": phi_b, "sidelobe_db": sidelobe,
+                   "tilt_rad": tilt, "convention": "absolute elevation"}
+
+    def make() -> Table:
+        return get_propagation_table(
+            freq_hz=radar.frequency_hz,
+            antenna_height_m=radar.antenna_height_m,
+            polarization=radar.polarization,
+            elevation_pattern=k.elevation_pattern(radar),
+            pattern_description=description,
+            profile=refractivity_profile(scenario),
+            wave_height_m=scenario.wave_height,
+            max_range_m=radar.instrumented_range_m,
+            max_height_m=max_height,
+            fidelity=scenario.fidelity.pe_grid,
+        )[0]
+
+    return [TableSpec(radar.id, "propagation", "propagation factor F vs range, height (PE)",
+                      make)]
