@@ -142,6 +142,18 @@ def cmd_plot(args) -> int:
     return EXIT_OK
 
 
+def cmd_montecarlo(args) -> int:
+    from sim.montecarlo import cli_main
+
+    return cli_main(args.rest)
+
+
+def cmd_report(args) -> int:
+    from sim.report import cli_main
+
+    return cli_main(args.rest)
+
+
 # --------------------------------------------------------------------------- parser
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="shipradar", description=__doc__.splitlines()[0])
@@ -203,12 +215,27 @@ def build_parser() -> argparse.ArgumentParser:
     pl.add_argument("--radar", default=None, help="radar id (default: every radar)")
     pl.add_argument("--height", type=float, default=10.0, help="target height for F vs range [m]")
     pl.set_defaults(func=cmd_plot)
+
+    mc = sub.add_parser("montecarlo", add_help=False,
+                        help="replications on a Dask cluster (see: shipradar montecarlo -h)")
+    mc.add_argument("rest", nargs=argparse.REMAINDER)
+    mc.set_defaults(func=cmd_montecarlo)
+
+    rep = sub.add_parser("report", add_help=False,
+                         help="study report: PNG figures and an index page (shipradar report -h)")
+    rep.add_argument("rest", nargs=argparse.REMAINDER)
+    rep.set_defaults(func=cmd_report)
     return p
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)  # argparse exits with 2 on bad options
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv and argv[0] in ("montecarlo", "report"):
+        # these commands own their argument parsing (sim.montecarlo, sim.report)
+        args = argparse.Namespace(rest=argv[1:], func={"montecarlo": cmd_montecarlo,
+                                                       "report": cmd_report}[argv[0]])
+    else:
+        args = build_parser().parse_args(argv)  # argparse exits with 2 on bad options
     from sim.bus import EndpointError, PublisherStalledError, SubscriberTimeoutError
     from sim.recording import RecordingError, RecordingExistsError
 
