@@ -458,3 +458,24 @@ def test_engine_run_emits_sea_clutter_plots(table_cache):
         beam = np.mod(omega * p["time_s"], 2 * math.pi)
         d = np.abs(np.mod(beam - p["azimuth_rad"] + math.pi, 2 * math.pi) - math.pi)
         assert d.max() < 1e-9
+
+
+def test_figures_write_png(tmp_path, table_cache):
+    from sim.figures.false_alarms import (
+        generated_false_alarms,
+        plot_false_alarm_histograms,
+        plot_ppi_by_origin,
+    )
+
+    s = clutter_scene()
+    fa_ = generated_false_alarms(s, scans=3, seed=2, min_noise=200)
+    noise, clutter = fa_["origin"] == 1, fa_["origin"] == 2
+    assert noise.sum() > 100 and clutter.sum() > 100
+    assert np.all(fa_["scan"][noise & (fa_["scan"] >= 0)] < 3)
+    p1 = plot_false_alarm_histograms(tmp_path / "fig8.png", fa_["range_m"][noise],
+                                     fa_["range_m"][clutter], max_range_m=fa_["max_range_m"])
+    first = fa_["scan"] == 0
+    p2 = plot_ppi_by_origin(tmp_path / "ppi.png", fa_["range_m"][first],
+                            fa_["azimuth_rad"][first], fa_["origin"][first], wind_from_rad=0.0)
+    for p in (p1, p2):
+        assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
