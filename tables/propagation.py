@@ -1,0 +1,563 @@
+"""Split-step Fourier parabolic-equation solver for the propagation factor F(R_t, h), and the
+table builder and lookup of the off-line level (seed [5]-[7]; SPEC section 3; issue 4).
+
+Method (docs/propagation.md has the reasoning and the measured errors)
+-----------------------------------------------------------------------
+* Equation: the seed's [5], ``u_hh + 2 j k u_R + k^2 (m^2 - 1) u = 0`` (physics time convention
+  ``exp(-j w t)``, field ``E = u exp(j k R) / sqrt(R)``), with the *wide-angle* Feit-Fleck
+  free-space propagator ``exp(j dx (sqrt(k^2 - p^2) - k))`` (exact in a homogeneous medium
+  for every angle the grid carries) and the phase screen ``exp(j k dx (M(h) - M(0)) 1e-6)``.
+  Earth curvature is inside M (``m = n + h / r``).
+* Surface: sea water through the Leontovich impedance condition ``u_h + alpha u = 0``,
+  ``alpha_H = j k sqrt(eps - 1)``, ``alpha_V = j k sqrt(eps - 1) / eps``, solved with the
+  discrete mixed Fourier transform (Dockery & Kuttler 1996, IEEE TAP 44(12) 1592-1599).
+  Roughness (Miller-Brown) enters as an effective impedance per range step: the reflection
+  coefficient rho(psi) Gamma(psi) is matched at the grazing angle psi of the ray that leaves the
+  antenna and meets the sea at that range (4/3 earth), the approach of Barrios (1994)/APM.
+  ``surface="pec"`` gives a perfect conductor: Dirichlet (sine transform) for H, Neumann
+  (cosine transform) for V.
+* Starting field: the angular spectrum of the elevation pattern, ``g(theta - tilt)``, at the
+  antenna height plus its image weighted by the plane-wave reflection coefficient of the same
+  boundary, tapered in angle (flat to ``max_angle``, cosine roll-off to 2 ``max_angle``).
+* Top: Hanning absorbing window over the upper third of the domain.
+* F = |u| sqrt(R_t) (seed [6]); the spectrum is scaled by sqrt(2 pi / k), so that by stationary
+  phase F -> g(theta) in free space, i.e. F = 1 on the beam peak.
+* Points whose image-ray elevation exceeds ``max_angle`` hold NaN: the PE grid does not carry
+  those angles and the on-line model falls back to :func:`sensors.propagation.two_ray_factor`.
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Callable, Mapping
+from typing import Any
+
+import numpy as np
+import scipy.constants as sc
+import scipy.fft as sfft
+from scipy.signal import lfilter
+
+from sensors import propagation as prop
+from tables.store import Table, get_or_build
+
+#: Builder name and version (part of the cache key; bump on any change of results).
+TABLE_NAME = "propagation_factor"
+TABLE_VERSION = 1
+
+#: Fidelity presets.  max_angle_deg: largest propagation angle carried (the table is NaN
+#: beyond it); nyquist_factor: oversampling of the angular spectrum (Nyquist angle over the
+#: end of the taper); boundary_kz_dz: largest k sin(max_angle) dz for the impedance boundary
+#: of vertical polarization (the discrete condition reflects like the continuous one at
+#: sin(p dz) / dz instead of p; see :func:`grid_steps`); phase_error_rad: allowed splitting
+#: phase error at max_angle, which sets the range step.
+FIDELITY = {
+    "coarse": {"max_angle_deg": 3.0, "nyquist_factor": 1.1, "boundary_kz_dz": 0.8,
+               "phase_error_rad": 0.6},
+    "standard": {"max_angle_deg": 5.0, "nyquist_factor": 1.2, "boundary_kz_dz": 0.45,
+                 "phase_error_rad": 0.25},
+    "fine": {"max_angle_deg": 8.0, "nyquist_factor": 1.5, "boundary_kz_dz": 0.3,
+             "phase_error_rad": 0.08},
+}
+#: End of the cosine roll-off of the starting spectrum, in units of max_angle.
+TAPER_END = 2.0
+#: Fraction of the computational domain, at the top, taken by the absorbing window.
+ABSORBER_FRACTION = 1.0 / 3.0
+#: The steepest wave of the starting spectrum must be seen at least this many times inside
+#: the absorbing layer on its way up (else it reaches the top, is reflected and comes back).
+ABSORBER_STEPS = 4
+#: Heights over which the refractive gradient is sampled for the range step [m]: the bottom
+#: metre of an evaporation duct (gradient -> -inf at the surface) is excluded.
+_GRADIENT_FLOOR_M = 1.0
+#: Largest range step, as a fraction of the maximum range.
+_MAX_STEP_FRACTION = 1.0 / 50.0
+
+
+# =========================================================================== grid
+def grid_steps(
+    freq_hz: float,
+    max_height_m: float,
+    max_range_m: float,
+    profile: Callable[[np.ndarray], np.ndarray],
+    fidelity: str = "standard",
+    max_angle_rad: float | None = None,
+    *,
+    polarization: str = "H",
+    surface: str = "sea",
+) -> dict[str, float]:
+    """PE grid from frequency, height, range, maximum angle and the refractive gradient.
+
+    * Height step: Nyquist of the angular spectrum, ``dz = lambda / (2 sin theta_N)`` with
+      ``sin theta_N = nyquist_factor * sin(TAPER_END * max_angle)``.  For vertical
+      polarization over the sea also ``k sin(max_angle) dz <= boundary_kz_dz``: the discrete
+      impedance condition reflects a wave of vertical wavenumber p like the continuous one
+      at ``sin(p dz) / dz``, and |Gamma_V| varies quickly with angle below the Brewster angle.
+      (Gamma_H is -1 to within a few per cent at these angles, so H needs no such refinement.)
+    * Range step: the split-step error is the phase lost by a ray at ``max_angle`` whose angle
+      changes by ``dx |dm/dz|`` inside one step, ``k sin(theta) |dm/dz| dx^2 / 2``; it is held
+      to ``phase_error_rad``.  |dm/dz| is the largest gradient of M above 1 m (and at least the
+      earth-curvature 0.157e-6 / m).  Capped at max_range / 50, and so that the steepest
+      wave of the starting spectrum is seen ABSORBER_STEPS times crossing the absorber.
+    * Domain: ``max_height / (1 - 1/3)`` with the absorber above max_height.
+
+    Parameters
+    ----------
+    freq_hz : float
+        Frequency [Hz].
+    max_height_m, max_range_m : float
+        Extent of the wanted table [m].
+    profile : callable
+        M profile [M units] of height [m].
+    fidelity : str
+        ``"coarse"``, ``"standard"`` or ``"fine"`` (:data:`FIDELITY`).
+    max_angle_rad : float, optional
+        Overrides the preset's maximum propagation angle [rad].
+
+    Returns
+    -------
+    dict
+        ``dz``, ``dx``, ``n`` (intervals in height), ``domain_m``, ``max_angle_rad``.
+    """
+    if fidelity not in FIDELITY:
+        raise ValueError(f"fidelity must be one of {sorted(FIDELITY)}, got {fidelity!r}")
+    preset = FIDELITY[fidelity]
+    theta = np.radians(preset["max_angle_deg"]) if max_angle_rad is None else float(max_angle_rad)
+    if not 0 < theta * TAPER_END < np.pi / 2:
+        raise ValueError("max_angle_rad must be in (0, 0.8 * pi/2)")
+    lam = sc.c / freq_hz
+    k = 2 * np.pi / lam
+    sin_nyq = min(preset["nyquist_factor"] * np.sin(TAPER_END * theta), 1.0)
+    dz_target = lam / (2 * sin_nyq)
+    if surface == "sea" and prop.normalize_polarization(polarization) == "V":
+        dz_target = min(dz_target, preset["boundary_kz_dz"] / (k * np.sin(theta)))
+    domain = max_height_m / (1 - ABSORBER_FRACTION)
+    n = int(sfft.next_fast_len(int(np.ceil(domain / dz_target))))
+    dz = domain / n
+    z = np.linspace(min(_GRADIENT_FLOOR_M, max_height_m / 2), max_height_m, 2048)
+    grad = np.abs(np.gradient(np.asarray(profile(z), dtype=float), z)).max() * 1e-6
+    grad = max(grad, 1e-6 / prop.EARTH_RADIUS_M)
+    dx = np.sqrt(2 * preset["phase_error_rad"] / (k * np.sin(theta) * grad))
+    absorber_dx = _absorber_step(domain, theta)
+    dx = float(min(dx, max_range_m * _MAX_STEP_FRACTION, absorber_dx))
+    return {"dz": dz, "dx": dx, "n": n, "domain_m": domain, "max_angle_rad": theta,
+            "absorber_dx": absorber_dx}
+
+
+def _absorber_step(domain_m: float, max_angle_rad: float) -> float:
+    """Range over which the steepest carried wave climbs a quarter of the absorbing layer [m]."""
+    return ABSORBER_FRACTION * domain_m / (ABSORBER_STEPS * np.tan(TAPER_END * max_angle_rad))
+
+
+# =========================================================================== boundary
+class _ImpedanceBoundary:
+    """Discrete mixed Fourier transform for ``u_z + alpha u = 0`` (Dockery & Kuttler 1996).
+
+    ``w_j = (u_{j+1} - u_{j-1}) / (2 dz) + alpha u_j`` vanishes at the surface, so w is
+    propagated with the sine transform; the one-dimensional null space of that map,
+    ``phi_j ~ r^j`` with ``r^2 + 2 alpha dz r - 1 = 0``, |r| < 1 (a surface mode), is carried
+    separately.  The mode amplitude is the projection ``sum' phi_j u_j / sum' phi_j^2``
+    (bilinear, half weight at the surface), under which the discrete Laplacian with the
+    impedance condition is symmetric, so that the continuous-spectrum eigenfunctions have no
+    mode component.  ``u`` is rebuilt from w by two first-order recursions run in their
+    stable directions (forward with r, backward with -r), then cleared of its mode component.
+    """
+
+    def __init__(self, alpha: complex, dz: float, n: int, k: float, dx: float):
+        a = alpha * dz
+        root = np.sqrt(a * a + 1)
+        r1, r2 = -a + root, -a - root
+        if abs(r1) > abs(r2):
+            r1, r2 = r2, r1
+        self.r = r1
+        self.dz = dz
+        self.alpha = alpha
+        j = np.arange(n + 1)
+        # phi_j = r^j minus the growing root's share that makes phi_N = 0 (exact null vector)
+        tail = np.zeros(n + 1, dtype=complex)
+        if abs(r1) ** n > 1e-300:
+            tail = (-1.0) ** ((n + j) % 2) * r1 ** (2 * n - j)
+        with np.errstate(under="ignore"):
+            self.phi = r1**j - tail
+        self.weights = np.ones(n + 1)
+        self.weights[0] = 0.5
+        self.weights[n] = 0.0
+        self.weighted_phi = self.weights * self.phi / np.sum(self.weights * self.phi**2)
+        # the mode's propagator, continuous-equivalent wavenumber p^2 = -(ln r / dz)^2
+        kz2 = (np.log(r1) / dz) ** 2
+        prop_mode = np.exp(1j * dx * (np.sqrt(k * k + kz2) - k))
+        # a mode that would grow is not a physical surface wave: drop it
+        self.mode_propagator = prop_mode if abs(prop_mode) <= 1.0 else 0.0
+
+    def forward(self, u: np.ndarray) -> tuple[np.ndarray, complex]:
+        """u (j = 0..N, u_N = 0) -> (w on j = 1..N-1, mode amplitude)."""
+        w = (u[2:] - u[:-2]) / (2 * self.dz) + self.alpha * u[1:-1]
+        return w, np.dot(self.weighted_phi, u)
+
+    def inverse(self, w: np.ndarray, mode: complex) -> np.ndarray:
+        """(w on j = 1..N-1, mode amplitude) -> u on j = 0..N."""
+        particular = self._solve(w)
+        return particular + (mode - np.dot(self.weighted_phi, particular)) * self.phi
+
+    def _solve(self, w: np.ndarray) -> np.ndarray:
+        """Particular solution of T u = w with v_0 = 0 and u_N = 0."""
+        r = self.r
+        n = w.size + 1
+        x = np.zeros(n + 1, dtype=complex)
+        x[2:] = 2 * self.dz * w  # v_j = r v_{j-1} + 2 dz w_{j-1}, w_0 = 0
+        v = lfilter([1.0], [1.0, -r], x)
+        y = np.zeros(n + 1, dtype=complex)
+        y[1:] = r * v[::-1][:-1]  # u_{j-1} = -r u_j + r v_j, from u_N = 0 downwards
+        s = lfilter([1.0], [1.0, r], y)
+        return s[::-1]
+
+
+def _surface_alpha(freq_hz: float, pol: str, permittivity: complex) -> complex:
+    """Leontovich impedance constant (physics convention) for sea water."""
+    k = 2 * np.pi * freq_hz / sc.c
+    eps = np.conj(permittivity)  # engineering eps' - j eps'' -> physics eps' + j eps''
+    root = np.sqrt(eps - 1)
+    return 1j * k * root if pol == "H" else 1j * k * root / eps
+
+
+def _plane_wave_gamma(p: np.ndarray, k: float, alpha: complex) -> np.ndarray:
+    """Reflection coefficient of the impedance boundary for the plane wave of wavenumber |p|."""
+    ip = 1j * np.abs(p)
+    return (ip - alpha) / (ip + alpha)
+
+
+def _rough_alpha(alpha: complex, psi: float, rho: float, k: float) -> complex:
+    """Impedance whose plane-wave reflection at grazing psi is rho * Gamma(psi)."""
+    if psi <= 0 or rho >= 1.0:
+        return alpha
+    ip = 1j * k * np.sin(psi)
+    gamma = rho * (ip - alpha) / (ip + alpha)
+    return ip * (1 - gamma) / (1 + gamma)
+
+
+# =========================================================================== solver
+def solve_pe(
+    freq_hz: float,
+    antenna_height_m: float,
+    *,
+    polarization: str,
+    elevation_pattern: Callable[[np.ndarray], np.ndarray] | None,
+    profile: Callable[[np.ndarray], np.ndarray] | Mapping[str, Any],
+    wave_height_m: float = 0.0,
+    max_range_m: float,
+    max_height_m: float,
+    fidelity: str = "standard",
+    tilt_rad: float = 0.0,
+    surface: str = "sea",
+    permittivity: complex | None = None,
+    max_angle_rad: float | None = None,
+    range_step_m: float | None = None,
+    height_step_m: float | None = None,
+    step_scale: float = 1.0,
+    progress: bool | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Propagation factor F(R_t, h) by the split-step Fourier PE (seed [5]-[6]).
+
+    Parameters
+    ----------
+    freq_hz : float
+        Carrier frequency [Hz].
+    antenna_height_m : float
+        Antenna phase-centre height above the sea [m], in (0, max_height_m).
+    polarization : str
+        ``"H"`` or ``"V"``.
+    elevation_pattern : callable or None
+        ``g(theta_rad)``: field pattern relative to its peak, as a function of the angle from
+        the beam axis (the beam axis is at elevation ``tilt_rad``).  None: isotropic.
+    profile : callable or dict
+        M profile [M units] of height [m], or a description for
+        :func:`sensors.propagation.profile_from_spec`.
+    wave_height_m : float
+        Significant wave height [m] (Miller-Brown roughness); 0: smooth sea.
+    max_range_m, max_height_m : float
+        Extent of the output grid [m].
+    fidelity : str
+        ``"coarse"``, ``"standard"`` or ``"fine"`` (see :func:`grid_steps`).
+    tilt_rad : float
+        Elevation of the beam axis [rad].
+    surface : str
+        ``"sea"`` (impedance of sea water) or ``"pec"`` (perfect conductor).
+    permittivity : complex, optional
+        Sea permittivity ``eps' - j eps''``; default sea water at 15 degC, 35 psu.
+    max_angle_rad : float, optional
+        Overrides the fidelity's largest propagation angle [rad].
+    range_step_m, height_step_m : float, optional
+        Output grid steps [m]; default the PE range step and the height step that samples the
+        finest interference period, lambda / (2 sin max_angle), twice.  With range_step_m the
+        PE step is the largest divisor of it below the grid's step, and the last range is
+        max_range_m rounded up to a multiple of it.
+    step_scale : float
+        Multiplies both PE steps (dz, dx) for convergence studies; 1 in production.
+    progress : bool, optional
+        tqdm progress bar; default when stderr is a terminal.
+
+    Returns
+    -------
+    ranges_m : ndarray
+        Terrestrial ranges of the output grid [m], from the first range step.
+    heights_m : ndarray
+        Heights of the output grid [m], from 0 to >= max_height_m.
+    F : ndarray
+        Linear propagation factor, shape (len(ranges_m), len(heights_m)), float32; NaN where
+        the image ray's elevation exceeds the largest angle carried (use the two-ray model).
+    """
+    from tqdm import tqdm
+
+    pol = prop.normalize_polarization(polarization)
+    if surface not in ("sea", "pec"):
+        raise ValueError("surface must be 'sea' or 'pec'")
+    if not 0 < antenna_height_m < max_height_m:
+        raise ValueError("antenna height must be in (0, max_height_m)")
+    if max_range_m <= 0:
+        raise ValueError("max_range_m must be > 0")
+    m_of_h = prop.profile_from_spec(profile) if isinstance(profile, Mapping) else profile
+    pattern = elevation_pattern if elevation_pattern is not None else prop._isotropic
+    steps = grid_steps(freq_hz, max_height_m, max_range_m, m_of_h, fidelity, max_angle_rad,
+                       polarization=pol, surface=surface)
+    if step_scale != 1.0:
+        # a convergence study: the same domain with both steps scaled
+        n_scaled = int(sfft.next_fast_len(int(np.ceil(steps["n"] / step_scale))))
+        steps["dz"] = steps["domain_m"] / n_scaled
+        steps["n"] = n_scaled
+    dz, n, theta_max = steps["dz"], steps["n"], steps["max_angle_rad"]
+    if range_step_m is None:
+        n_steps = int(np.ceil(max_range_m / (steps["dx"] * step_scale)))
+        dx = max_range_m / n_steps
+        every = 1
+    else:
+        every = int(np.ceil(range_step_m / (steps["dx"] * step_scale)))
+        dx = range_step_m / every
+        n_steps = every * int(np.ceil(max_range_m / range_step_m - 1e-9))
+    lam = sc.c / freq_hz
+    k = 2 * np.pi / lam
+    z = dz * np.arange(n + 1)
+    eps = prop.sea_water_permittivity(freq_hz) if permittivity is None else complex(permittivity)
+
+    # ---- boundary
+    if surface == "pec":
+        alpha = np.inf
+        gamma_of_p = (lambda p: -np.ones_like(p)) if pol == "H" else (lambda p: np.ones_like(p))
+    else:
+        alpha = _surface_alpha(freq_hz, pol, eps)
+        gamma_of_p = lambda p: _plane_wave_gamma(p, k, alpha)  # noqa: E731
+
+    # ---- starting field: angular spectrum of the pattern and its image (FFT over 2N samples)
+    m_idx = np.fft.fftfreq(2 * n, d=1.0 / (2 * n))
+    p = m_idx * np.pi / (n * dz)
+    sin_t = np.clip(p / k, -1.0, 1.0)
+    theta = np.arcsin(sin_t)
+    taper = _angular_taper(np.abs(theta), theta_max) * (np.abs(p) < k)
+    norm = np.sqrt(2 * np.pi / k)
+    z_a = float(antenna_height_m)
+    psi = np.abs(theta)
+    rho0 = prop.roughness_factor(psi, wave_height_m, freq_hz) if surface == "sea" else 1.0
+    spectrum = norm * taper * (
+        pattern(theta - tilt_rad) * np.exp(-1j * p * z_a)
+        + rho0 * gamma_of_p(p) * pattern(-theta - tilt_rad) * np.exp(1j * p * z_a)
+    )
+    dp = np.pi / (n * dz)
+    u = (dp / (2 * np.pi)) * (2 * n) * np.fft.ifft(spectrum)[: n + 1]
+    u[n] = 0.0
+
+    # ---- propagators
+    p_sine = np.arange(1, n) * np.pi / (n * dz)
+    p_cos = np.arange(0, n + 1) * np.pi / (n * dz)
+    free_sine = np.exp(1j * dx * (np.sqrt((k * k - p_sine**2).astype(complex)) - k))
+    free_cos = np.exp(1j * dx * (np.sqrt((k * k - p_cos**2).astype(complex)) - k))
+    m_surface = float(np.asarray(m_of_h(0.0)))
+    screen = np.exp(1j * k * dx * (np.asarray(m_of_h(z), dtype=float) - m_surface) * 1e-6)
+    z_abs = n * dz * (1 - ABSORBER_FRACTION)
+    window = np.where(z <= z_abs, 1.0, 0.5 * (1 + np.cos(np.pi * (z - z_abs) / (n * dz - z_abs))))
+    # the Hanning window once per absorber step: the absorption per metre of range, not per
+    # step, is fixed, so results do not depend on dx through the absorber
+    screen = screen * window ** (dx / steps["absorber_dx"])
+
+    # ---- output grid
+    if height_step_m is None:
+        height_step_m = lam / (4 * np.sin(theta_max))
+    decim = max(1, int(round(height_step_m / dz)))
+    out_idx = np.arange(0, n + 1, decim)
+    out_idx = out_idx[: np.searchsorted(z[out_idx], max_height_m) + 1]
+    heights = z[out_idx]
+    keep = np.arange(every, n_steps + 1, every)
+    ranges = keep * dx
+    out = np.empty((ranges.size, heights.size), dtype=np.float32)
+
+    a_e = prop.STANDARD_K_FACTOR * prop.EARTH_RADIUS_M
+    rough = surface == "sea" and wave_height_m > 0
+    boundary = None
+    if surface == "sea" and not rough:
+        boundary = _ImpedanceBoundary(alpha, dz, n, k, dx)
+    show = sys.stderr.isatty() if progress is None else progress
+    col = 0
+    for step in tqdm(range(1, n_steps + 1), disable=not show, desc="PE", unit="step", leave=False):
+        x_mid = (step - 0.5) * dx
+        if surface == "pec" and pol == "H":
+            u[1:n] = sfft.idst(sfft.dst(u[1:n], type=1, norm="ortho") * free_sine, type=1,
+                               norm="ortho")
+            u[0] = 0.0
+        elif surface == "pec":
+            u = sfft.idct(sfft.dct(u, type=1, norm="ortho") * free_cos, type=1, norm="ortho")
+        else:
+            if rough:
+                psi_x = float(np.arctan(z_a / x_mid) - x_mid / (2 * a_e))
+                rho_x = float(prop.roughness_factor(max(psi_x, 0.0), wave_height_m, freq_hz))
+                boundary = _ImpedanceBoundary(_rough_alpha(alpha, psi_x, rho_x, k), dz, n, k, dx)
+            w, mode = boundary.forward(u)
+            w = sfft.idst(sfft.dst(w, type=1, norm="ortho") * free_sine, type=1, norm="ortho")
+            u = boundary.inverse(w, mode * boundary.mode_propagator)
+        u = u * screen
+        u[n] = 0.0
+        if col < keep.size and step == keep[col]:
+            out[col] = np.abs(u[out_idx]) * np.sqrt(step * dx)
+            col += 1
+
+    # NaN where the image ray (the steeper one) leaves the angles carried by the grid
+    image_elev = np.arctan2(heights[None, :] + z_a, ranges[:, None])
+    out[image_elev > theta_max] = np.nan
+    return ranges, heights, out
+
+
+def _angular_taper(abs_theta: np.ndarray, theta_max: float) -> np.ndarray:
+    """1 up to theta_max, cosine roll-off to 0 at TAPER_END * theta_max."""
+    t = np.clip((abs_theta - theta_max) / ((TAPER_END - 1) * theta_max), 0.0, 1.0)
+    return 0.5 * (1 + np.cos(np.pi * t))
+
+
+# =========================================================================== table
+def propagation_table_inputs(
+    freq_hz: float,
+    antenna_height_m: float,
+    *,
+    polarization: str,
+    pattern_description: Mapping[str, Any],
+    profile: Mapping[str, Any],
+    wave_height_m: float = 0.0,
+    max_range_m: float,
+    max_height_m: float,
+    fidelity: str = "standard",
+    tilt_rad: float = 0.0,
+    surface: str = "sea",
+    sea_temperature_c: float = prop.SEA_TEMPERATURE_C,
+    salinity_psu: float = prop.SEA_SALINITY_PSU,
+    max_angle_rad: float | None = None,
+) -> dict[str, Any]:
+    """Exactly the inputs that change a propagation table (hashed into its cache key)."""
+    return {
+        "freq_hz": float(freq_hz),
+        "antenna_height_m": float(antenna_height_m),
+        "polarization": prop.normalize_polarization(polarization),
+        "pattern": dict(pattern_description),
+        "tilt_rad": float(tilt_rad),
+        "profile": prop.normalize_profile_spec(profile),
+        "wave_height_m": float(wave_height_m),
+        "max_range_m": float(max_range_m),
+        "max_height_m": float(max_height_m),
+        "fidelity": str(fidelity),
+        "surface": str(surface),
+        "sea_temperature_c": float(sea_temperature_c) if surface == "sea" else None,
+        "salinity_psu": float(salinity_psu) if surface == "sea" else None,
+        "max_angle_rad": None if max_angle_rad is None else float(max_angle_rad),
+    }
+
+
+def build_propagation_table(
+    freq_hz: float,
+    antenna_height_m: float,
+    *,
+    polarization: str,
+    elevation_pattern: Callable[[np.ndarray], np.ndarray] | None,
+    pattern_description: Mapping[str, Any] | None = None,
+    profile: Mapping[str, Any],
+    wave_height_m: float = 0.0,
+    max_range_m: float,
+    max_height_m: float,
+    fidelity: str = "standard",
+    tilt_rad: float = 0.0,
+    surface: str = "sea",
+    sea_temperature_c: float = prop.SEA_TEMPERATURE_C,
+    salinity_psu: float = prop.SEA_SALINITY_PSU,
+    max_angle_rad: float | None = None,
+    progress: bool | None = None,
+) -> Table:
+    """Build the table F(R_t, h) with :func:`solve_pe` (no cache; see :func:`get_propagation_table`).
+
+    The callable pattern cannot be hashed: ``pattern_description`` (e.g. ``{"kind":
+    "gaussian", "beamwidth_rad": ..., "sidelobe_db": ...}``) stands for it in the provenance
+    and must describe it completely; it may be omitted only for the isotropic pattern.
+    ``profile`` is a description dict (see :func:`sensors.propagation.normalize_profile_spec`).
+
+    Returns
+    -------
+    Table
+        Axes ``("range_m", "height_m")`` in metres; values: linear F (float32), NaN where the
+        PE does not apply (short range, steep angles).
+    """
+    if pattern_description is None:
+        if elevation_pattern is not None:
+            raise ValueError("a callable elevation_pattern needs its pattern_description")
+        pattern_description = {"kind": "isotropic"}
+    inputs = propagation_table_inputs(
+        freq_hz, antenna_height_m, polarization=polarization,
+        pattern_description=pattern_description, profile=profile, wave_height_m=wave_height_m,
+        max_range_m=max_range_m, max_height_m=max_height_m, fidelity=fidelity, tilt_rad=tilt_rad,
+        surface=surface, sea_temperature_c=sea_temperature_c, salinity_psu=salinity_psu,
+        max_angle_rad=max_angle_rad,
+    )
+    eps = prop.sea_water_permittivity(freq_hz, sea_temperature_c, salinity_psu)
+    ranges, heights, f = solve_pe(
+        freq_hz, antenna_height_m, polarization=polarization, elevation_pattern=elevation_pattern,
+        profile=inputs["profile"], wave_height_m=wave_height_m, max_range_m=max_range_m,
+        max_height_m=max_height_m, fidelity=fidelity, tilt_rad=tilt_rad, surface=surface,
+        permittivity=complex(eps), max_angle_rad=max_angle_rad, progress=progress,
+    )
+    return Table(
+        name=TABLE_NAME,
+        version=TABLE_VERSION,
+        axes=(ranges, heights),
+        axis_names=("range_m", "height_m"),
+        axis_units=("m", "m"),
+        values=f,
+        value_name="propagation_factor",
+        value_unit="1 (linear field ratio)",
+        inputs=inputs,
+    )
+
+
+def get_propagation_table(root=None, **kwargs: Any) -> tuple[Table, bool]:
+    """Cached :func:`build_propagation_table` through :func:`tables.store.get_or_build`.
+
+    Takes the keyword arguments of :func:`build_propagation_table` (``freq_hz`` and
+    ``antenna_height_m`` by keyword too).  Returns ``(table, built)``.
+    """
+    keys = ("elevation_pattern", "progress")
+    spec = {k: v for k, v in kwargs.items() if k not in keys}
+    if spec.get("pattern_description") is None:
+        if kwargs.get("elevation_pattern") is not None:
+            raise ValueError("a callable elevation_pattern needs its pattern_description")
+        spec["pattern_description"] = {"kind": "isotropic"}
+    freq = spec.pop("freq_hz")
+    height = spec.pop("antenna_height_m")
+    inputs = propagation_table_inputs(freq, height, **spec)
+    return get_or_build(
+        TABLE_NAME, TABLE_VERSION, inputs,
+        lambda: build_propagation_table(freq, height, **kwargs_without(kwargs, ("freq_hz", "antenna_height_m"))),
+        root=root,
+    )
+
+
+def kwargs_without(kwargs: Mapping[str, Any], names: tuple[str, ...]) -> dict[str, Any]:
+    return {k: v for k, v in kwargs.items() if k not in names}
+
+
+def propagation_factor(table: Table, range_m: np.ndarray, height_m: np.ndarray) -> np.ndarray:
+    """Linear F at terrestrial ranges [m] and heights [m] by bilinear interpolation in a table.
+
+    Vectorized, O(1) per point.  NaN outside the table's domain and where the table holds NaN
+    (steep angles, short range): the caller falls back to
+    :func:`sensors.propagation.two_ray_factor` and counts it.
+    """
+    return table.lookup(range_m, height_m)
