@@ -49,8 +49,9 @@ SEA_SALINITY_PSU = 35.0
 #: (H_1/3 = 4 sigma_h; the seed's w_h is the significant wave height, symbols list).
 SIGNIFICANT_TO_RMS_WAVE_HEIGHT = 4.0
 #: End of the two-ray interference region, as a multiple of Fock's angular scale
-#: (2 / (k a_e))^(1/3): ray optics holds for grazing angles well above it (Fock 1965, ch. 10).
-INTERFERENCE_LIMIT_FOCK_ANGLES = 1.0
+#: (2 / (k a_e))^(1/3) (Fock 1965, ch. 10).  0.7 gave the smallest error of the whole
+#: fallback against the PE (3 and 10 GHz, H and V; docs/propagation.md).
+INTERFERENCE_LIMIT_FOCK_ANGLES = 0.7
 
 #: Debye high-frequency permittivity of sea water (Klein & Swift 1977).
 _EPS_INF_SEA = 4.9
@@ -666,12 +667,13 @@ def interference_region_limit(
     target_height_m: ArrayLike,
     freq_hz: float,
     k_factor: float = STANDARD_K_FACTOR,
+    fock_angles: float | None = None,
 ) -> np.ndarray:
     """Largest range [m] of the two-ray interference region for the given heights [m].
 
     The range at which the grazing angle at the specular point falls to
-    ``INTERFERENCE_LIMIT_FOCK_ANGLES * (2 / (k a_e))^(1/3)`` (Fock's angular scale, below which
-    ray optics fails).  It is found by bisection: psi decreases with range at fixed heights.
+    ``fock_angles * (2 / (k a_e))^(1/3)`` (Fock's angular scale, below which ray optics
+    fails; default ``INTERFERENCE_LIMIT_FOCK_ANGLES``).  It is found by bisection: psi decreases with range at fixed heights.
     0 when a height is 0 (no specular reflection off the line of sight).
 
     Parameters
@@ -682,6 +684,8 @@ def interference_region_limit(
         Frequency [Hz].
     k_factor : float
         Effective-earth-radius factor.
+    fock_angles : float, optional
+        The limit in units of Fock's angular scale.
 
     Returns
     -------
@@ -692,7 +696,8 @@ def interference_region_limit(
                                  np.asarray(target_height_m, float))
     a_e = k_factor * EARTH_RADIUS_M
     k = 2 * np.pi * freq_hz / sc.c
-    psi_limit = INTERFERENCE_LIMIT_FOCK_ANGLES * (2 / (k * a_e)) ** (1 / 3)
+    scale = INTERFERENCE_LIMIT_FOCK_ANGLES if fock_angles is None else fock_angles
+    psi_limit = scale * (2 / (k * a_e)) ** (1 / 3)
     lo = np.zeros(h1.shape)
     hi = horizon_range(h1, h2, k_factor)
     for _ in range(48):

@@ -172,15 +172,20 @@ class _ImpedanceBoundary:
         self.alpha = alpha
         j = np.arange(n + 1)
         # phi_j = r^j minus the growing root's share that makes phi_N = 0 (exact null vector)
-        tail = np.zeros(n + 1, dtype=complex)
-        if abs(r1) ** n > 1e-300:
-            tail = (-1.0) ** ((n + j) % 2) * r1 ** (2 * n - j)
         with np.errstate(under="ignore"):
+            tail = np.zeros(n + 1, dtype=complex)
+            if abs(r1) ** n > 1e-300:
+                tail = (-1.0) ** ((n + j) % 2) * r1 ** (2 * n - j)
             self.phi = r1**j - tail
-        self.weights = np.ones(n + 1)
-        self.weights[0] = 0.5
-        self.weights[n] = 0.0
-        self.weighted_phi = self.weights * self.phi / np.sum(self.weights * self.phi**2)
+        # keep the mode only where it is not negligible: subnormal numbers are slow
+        significant = np.nonzero(np.abs(self.phi) > 1e-30)[0]
+        self.m = int(significant[-1]) + 1 if significant.size else 1
+        self.phi = self.phi[: self.m]
+        weights = np.ones(self.m)
+        weights[0] = 0.5
+        if self.m == n + 1:
+            weights[n] = 0.0
+        self.weighted_phi = weights * self.phi / np.sum(weights * self.phi**2)
         # the mode's propagator, continuous-equivalent wavenumber p^2 = -(ln r / dz)^2
         kz2 = (np.log(r1) / dz) ** 2
         prop_mode = np.exp(1j * dx * (np.sqrt(k * k + kz2) - k))
@@ -190,12 +195,13 @@ class _ImpedanceBoundary:
     def forward(self, u: np.ndarray) -> tuple[np.ndarray, complex]:
         """u (j = 0..N, u_N = 0) -> (w on j = 1..N-1, mode amplitude)."""
         w = (u[2:] - u[:-2]) / (2 * self.dz) + self.alpha * u[1:-1]
-        return w, np.dot(self.weighted_phi, u)
+        return w, np.dot(self.weighted_phi, u[: self.m])
 
     def inverse(self, w: np.ndarray, mode: complex) -> np.ndarray:
         """(w on j = 1..N-1, mode amplitude) -> u on j = 0..N."""
-        particular = self._solve(w)
-        return particular + (mode - np.dot(self.weighted_phi, particular)) * self.phi
+        u = self._solve(w)
+        u[: self.m] += (mode - np.dot(self.weighted_phi, u[: self.m])) * self.phi
+        return u
 
     def _solve(self, w: np.ndarray) -> np.ndarray:
         """Particular solution of T u = w with v_0 = 0 and u_N = 0."""
@@ -527,30 +533,24 @@ def build_propagation_table(
     )
 
 
-def get_propagation_table(root=None, **kwargs: Any) -> tuple[Table, bool]:
-    """Cached :func:`build_propagation_table` through :func:`tables.store.get_or_build`.
+def get_propagation_table(
+    freq_hz: float, antenna_height_m: float, *, root=None, **kwargs: Any
+) -> tuple[Table, bool]:
+    """:func:`build_propagation_table` through the cache (:func:`tables.store.get_or_build`).
 
-    Takes the keyword arguments of :func:`build_propagation_table` (``freq_hz`` and
-    ``antenna_height_m`` by keyword too).  Returns ``(table, built)``.
+    Same arguments as :func:`build_propagation_table`, plus ``root`` (cache directory; default
+    ``$SHIPRADAR_TABLES``).  Returns ``(table, built)``; ``built`` is False on a cache hit.
     """
-    keys = ("elevation_pattern", "progress")
-    spec = {k: v for k, v in kwargs.items() if k not in keys}
+    spec = {k: v for k, v in kwargs.items() if k not in ("elevation_pattern", "progress")}
     if spec.get("pattern_description") is None:
         if kwargs.get("elevation_pattern") is not None:
             raise ValueError("a callable elevation_pattern needs its pattern_description")
         spec["pattern_description"] = {"kind": "isotropic"}
-    freq = spec.pop("freq_hz")
-    height = spec.pop("antenna_height_m")
-    inputs = propagation_table_inputs(freq, height, **spec)
+    inputs = propagation_table_inputs(freq_hz, antenna_height_m, **spec)
     return get_or_build(
         TABLE_NAME, TABLE_VERSION, inputs,
-        lambda: build_propagation_table(freq, height, **kwargs_without(kwargs, ("freq_hz", "antenna_height_m"))),
-        root=root,
+        lambda: build_propagation_table(freq_hz, antenna_height_m, **kwargs), root=root,
     )
-
-
-def kwargs_without(kwargs: Mapping[str, Any], names: tuple[str, ...]) -> dict[str, Any]:
-    return {k: v for k, v in kwargs.items() if k not in names}
 
 
 def propagation_factor(table: Table, range_m: np.ndarray, height_m: np.ndarray) -> np.ndarray:
