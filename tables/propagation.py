@@ -406,7 +406,7 @@ def solve_pe(
                                norm="ortho")
             u[0] = 0.0
         elif surface == "pec":
-            u = sfft.idct(sfft.dct(u, type=1, norm="ortho") * free_cos, type=1, norm="ortho")
+            u = sfft.idct(sfft.dct(u, type=1) * free_cos, type=1)
         else:
             if rough:
                 psi_x = float(np.arctan(z_a / x_mid) - x_mid / (2 * a_e))

@@ -1,0 +1,217 @@
+"""Split-step parabolic-equation solver and propagation tables (tables/propagation.py)."""
+
+import numpy as np
+import pytest
+import scipy.constants as sc
+from scipy.signal import argrelmin
+
+from sensors import propagation as p
+from tables import propagation as tp
+from tables.store import Table
+
+BEAMWIDTH = np.radians(3.0)
+
+
+def gaussian(elev_rad):
+    """Gaussian field pattern, seed [9], 3 deg half-power beamwidth."""
+    return np.exp(-4 * np.log(np.sqrt(2)) * (np.asarray(elev_rad) / BEAMWIDTH) ** 2)
+
+
+def db(x):
+    return 20 * np.log10(np.maximum(x, 1e-12))
+
+
+FLAT = {"kind": "standard", "gradient": 0.0}
+STANDARD = {"kind": "standard"}
+
+
+@pytest.mark.parametrize("pol", ["H", "V"])
+def test_pec_flat_earth_matches_image_theory(pol):
+    f, za = 3e9, 20.0
+    k = 2 * np.pi * f / sc.c
+    r, h, F = tp.solve_pe(f, za, polarization=pol, elevation_pattern=None, profile=FLAT,
+                          max_range_m=20e3, max_height_m=300.0, fidelity="coarse", surface="pec")
+    R, H = np.meshgrid(r, h, indexing="ij")
+    rd, rr = np.hypot(R, H - za), np.hypot(R, H + za)
+    sign = -1.0 if pol == "H" else 1.0
+    image = np.abs(1 + sign * rd / rr * np.exp(1j * k * (rr - rd)))
+    ok = np.isfinite(F) & (image > 10 ** (-10 / 20))
+    err = np.abs(db(F[ok]) - db(image[ok]))
+    assert ok.sum() > 10_000
+    assert np.sqrt(np.mean(err**2)) < 0.05
+    assert np.percentile(err, 99) < 0.2
+
+
+@pytest.mark.parametrize("pol", ["H", "V"])
+@pytest.mark.parametrize("freq", [3e9, 10e9])
+def test_pe_matches_two_ray_in_the_lit_region(freq, pol):
+    """Standard atmosphere, smooth sea: where two-ray F >= -10 dB, within 1 dB."""
+    za = 20.0
+    r, h, F = tp.solve_pe(freq, za, polarization=pol, elevation_pattern=gaussian, profile=STANDARD,
+                          max_range_m=40e3, max_height_m=150.0, fidelity="coarse",
+                          range_step_m=250.0)
+    R, H = np.meshgrid(r, h, indexing="ij")
+    F2 = p.two_ray_factor(R, za, H, freq, pol, elevation_pattern=gaussian)
+    # clearly lit: grazing angle at least twice Fock's scale, so ray optics itself holds
+    lit = R < p.interference_region_limit(za, H, freq, fock_angles=2.0)
+    ok = np.isfinite(F) & lit & (F2 >= 10 ** (-10 / 20))
+    assert ok.sum() > 5_000
+    assert np.max(np.abs(db(F[ok]) - db(F2[ok]))) < 1.0
+
+
+def test_pe_beyond_horizon_matches_smooth_earth_diffraction():
+    """An independent method: ITU-R P.526 residue-series first term in the shadow."""
+    f, za = 10e9, 20.0
+    # the domain must reach well above the shadow boundary (~100 m at 60 km): the field that
+    # diffracts into the shadow comes from just above it
+    r, h, F = tp.solve_pe(f, za, polarization="H", elevation_pattern=None, profile=STANDARD,
+                          max_range_m=60e3, max_height_m=200.0, fidelity="coarse",
+                          range_step_m=500.0, height_step_m=1.0)
+    R, H = np.meshgrid(r, h, indexing="ij")
+    shadow = np.isfinite(F) & (R > p.horizon_range(za, H) + 5e3) & (H > 2)
+    diff = p.smooth_earth_diffraction_factor(R[shadow], za, H[shadow], f, "H")
+    err = db(F[shadow]) - db(diff)
+    assert shadow.sum() > 1000
+    assert np.median(np.abs(err)) < 1.0
+    assert np.percentile(np.abs(err), 95) < 2.0
+
+
+def test_impedance_boundary_tends_to_dirichlet_for_horizontal_polarization():
+    kw = dict(polarization="H", elevation_pattern=None, profile=STANDARD, max_range_m=20e3,
+              max_height_m=150.0, fidelity="coarse")
+    _, _, f_sea = tp.solve_pe(3e9, 20.0, surface="sea", **kw)
+    _, _, f_pec = tp.solve_pe(3e9, 20.0, surface="pec", **kw)
+    ok = np.isfinite(f_pec) & (f_pec > 10 ** (-10 / 20))
+    # |Gamma_H| > 0.98 at these angles: F differs by < 0.2 dB from the perfect conductor
+    assert np.max(np.abs(db(f_sea[ok]) - db(f_pec[ok]))) < 0.3
+
+
+def test_free_space_normalization_on_the_beam_peak():
+    """[6] normalized: F -> g(theta), = 1 on the beam axis, when the sea reflection is far
+    down the pattern (narrow beam tilted up)."""
+    global BEAMWIDTH
+    old = BEAMWIDTH
+    BEAMWIDTH = np.radians(0.8)
+    try:
+        tilt = np.radians(2.0)
+        r, h, F = tp.solve_pe(10e9, 50.0, polarization="H", elevation_pattern=gaussian,
+                              profile=FLAT, max_range_m=4e3, max_height_m=300.0,
+                              fidelity="coarse", tilt_rad=tilt, max_angle_rad=np.radians(8.0))
+    finally:
+        BEAMWIDTH = old
+    for x in (2000.0, 3000.0, 4000.0):
+        i = np.argmin(np.abs(r - x))
+        z = 50.0 + r[i] * np.tan(tilt)
+        assert np.interp(z, h, F[i]) == pytest.approx(1.0, abs=0.02)
+
+
+def test_convergence_halving_steps_at_fine_fidelity():
+    """Halving dz and dx at fine fidelity changes F by < 0.1 dB rms, < 0.3 dB at the 95th
+    percentile, where F > -30 dB (an evaporation duct, so refraction is exercised)."""
+    kw = dict(polarization="V", elevation_pattern=gaussian,
+              profile={"kind": "evaporation", "duct_height_m": 12.0}, max_range_m=15e3,
+              max_height_m=80.0, fidelity="fine", range_step_m=500.0, height_step_m=0.5)
+    r1, h1, f1 = tp.solve_pe(10e9, 20.0, **kw)
+    r2, h2, f2 = tp.solve_pe(10e9, 20.0, step_scale=0.5, **kw)
+    assert np.allclose(r1, r2)
+    f2i = np.array([np.interp(h1, h2, row) for row in f2])
+    ok = np.isfinite(f1) & np.isfinite(f2i) & (f1 > 10 ** (-30 / 20))
+    err = np.abs(db(f1[ok]) - db(f2i[ok]))
+    assert ok.sum() > 1000
+    assert np.sqrt(np.mean(err**2)) < 0.1
+    assert np.percentile(err, 95) < 0.3
+
+
+def test_seed_figure_4_ducting_behaviour():
+    """10 GHz, HP, antenna 20 m, target 25 m: nulls move to longer range as the duct height
+    goes 0, 5, 10, 15 m; a 15 m duct gives a much larger F at 50 km, 10 m than standard."""
+    nulls = []
+    f50 = {}
+    for duct in (0.0, 5.0, 10.0, 15.0):
+        r, h, F = tp.solve_pe(10e9, 20.0, polarization="H", elevation_pattern=None,
+                              profile={"kind": "evaporation", "duct_height_m": duct},
+                              max_range_m=52e3, max_height_m=100.0, fidelity="coarse",
+                              range_step_m=25.0)
+        row = db(F[:, np.argmin(np.abs(h - 25.0))])
+        idx = [i for i in argrelmin(np.nan_to_num(row, nan=99.0))[0]
+               if row[i] < -10 and 5e3 <= r[i] <= 12e3]
+        nulls.append(r[idx])
+        f50[duct] = np.interp(10.0, h, F[np.argmin(np.abs(r - 50e3))])
+    assert all(len(n) == len(nulls[0]) >= 3 for n in nulls)
+    stacked = np.array(nulls)
+    assert np.all(np.diff(stacked, axis=0) > 0)
+    r, h, F = tp.solve_pe(10e9, 20.0, polarization="H", elevation_pattern=None, profile=STANDARD,
+                          max_range_m=52e3, max_height_m=100.0, fidelity="coarse",
+                          range_step_m=25.0)
+    f_std = np.interp(10.0, h, F[np.argmin(np.abs(r - 50e3))])
+    assert db(f50[15.0]) - db(f_std) > 30.0
+
+
+def test_rough_sea_fills_the_nulls():
+    kw = dict(polarization="H", elevation_pattern=None, profile=STANDARD, max_range_m=10e3,
+              max_height_m=100.0, fidelity="coarse")
+    r, h, smooth = tp.solve_pe(10e9, 20.0, wave_height_m=0.0, **kw)
+    _, _, rough = tp.solve_pe(10e9, 20.0, wave_height_m=1.0, **kw)
+    R, H = np.meshgrid(r, h, indexing="ij")
+    lit = np.isfinite(smooth) & (H > 20)
+    # deep nulls exist over a calm sea and are filled by 1 m waves (rho ~ 0.3 at 1 deg, 10 GHz)
+    assert np.percentile(smooth[lit], 1) < 0.1
+    assert np.percentile(rough[lit], 1) > 0.2
+    two_ray = p.two_ray_factor(R, 20.0, H, 10e9, "H", wave_height_m=1.0)
+    ok = lit & (R > 4e3) & (two_ray > 10 ** (-6 / 20))
+    assert np.median(np.abs(db(rough[ok]) - db(two_ray[ok]))) < 1.0
+
+
+def test_grid_steps_follow_frequency_angle_and_fidelity():
+    prof = p.profile_from_spec(STANDARD)
+    g10 = tp.grid_steps(10e9, 1000, 100e3, prof, "standard")
+    g3 = tp.grid_steps(3e9, 1000, 100e3, prof, "standard")
+    assert g3["dz"] == pytest.approx(g10["dz"] * 10 / 3, rel=0.05)
+    coarse = tp.grid_steps(10e9, 1000, 100e3, prof, "coarse")
+    fine = tp.grid_steps(10e9, 1000, 100e3, prof, "fine")
+    assert coarse["dz"] > g10["dz"] > fine["dz"]
+    assert coarse["dx"] > g10["dx"] > fine["dx"]
+    v = tp.grid_steps(10e9, 1000, 100e3, prof, "standard", polarization="V")
+    assert v["dz"] * 2 * np.pi * 10e9 / sc.c * np.sin(v["max_angle_rad"]) <= 0.45 + 1e-9
+    with pytest.raises(ValueError):
+        tp.grid_steps(10e9, 1000, 100e3, prof, "ultra")
+
+
+def test_table_cache_provenance_and_lookup(table_cache):
+    kw = dict(polarization="H", elevation_pattern=gaussian,
+              pattern_description={"kind": "gaussian", "beamwidth_rad": float(BEAMWIDTH)},
+              profile={"kind": "evaporation", "duct_height_m": 8.0}, max_range_m=8e3,
+              max_height_m=60.0, fidelity="coarse")
+    table, built = tp.get_propagation_table(10e9, 20.0, **kw)
+    assert built
+    again, built_again = tp.get_propagation_table(10e9, 20.0, **kw)
+    assert not built_again
+    np.testing.assert_array_equal(again.values, table.values)
+    assert table.axis_names == ("range_m", "height_m")
+    assert table.inputs["profile"] == {"kind": "evaporation", "duct_height_m": 8.0,
+                                       "m0": 320.0, "z0": 1.5e-4}
+    # a rebuild from the stored inputs reproduces the table (STYLE lesson 8)
+    rebuilt = tp.build_propagation_table(10e9, 20.0, **kw)
+    assert rebuilt.key == table.key
+    np.testing.assert_allclose(rebuilt.values, table.values, rtol=1e-6, equal_nan=True)
+    # another wave height is another table
+    other = tp.propagation_table_inputs(10e9, 20.0, **{**_desc(kw), "wave_height_m": 0.5})
+    assert Table.key.fget(_with_inputs(table, other)) != table.key
+    # lookup: nodes give the stored values, outside the domain gives NaN
+    i, j = len(table.axes[0]) - 1, 40
+    assert np.isfinite(table.values[i, j])
+    assert tp.propagation_factor(table, table.axes[0][i], table.axes[1][j]) == pytest.approx(
+        float(table.values[i, j]), rel=1e-6)
+    out = tp.propagation_factor(table, np.array([1e6, 4e3, 4e3]), np.array([10.0, -1.0, 1e4]))
+    assert np.all(np.isnan(out))
+    with pytest.raises(ValueError):
+        tp.build_propagation_table(10e9, 20.0, **{**kw, "pattern_description": None})
+
+
+def _desc(kw):
+    return {k: v for k, v in kw.items() if k != "elevation_pattern"}
+
+
+def _with_inputs(table, inputs):
+    return Table(table.name, table.version, table.axes, table.axis_names, table.axis_units,
+                 table.values, table.value_name, table.value_unit, inputs)
