@@ -556,8 +556,29 @@ def get_propagation_table(
 def propagation_factor(table: Table, range_m: np.ndarray, height_m: np.ndarray) -> np.ndarray:
     """Linear F at terrestrial ranges [m] and heights [m] by bilinear interpolation in a table.
 
-    Vectorized, O(1) per point.  NaN outside the table's domain and where the table holds NaN
-    (steep angles, short range): the caller falls back to
-    :func:`sensors.propagation.two_ray_factor` and counts it.
+    Vectorized, O(1) per point: the axes of a PE table are uniform, so cell indices are
+    computed, not searched (a generic table falls back to :meth:`Table.lookup`).  NaN outside
+    the table's domain and where the table holds NaN (steep angles, short range): the caller
+    falls back to :func:`sensors.propagation.two_ray_factor` and counts it.
     """
-    return table.lookup(range_m, height_m)
+    r_axis, h_axis = table.axes
+    r, h = np.broadcast_arrays(np.asarray(range_m, dtype=float), np.asarray(height_m, dtype=float))
+    dr = (r_axis[-1] - r_axis[0]) / (len(r_axis) - 1)
+    dh = (h_axis[-1] - h_axis[0]) / (len(h_axis) - 1)
+    uniform = (np.allclose(np.diff(r_axis), dr, rtol=1e-9, atol=0)
+               and np.allclose(np.diff(h_axis), dh, rtol=1e-9, atol=0))
+    if not uniform:
+        return table.lookup(r, h)
+    x = (r - r_axis[0]) / dr
+    y = (h - h_axis[0]) / dh
+    inside = (x >= 0) & (x <= len(r_axis) - 1) & (y >= 0) & (y <= len(h_axis) - 1)
+    x = np.where(inside, x, 0.0)
+    y = np.where(inside, y, 0.0)
+    i = np.minimum(x.astype(np.intp), len(r_axis) - 2)
+    j = np.minimum(y.astype(np.intp), len(h_axis) - 2)
+    tx = x - i
+    ty = y - j
+    v = table.values
+    out = ((1 - tx) * ((1 - ty) * v[i, j] + ty * v[i, j + 1])
+           + tx * ((1 - ty) * v[i + 1, j] + ty * v[i + 1, j + 1]))
+    return np.where(inside, out, np.nan)
