@@ -571,14 +571,21 @@ def propagation_factor(table: Table, range_m: np.ndarray, height_m: np.ndarray) 
         return table.lookup(r, h)
     x = (r - r_axis[0]) / dr
     y = (h - h_axis[0]) / dh
-    inside = (x >= 0) & (x <= len(r_axis) - 1) & (y >= 0) & (y <= len(h_axis) - 1)
-    x = np.where(inside, x, 0.0)
-    y = np.where(inside, y, 0.0)
+    eps = 1e-9  # index rounding: a point on a node is on that node
+    inside = ((x >= -eps) & (x <= len(r_axis) - 1 + eps)
+              & (y >= -eps) & (y <= len(h_axis) - 1 + eps))
+    x = np.where(inside, np.clip(x, 0, len(r_axis) - 1), 0.0)
+    y = np.where(inside, np.clip(y, 0, len(h_axis) - 1), 0.0)
     i = np.minimum(x.astype(np.intp), len(r_axis) - 2)
     j = np.minimum(y.astype(np.intp), len(h_axis) - 2)
     tx = x - i
     ty = y - j
+    tx = np.where(tx < eps, 0.0, np.where(tx > 1 - eps, 1.0, tx))
+    ty = np.where(ty < eps, 0.0, np.where(ty > 1 - eps, 1.0, ty))
     v = table.values
-    out = ((1 - tx) * ((1 - ty) * v[i, j] + ty * v[i, j + 1])
-           + tx * ((1 - ty) * v[i + 1, j] + ty * v[i + 1, j + 1]))
+    out = np.zeros(x.shape)
+    # a corner of zero weight must not spread a NaN neighbour (points on a table edge)
+    for di, dj, w in ((0, 0, (1 - tx) * (1 - ty)), (0, 1, (1 - tx) * ty),
+                      (1, 0, tx * (1 - ty)), (1, 1, tx * ty)):
+        out += np.where(w > 0, w * v[i + di, j + dj], 0.0)
     return np.where(inside, out, np.nan)
