@@ -247,9 +247,9 @@ def track(
         rng_m = np.hypot(*(xy - sensor_xy).T) if dets else np.zeros(0)
         cmap.update(rng_m)
 
-        def density_at(east, north, _s=sensor_xy):
+        def density_at(east, north, _s=sensor_xy, _map=cmap, _floor=background):
             r = math.hypot(east - _s[0], north - _s[1])
-            return max(background, float(cmap.density_bearing_range(r)))
+            return max(_floor, float(_map.density_bearing_range(r)))
 
         hypothesiser.density_at = density_at
         # coarse pre-gate around the tracks' predicted positions (speed only)

@@ -206,9 +206,9 @@ def test_late_joiner_starts_at_a_scan():
 
 
 def test_live_endpoint():
-    from .helpers import free_port
-
     from sim.bus import Bus, Publisher
+
+    from .helpers import free_port
 
     endpoint = f"tcp://127.0.0.1:{free_port()}"
     msgs = synthetic_stream(scans=3)
@@ -282,7 +282,8 @@ def test_end_to_end_single_missile_live_and_recorded(tmp_path):
     50 m over those held scans and have a median under 50 m over all visible scans (plot
     errors are metres in range and tens of metres across at 10 km; a scan without the track
     costs the full 2 km). The scene has ~400 sea-clutter plots per scan within 3 km of the
-    ship, so the tracker's clutter map and initiation gate are exercised. Tracking the recording of the same run gives the same result,
+    ship, so the tracker's clutter map and initiation gate are exercised. Tracking the
+    recording of the same run gives the same result,
     so nothing was lost on the live stream.
     """
     from sim.bus import Bus, Publisher
