@@ -120,18 +120,46 @@ def provider(fn):
 
 
 # --------------------------------------------------------------------------- build / load
-def load_scene_tables(scenario: Scenario, *, progress: bool = False,
-                      log: TextIO | None = None) -> SceneTables:
-    """Load every table the scene needs from the cache, building the missing ones."""
-    scene = SceneTables()
-    for platform, radar in scenario.radars():
-        scene.for_radar(radar.id)
-    for spec in table_specs(scenario):
+def _made(scenario: Scenario, progress: bool):
+    """Yield ``(spec, table, seconds)`` for every table of the scene, cache first."""
+    specs = table_specs(scenario)
+    if progress:
+        from tqdm import tqdm
+
+        specs = tqdm(specs, desc="tables", unit="table", file=sys.stderr, leave=False)
+    for spec in specs:
+        if progress:
+            specs.set_postfix_str(f"{spec.radar_id} {spec.kind}")
         t0 = time.perf_counter()
         table = spec.make()
-        dt = time.perf_counter() - t0
-        if dt > 1.0 and log is not None:
-            print(f"{spec.radar_id}: {spec.kind} table ready in {dt:.1f} s", file=log)
+        yield spec, table, time.perf_counter() - t0
+
+
+def _say(line: str, log: TextIO | None, progress: bool) -> None:
+    """Print a log line, above the progress bar when there is one."""
+    if log is None:
+        return
+    if progress:
+        from tqdm import tqdm
+
+        tqdm.write(line, file=log)
+    else:
+        print(line, file=log)
+
+
+def load_scene_tables(scenario: Scenario, *, progress: bool = False,
+                      log: TextIO | None = None) -> SceneTables:
+    """Load every table the scene needs from the cache, building the missing ones.
+
+    ``progress`` shows a bar over the tables on stderr; ``log`` gets a line for each table
+    that took more than a second (a build rather than a cache hit).
+    """
+    scene = SceneTables()
+    for _platform, radar in scenario.radars():
+        scene.for_radar(radar.id)
+    for spec, table, dt in _made(scenario, progress):
+        if dt > 1.0:
+            _say(f"{spec.radar_id}: {spec.kind} table ready in {dt:.1f} s", log, progress)
         setattr(scene.for_radar(spec.radar_id), spec.kind, table)
     return scene
 
@@ -142,10 +170,7 @@ def build_scene_tables(scenario: Scenario, *, progress: bool = False,
     from tables.store import cache_path
 
     rows = []
-    for spec in table_specs(scenario):
-        t0 = time.perf_counter()
-        table = spec.make()
-        dt = time.perf_counter() - t0
+    for spec, table, dt in _made(scenario, progress):
         rows.append({
             "radar": spec.radar_id,
             "kind": spec.kind,
@@ -155,8 +180,7 @@ def build_scene_tables(scenario: Scenario, *, progress: bool = False,
             "shape": list(table.values.shape),
             "seconds": round(dt, 3),
         })
-        if log is not None:
-            print(f"{spec.radar_id}: {spec.kind} {table.values.shape} in {dt:.2f} s", file=log)
+        _say(f"{spec.radar_id}: {spec.kind} {table.values.shape} in {dt:.2f} s", log, progress)
     return {"scenario": scenario.name, "tables": rows}
 
 
@@ -319,8 +343,8 @@ def _propagation_specs(scenario: Scenario, platform: Platform, radar: Radar) -> 
     from tables.propagation import get_propagation_table
 
     k = radar_constants(scenario, radar)
-    top = max((w.altitude_m for t in scenario.targets for w in t.waypoints), default=0.0)
-    top = max((w.altitude_m for j in scenario.jammers for w in j.waypoints), default=top)
+    movers = [*scenario.targets, *scenario.jammers]
+    top = max((w.altitude_m for m in movers for w in m.waypoints), default=0.0)
     max_height = min(PE_MAX_HEIGHT_M, max(100.0, 1.2 * top + 20.0))
     kind, phi_b, sidelobe, tilt = k.pattern_key(radar)
     description = {"kind": kind, "beamwidth_rad": phi_b, "sidelobe_db": sidelobe,
