@@ -318,7 +318,36 @@ class DuctBulk(_Model):
     pressure_hpa: float = Field(1013.25, ge=900.0, le=1080.0, description="[hPa]")
 
 
-Duct = Annotated[DuctGiven | DuctBulk, Field(discriminator="type")]
+class DuctProfile(_Model):
+    """A measured or forecast M-profile: piecewise linear (surface-based or elevated ducts).
+
+    Above the last point the profile continues with the slope of its last segment, so end it
+    on a standard-atmosphere segment (0.118 M/m) unless the layer above is known.
+    """
+
+    type: Literal["profile"] = "profile"
+    heights_m: list[Annotated[float, Field(ge=0.0, le=20_000.0)]] = Field(
+        min_length=2, max_length=500,
+        description="break-point heights above the sea [m]; first 0, strictly increasing")
+    m_units: list[Annotated[float, Field(ge=0.0, le=2_000.0)]] = Field(
+        min_length=2, max_length=500,
+        description="modified refractivity M at the break points [M units]")
+
+    @model_validator(mode="after")
+    def _check_points(self) -> DuctProfile:
+        z = self.heights_m
+        if len(self.m_units) != len(z):
+            raise ValueError(f"m_units must have as many points as heights_m ({len(z)}), "
+                             f"got {len(self.m_units)}")
+        if z[0] != 0.0:
+            raise ValueError(f"heights_m must start at 0 (the sea surface), got {z[0]}")
+        for i in range(1, len(z)):
+            if z[i] <= z[i - 1]:
+                raise ValueError(f"heights_m must increase strictly, got {z[i - 1]} then {z[i]}")
+        return self
+
+
+Duct = Annotated[DuctGiven | DuctBulk | DuctProfile, Field(discriminator="type")]
 
 
 class RainRegion(_Model):
@@ -352,7 +381,9 @@ class Environment(_Model):
     wave_height_m: float | None = Field(
         None, ge=0.0, le=20.0, description="w_h, significant wave height [m]; default from sea state"
     )
-    duct: Duct | None = Field(None, description="evaporation duct; None: standard atmosphere")
+    duct: Duct | None = Field(
+        None, description="evaporation duct (height or bulk model) or an M-profile; "
+        "None: standard atmosphere")
     rain: Rain | None = None
     fog: Fog | None = None
     temperature_c: float = Field(15.0, ge=-40.0, le=45.0, description="air temperature [°C]")

@@ -299,18 +299,37 @@ def _clutter_specs(scenario: Scenario, platform: Platform, radar: Radar) -> list
 
 
 def _duct_height(scenario: Scenario) -> float:
-    """Evaporation duct height [m]: given, or from the bulk model of sensors.propagation."""
+    """Height [m] of the surface duct, as the sea-clutter ducting extension [22]-[29] reads it.
+
+    Given, or from the bulk model of :mod:`sensors.propagation`; for an M-profile, the height
+    of its lowest minimum when that minimum is at or below the surface value (a surface-based
+    duct, seen by the clutter like an evaporation duct of that height), else 0 (an elevated
+    duct leaves the sea-clutter horizon alone; the PE table still carries its effect on F).
+    """
     duct = scenario.environment.duct
     if duct is None:
         return 0.0
     if duct.type == "height":
         return duct.height_m
+    if duct.type == "profile":
+        return surface_duct_height(duct.heights_m, duct.m_units)
     from sensors.propagation import evaporation_duct_height
 
     env = scenario.environment
     return float(evaporation_duct_height(
         duct.air_temperature_c, duct.sea_temperature_c, duct.relative_humidity,
         env.wind_speed_mps, duct.pressure_hpa))
+
+
+def surface_duct_height(heights_m, m_units) -> float:
+    """Top [m] of a surface-based duct of a piecewise-linear M-profile, 0 if it has none.
+
+    A layer traps down to the surface when the profile's minimum M is not above M(0); the
+    duct then reaches from the sea to the height of that minimum (its trapping layer's top).
+    """
+    m = np.asarray(m_units, dtype=float)
+    i = int(np.argmin(m))
+    return float(heights_m[i]) if i > 0 and m[i] <= m[0] else 0.0
 
 
 @provider
@@ -327,7 +346,11 @@ PE_MAX_HEIGHT_M = 1500.0
 
 
 def refractivity_profile(scenario: Scenario) -> dict[str, Any]:
-    """The M-profile description of the scene: evaporation duct [7] or standard atmosphere."""
+    """The scene's M-profile: the user's piecewise profile, an evaporation duct [7] or standard."""
+    duct = scenario.environment.duct
+    if duct is not None and duct.type == "profile":
+        return {"kind": "piecewise", "heights_m": list(duct.heights_m),
+                "m_units": list(duct.m_units)}
     h = _duct_height(scenario)
     if h > 0.0:
         return {"kind": "evaporation", "duct_height_m": h}

@@ -132,3 +132,58 @@ def test_duct_height_given_or_from_bulk_model():
         "kind": "evaporation", "duct_height_m": h}
     calm = _with(data, duct=None)
     assert scene_mod.refractivity_profile(parse_scenario(calm)) == {"kind": "standard"}
+
+
+# a surface-based duct: M falls 20 M units over the first 150 m, standard above
+SURFACE_DUCT = {"type": "profile", "heights_m": [0.0, 150.0, 1000.0],
+                "m_units": [330.0, 310.0, 310.0 + 0.118 * 850.0]}
+# an elevated duct: trapping layer 800-850 m, its minimum above M(0)
+ELEVATED_DUCT = {"type": "profile", "heights_m": [0.0, 800.0, 850.0, 2000.0],
+                 "m_units": [330.0, 424.4, 404.4, 404.4 + 0.118 * 1150.0]}
+
+
+def test_profile_duct_reaches_the_pe_table_and_the_clutter_horizon():
+    data = example("single_missile")
+    surface = parse_scenario(_with(data, duct=SURFACE_DUCT))
+    assert scene_mod.refractivity_profile(surface) == {
+        "kind": "piecewise", **{k: SURFACE_DUCT[k] for k in ("heights_m", "m_units")}}
+    assert scene_mod._duct_height(surface) == 150.0
+    assert scene_mod._duct_height(parse_scenario(_with(data, duct=ELEVATED_DUCT))) == 0.0
+
+
+@pytest.mark.parametrize(("duct", "line"), [
+    ({**SURFACE_DUCT, "heights_m": [5.0, 150.0, 1000.0]},
+     "environment.duct: heights_m must start at 0 (the sea surface), got 5.0"),
+    ({**SURFACE_DUCT, "heights_m": [0.0, 150.0, 150.0]},
+     "environment.duct: heights_m must increase strictly, got 150.0 then 150.0"),
+    ({**SURFACE_DUCT, "m_units": [330.0, 310.0]},
+     "environment.duct: m_units must have as many points as heights_m (3), "
+     "got 2"),
+    ({**SURFACE_DUCT, "m_units": [330.0, -1.0, 400.0]},
+     "environment.duct.m_units[1]: must be >= 0, got -1"),
+])
+def test_bad_profile_gets_one_clear_line(duct, line):
+    from sim.scenario import ScenarioError
+
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(_with(example("single_missile"), duct=duct))
+    assert line in err.value.lines
+
+
+def test_surface_duct_profile_traps_beyond_the_horizon(table_cache):
+    """Through the scene to the PE table: a 150 m surface duct lifts F far past the horizon."""
+    from tables.propagation import propagation_factor
+
+    data = _with(example("single_missile"), duct=SURFACE_DUCT)
+    data["fidelity"] = {"pe_grid": "coarse", "clutter": False, "atmosphere": False}
+    f_db = {}
+    for name, duct in (("standard", None), ("duct", SURFACE_DUCT)):
+        (spec,) = table_specs(parse_scenario(_with(data, duct=duct)))
+        table = spec.make()
+        assert table.inputs["profile"]["kind"] == ("piecewise" if duct else "standard")
+        f = propagation_factor(table, np.array([50e3]), np.array([20.0]))
+        f_db[name] = 20 * np.log10(f[0])
+    # 25 m antenna and 20 m target: the smooth-earth horizon is ~39 km, 50 km is deep in the
+    # diffraction region (tens of dB down); a trapping layer this strong keeps F near 0 dB
+    assert f_db["standard"] < -25.0
+    assert f_db["duct"] > f_db["standard"] + 20.0
