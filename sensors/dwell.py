@@ -121,7 +121,7 @@ class RadarConstants:
 
 
 def radar_constants(scenario: Scenario, radar: Radar) -> RadarConstants:
-    """Compute the :class:`RadarConstants` of a radar in a scene ([3], [17]-[20], [46], [66]-[67])."""
+    """The :class:`RadarConstants` of a radar in a scene ([3], [17]-[20], [46], [66]-[67])."""
     env = scenario.environment
     wavelength = constants.c / radar.frequency_hz
     gain = float(noise.power_ratio(radar.gain_db))
@@ -143,7 +143,8 @@ def radar_constants(scenario: Scenario, radar: Radar) -> RadarConstants:
             water_vapour_density_g_m3=env.water_vapour_g_m3,
             antenna_height_m=radar.antenna_height_m)
         t_a = float(noise.antenna_temperature_k(t_sky))
-    t_s = float(noise.system_noise_temperature_k(t_a, l_r, noise.power_ratio(radar.noise_figure_db)))
+    t_s = float(noise.system_noise_temperature_k(
+        t_a, l_r, noise.power_ratio(radar.noise_figure_db)))
     return RadarConstants(
         wavelength=wavelength,
         gain=gain,
@@ -251,6 +252,7 @@ class DwellModel:
     def _prepare_propagation(self, scenario: Scenario) -> None:
         self.propagation_mode = scenario.fidelity.propagation
         self.wave_height = scenario.wave_height
+        self._two_ray = _TwoRayFallback(self.radar, self.wave_height, self.elevation_pattern)
 
     def azimuth_pattern(self, offset_rad):
         """Azimuth directivity factor g_az (field) at an angle from the beam axis [8]-[13]."""
@@ -283,13 +285,7 @@ class DwellModel:
         mode = self.propagation_mode
         if mode == "free_space":
             return np.abs(self.elevation_pattern(elevation)), 0
-        from sensors.propagation import two_ray_factor
-
-        def two_ray(r, h):
-            return two_ray_factor(r, self.radar.antenna_height_m, h, self.radar.frequency_hz,
-                                  self.radar.polarization, wave_height_m=self.wave_height,
-                                  elevation_pattern=self.elevation_pattern)
-
+        two_ray = self._two_ray
         if mode == "two_ray" or self.tables.propagation is None:
             return two_ray(ground_range, target_height), 0
         from tables.propagation import propagation_factor as pe_lookup
@@ -489,8 +485,9 @@ class DwellModel:
         if proc.type not in ("dft_bank", "fir_bank", "mti_bank"):
             return np.zeros(radial_velocity.shape, dtype=np.int64)
         fd = -2.0 * radial_velocity / self.wavelength
-        return np.asarray(doppler_filters.doppler_filter_index(fd, self.radar.prf_hz, proc.n_coherent),
-                          dtype=np.int64)
+        return np.asarray(
+            doppler_filters.doppler_filter_index(fd, self.radar.prf_hz, proc.n_coherent),
+            dtype=np.int64)
 
     def _pulse_args(self, clutter, lead):
         """Keyword arguments of :func:`sensors.detection.effective_pulses` for [74]-[77]."""
@@ -563,6 +560,89 @@ class DwellModel:
                 n_pulses=self.n_pulses, h_range=self.radar.h_range,
                 h_azimuth=self.radar.h_azimuth)
         return gen.scan(t_a, t_b, beam_start, omega, rng)
+
+
+class _TwoRayFallback:
+    """:func:`sensors.propagation.two_ray_factor` of one radar, with the per-height terms cached.
+
+    For a given antenna (height, frequency, polarization, pattern) and sea, the two-ray
+    factor's limit of the interference region (a 48-step bisection), F at that limit and the
+    diffraction factor at the horizon depend on the target height alone.  They are computed
+    once per distinct height (targets fly at a few constant altitudes) instead of at every
+    call; per point only the two-ray terms inside the limit, the smooth-earth diffraction
+    beyond the horizon and the dB interpolation between them remain.  The combination is
+    that of :func:`sensors.propagation.two_ray_factor`, which ``tests/test_dwell_fallback.py``
+    checks this against.
+    """
+
+    #: Most heights remembered (a climbing target gives a new height at every dwell).
+    MAX_HEIGHTS = 4096
+
+    def __init__(self, radar: Radar, wave_height_m: float, elevation_pattern):
+        from sensors import propagation as prop
+
+        self._prop = prop
+        self.h1 = float(radar.antenna_height_m)
+        self.freq = float(radar.frequency_hz)
+        self.pol = prop.normalize_polarization(radar.polarization)
+        self.wave = float(wave_height_m)
+        self.pattern = elevation_pattern
+        self.k_factor = prop.STANDARD_K_FACTOR
+        self.eps = prop.sea_water_permittivity(self.freq)
+        a_e = self.k_factor * prop.EARTH_RADIUS_M
+        self.g_horizon = float(np.abs(elevation_pattern(
+            -np.arccos(np.array([a_e / (a_e + self.h1)]))))[0])
+        self._cache: dict[float, tuple[float, float, float, float]] = {}
+
+    def _terms(self, d, h2):
+        gd, refl, _ = self._prop._two_ray_terms(
+            d, np.full(d.shape, self.h1), h2, self.freq, self.pol, self.wave, self.pattern, 0.0,
+            self.k_factor, self.eps, "miller-brown")
+        return np.abs(gd + refl)
+
+    def _per_height(self, heights: list[float]) -> dict[float, tuple[float, float, float, float]]:
+        """(horizon range, interference limit, F there, diffraction F at the horizon) [m, -]."""
+        prop = self._prop
+        h2 = np.array(heights, dtype=float)
+        h1 = np.full(h2.shape, self.h1)
+        d_h = prop.horizon_range(h1, h2, self.k_factor)
+        d_lim = prop.interference_region_limit(h1, h2, self.freq, self.k_factor)
+        f_lim = self._terms(d_lim, h2)
+        f_diff_h = prop.smooth_earth_diffraction_factor(
+            d_h, h1, h2, self.freq, self.pol, k_factor=self.k_factor,
+            permittivity=self.eps) * self.g_horizon
+        return {h: (d_h[i], d_lim[i], f_lim[i], f_diff_h[i]) for i, h in enumerate(heights)}
+
+    def __call__(self, range_m: np.ndarray, height_m: np.ndarray) -> np.ndarray:
+        """F (field ratio, pattern included) at terrestrial ranges and target heights [m]."""
+        d = np.asarray(range_m, dtype=float)
+        h2 = np.asarray(height_m, dtype=float)
+        if d.size == 0:
+            return np.zeros(d.shape)
+        if np.any(d < 0) or np.any(h2 < 0):
+            raise ValueError("range and heights must be >= 0")
+        cache = self._cache
+        keys = h2.tolist()
+        missing = sorted({h for h in keys if h not in cache})
+        if missing:
+            new = self._per_height(missing)
+            if len(cache) + len(new) <= self.MAX_HEIGHTS:
+                cache.update(new)
+            else:
+                cache = {**cache, **new}
+        per = np.array([cache[h] for h in keys], dtype=float).reshape(d.size, 4)
+        d_h, d_lim, f_lim, f_diff_h = (per[:, i] for i in range(4))
+        prop = self._prop
+        diffraction = prop.smooth_earth_diffraction_factor(
+            np.maximum(d, d_h), np.full(d.shape, self.h1), h2, self.freq, self.pol,
+            k_factor=self.k_factor, permittivity=self.eps) * self.g_horizon
+        f_inter = self._terms(np.minimum(d, d_lim), h2)
+        tiny = 1e-30
+        span = np.maximum(d_h - d_lim, 1e-9)
+        w = np.clip((d - d_lim) / span, 0.0, 1.0)
+        intermediate = np.exp((1 - w) * np.log(np.maximum(f_lim, tiny))
+                              + w * np.log(np.maximum(f_diff_h, tiny)))
+        return np.where(d <= d_lim, f_inter, np.where(d < d_h, intermediate, diffraction))
 
 
 def _argmax_by_group(group: np.ndarray, value: np.ndarray, n_groups: int) -> np.ndarray:

@@ -353,3 +353,41 @@ def test_decoding_snippet_in_the_documentation_reads_our_bytes():
     msg = namespace["decode_body"](encode(TOPIC_PLOTS, 7.5, payload)[1])
     assert msg.pop("v") == SCHEMA_VERSION and msg.pop("t") == 7.5
     assert_same(payload, msg)
+
+
+@pytest.mark.parametrize("n", [0, 1, 2, 29, 30, 31, 8189, 8190, 8191])
+def test_fast_encoder_matches_msgpack_for_every_extension_size(n):
+    """encode writes the map itself; its bytes must be msgpack's own (fixext 16 for an empty
+    column, ext 8/16/32 around their 256 and 65536-byte limits, fixmap/map16)."""
+    payload = {"a": np.arange(n, dtype="<f8"), "b": np.zeros(n, dtype=np.uint8),
+               "z": np.float64(2.5), "i": np.int32(-3), "nested": {"k": [np.arange(2), 1]}}
+    payload.update({f"k{i}": i for i in range(16)})  # 21 keys: a map 16 header
+    assert encode(TOPIC_PLOTS, 1.5, payload) == protocol._encode_reference(
+        TOPIC_PLOTS, 1.5, payload)
+    small = {"x": np.array(1.0), "y": np.array(True), "s": "text", "b": b"\x00\x01"}
+    assert encode(TOPIC_EOS, 0.0, small) == protocol._encode_reference(TOPIC_EOS, 0.0, small)
+
+
+@settings(max_examples=60, deadline=None)
+@given(hnp.arrays(dtype=st.sampled_from(["<f8", "<f4", "|u1", "<i4", "<i8", "|b1", ">f8"]),
+                  shape=hnp.array_shapes(min_dims=0, max_dims=3, max_side=40)),
+       st.floats(allow_nan=False, allow_infinity=False))
+def test_fast_encoder_matches_reference_encoder(array, t):
+    payload = {"sensor": "s", "scan": 3, "col": array, "meta": {"x": [1.0, None]}}
+    assert encode(TOPIC_PLOTS, t, payload) == protocol._encode_reference(TOPIC_PLOTS, t, payload)
+
+
+def test_fast_encoder_errors_are_the_documented_ones():
+    with pytest.raises(ProtocolError, match="keys must be str"):
+        encode(TOPIC_PLOTS, 0.0, {1: 2})
+    with pytest.raises(ProtocolError, match="keys must be str"):
+        encode(TOPIC_PLOTS, 0.0, {"a": {"b": {3: 4}}})
+    with pytest.raises(ProtocolError, match="reserved"):
+        encode(TOPIC_PLOTS, 0.0, {"t": 1})
+    with pytest.raises(ProtocolError, match="cannot be encoded"):
+        encode(TOPIC_PLOTS, 0.0, {"a": object()})
+    with pytest.raises(ProtocolError, match="cannot be encoded"):
+        encode(TOPIC_PLOTS, 0.0, {"a": 2**70})
+    # the packer is left clean after an error
+    assert encode(TOPIC_EOS, 1.0, {"scan": 1}) == protocol._encode_reference(
+        TOPIC_EOS, 1.0, {"scan": 1})
