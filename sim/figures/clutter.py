@@ -15,6 +15,9 @@ import numpy as np  # noqa: E402
 from sensors import sea_clutter as sc  # noqa: E402
 from tables.store import Table  # noqa: E402
 
+#: Lowest clutter-to-noise ratio drawn by :func:`plot_clutter_ppi` [dB].
+PPI_CNR_FLOOR_DB = -10.0
+
 
 def plot_ducting_reflectivity(
     path: str | os.PathLike[str],
@@ -91,8 +94,11 @@ def plot_clutter_ppi(
 ) -> Path:
     """PPI-style map of a clutter table over (ground range, azimuth from true north).
 
-    Powers are shown in dBW (10 log10 of the values), extras as stored (``array`` picks one);
-    north up, azimuth clockwise.
+    Powers are shown against the thermal noise N0' when the table knows it (sea maps: the
+    clutter-to-noise ratio C/N0' [dB], floored at :data:`PPI_CNR_FLOOR_DB`), otherwise in dBW
+    floored 80 dB below the maximum; extras as stored (``array`` picks one).  North up,
+    azimuth clockwise; the radial axis stops a little beyond the farthest cell above the floor
+    (the clutter extent), and the direction the wind blows from is marked.
 
     Parameters
     ----------
@@ -103,25 +109,45 @@ def plot_clutter_ppi(
     array : str, optional
         Extra to show instead of the power.
     floor_db : float, optional
-        Lowest dB value shown (power only); default 80 dB below the maximum.
+        Lowest dB value shown (power only).
     """
     path = Path(path)
     ranges, az = table.axes
-    data = table.values if array is None else table.extra[array]
-    if array is None:
-        data = sc.to_db(data)
-        lo = float(np.max(data)) - 80.0 if floor_db is None else floor_db
-        data = np.maximum(data, lo)
-        label = f"{table.value_name} [dBW]"
+    inputs = table.inputs
+    power_db = sc.to_db(table.values)
+    noise = inputs.get("noise_power_w")
+    if noise:
+        power_db = power_db - float(sc.to_db(noise))
+        lo = PPI_CNR_FLOOR_DB if floor_db is None else floor_db
+        label = "clutter-to-noise ratio C/N0' [dB]"
     else:
-        label = array
+        lo = float(np.max(power_db)) - 80.0 if floor_db is None else floor_db
+        label = f"{table.value_name} [dBW]"
+    extent = ranges[-1]
+    above = np.flatnonzero(np.any(power_db > lo, axis=1))
+    if above.size:
+        extent = min(ranges[-1], max(1.25 * ranges[above[-1]], 2e3))
+    if array is None:
+        data = np.maximum(power_db, lo)
+    else:
+        data, label = table.extra[array], array
+    keep = ranges <= extent + (ranges[1] - ranges[0])
     fig = plt.figure(figsize=(6.5, 6), dpi=110)
     ax = fig.add_subplot(projection="polar")
     ax.set_theta_zero_location("N")
     ax.set_theta_direction(-1)
-    mesh = ax.pcolormesh(az, ranges / 1e3, data, shading="auto", cmap="viridis")
+    mesh = ax.pcolormesh(az, ranges[keep] / 1e3, data[keep], shading="auto", cmap="viridis")
+    ax.set_ylim(0.0, ranges[keep][-1] / 1e3)
     fig.colorbar(mesh, ax=ax, label=label, shrink=0.8)
-    ax.set_title(f"{table.name} (range in km)", fontsize=10)
+    wind_from = inputs.get("wind_direction_rad")
+    if wind_from is not None:
+        r_top = ranges[keep][-1] / 1e3
+        ax.annotate("", xy=(wind_from, 0.55 * r_top), xytext=(wind_from, 0.95 * r_top),
+                    arrowprops=dict(arrowstyle="->", color="w", lw=1.5))
+        ax.text(wind_from, 1.0 * r_top, "wind", color="k", ha="center", fontsize=8)
+    what = table.name if array is None else f"{table.name}: {array}"
+    ax.set_title(f"{what} (range in km, 0-{ranges[keep][-1] / 1e3:.3g} of "
+                 f"{ranges[-1] / 1e3:.3g} km)", fontsize=9)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path)

@@ -121,3 +121,77 @@ def plot_improvement_vs_doppler(
     finally:
         plt.close(fig)
     return out
+
+
+#: Clutter spreads σ_s/f_r drawn from an I_F table [1].
+TABLE_SPREADS_NORM = (1e-3, 1e-2, 3e-2, 1e-1)
+
+
+def plot_improvement_table(
+    path: str | os.PathLike[str],
+    table,
+    *,
+    spreads_norm: Sequence[float] = TABLE_SPREADS_NORM,
+    title: str | None = None,
+    n_points: int = 4001,
+) -> Path:
+    """Write a PNG of an I_F table (:mod:`tables.improvement`) against ``f_d/f_r``.
+
+    One curve per clutter spread, read through the on-line lookup
+    (:func:`tables.improvement.improvement_factor_db`) over one Doppler period of the table
+    (1 for a constant PRF; the stagger period otherwise), so the picture shows what a run reads.
+
+    Parameters
+    ----------
+    path : path-like
+        Output PNG file.
+    table : Table
+        An improvement-factor table.
+    spreads_norm : sequence of float
+        Clutter spreads ``σ_s/f_r`` [1].
+    title : str, optional
+        Prefix of the title (e.g. the radar id).
+    n_points : int
+        Doppler samples.
+
+    Returns
+    -------
+    Path
+        The written file.
+    """
+    from tables.improvement import improvement_factor_db
+
+    period = float(table.axes[1][-1])
+    doppler = np.linspace(0.0, period, int(n_points))
+    inputs = table.inputs
+    desc = inputs["processor"]
+    if "mti_pulses" in inputs:
+        desc += f", {inputs['mti_pulses']}-pulse MTI"
+    if "n_pulses" in inputs:
+        taps = inputs["n_pulses"] - (inputs.get("mti_pulses", 1) - 1)
+        desc += f", {inputs['n_filters']} filters of {taps} {inputs['window']} taps"
+        if taps != inputs["n_pulses"]:
+            desc += f" (CPI {inputs['n_pulses']} pulses)"
+    if "stagger_prf_hz" in inputs:
+        lo, hi = inputs["stagger_prf_hz"]
+        desc += f", stagger {lo:g}/{hi:g} Hz (f_r = {inputs['prf_hz']:g} Hz)"
+    fig, ax = plt.subplots(figsize=(7.5, 4.2), dpi=120)
+    try:
+        lowest = 0.0
+        for spread in spreads_norm:
+            curve = improvement_factor_db(table, spread, doppler)
+            lowest = min(lowest, float(np.min(curve)))
+            ax.plot(doppler, curve, lw=0.9, label=f"σ_s/f_r = {spread:g}")
+        ax.set_xlim(0.0, period)
+        ax.set_ylim(max(lowest, -60.0) - 2.0, float(np.max(table.values)) + 5.0)
+        ax.set_xlabel("normalized Doppler (f_d - μ_c) / f_r")
+        ax.set_ylabel("improvement factor I_F [dB]")
+        ax.set_title(f"{title + ': ' if title else ''}{desc}", fontsize=9)
+        ax.grid(True, lw=0.3)
+        ax.legend(loc="lower right", fontsize=8)
+        out = Path(path)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        fig.savefig(out)
+    finally:
+        plt.close(fig)
+    return out
