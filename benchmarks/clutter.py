@@ -1,69 +1,43 @@
-"""Benchmark: build time of sea-clutter maps and the on-line cost of reading them per dwell.
+"""Benchmark: sea-clutter maps of the raid scenario's two radars (off-line build) and the
+on-line cost per dwell of reading them.
 
-Two radars like the raid scenario's: L band (1.3 GHz, HP, 20 m antenna, 20 µs long pulse) and
-C band (5.6 GHz, VP, 25 m antenna, 0.25 µs).  Maps 0-150 km × 360 azimuths, at 1501 ranges
-(100 m) and at the C-band range cell (37.5 m, 4001 ranges).  On-line: one dwell reads a few
-hundred cells (the range cells of one beam position) of the power and the Weibull a, μ, σ.
-Prints numbers measured in-process (time.perf_counter, best of N).
+Radars: ``scenarios/raid.yaml`` as written (the SPS-49-like UHF radar, 0.9 GHz HP, 30 m,
+2 µs, 250 km; the Sea Giraffe-like C-band radar, 5.6 GHz VP, 25 m, 0.25 µs, 100 km), with the
+scene's own grid (:func:`tables.scene.clutter_grid_size`), through the same table specs a run
+uses (:func:`tables.scene.table_specs`).
+
+Measured, in-process with ``time.perf_counter`` (best of N):
+
+* build: the map built and written to an empty cache (what ``shipradar tables build`` pays
+  once per radar and environment); load: the same map read back from the cache (what every
+  later run pays);
+* the same builds on a 4x finer range grid, to show the cost scales with the cell count;
+* on-line, per dwell: :meth:`sensors.dwell.DwellModel.clutter_at` for the targets in one beam
+  (power, μ_c, σ_s, Weibull a read from the map; the I_F table lookup; the distribution loss),
+  and the bare map read (:class:`tables.store.StackedLookup2D`) it is built on, for 1, 24 and
+  1000 targets in the beam.
+
+Run ``python benchmarks/clutter.py``; numbers are disturbed by other jobs on a shared machine.
 """
 
 from __future__ import annotations
 
 import math
+import os
+import tempfile
 import time
+from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 
-from tables.clutter import (
-    ClutterMapReader,
-    build_sea_clutter_map,
-    build_weather_clutter_map,
-    lookup_clutter,
-)
-
-BW_EL = math.radians(20.0)
-
-
-def cosec2_like(elev):
-    """Gaussian main beam tilted up by half a beamwidth; a fixed stand-in elevation pattern."""
-    return np.exp(-math.log(2.0) * ((np.asarray(elev) - BW_EL / 2) / BW_EL) ** 2 * 2.0 / 2.0)
-
-
-RADARS = {
-    "L-band 1.3 GHz HP 20 m, 20 us": dict(
-        freq_hz=1.3e9,
-        polarization="H",
-        antenna_height_m=20.0,
-        beamwidth_az_rad=math.radians(1.4),
-        pulse_width_s=20e-6,
-        radar_constant_w_m2=8.0e3,
-        noise_power_w=1.38e-23 * 500 / 20e-6,
-    ),
-    "C-band 5.6 GHz VP 25 m, 0.25 us": dict(
-        freq_hz=5.6e9,
-        polarization="V",
-        antenna_height_m=25.0,
-        beamwidth_az_rad=math.radians(1.5),
-        pulse_width_s=0.25e-6,
-        radar_constant_w_m2=3.0e2,
-        noise_power_w=1.38e-23 * 600 / 0.25e-6,
-    ),
-}
-ENV = dict(
-    elevation_pattern=("gaussian", BW_EL, 0.0, BW_EL / 2),
-    rotation_rate_rad_s=2 * math.pi / 4,
-    wind_speed_mps=9.0,
-    wind_direction_rad=math.radians(30.0),
-    wave_height_m=1.5,
-    duct_height_m=12.0,
-    max_range_m=150e3,
-    n_azimuth=360,
-)
+RAID = Path(__file__).resolve().parents[1] / "scenarios" / "raid.yaml"
+#: Targets in one beam position for the on-line cost (one, the raid's 24, a dense scene).
+TARGETS_PER_DWELL = (1, 24, 1000)
 
 
 def best_of(fn, n):
-    best = math.inf
-    out = None
+    best, out = math.inf, None
     for _ in range(n):
         t = time.perf_counter()
         out = fn()
@@ -71,60 +45,78 @@ def best_of(fn, n):
     return best, out
 
 
+def _fresh_cache():
+    """Point the table cache at a new empty directory (the env var is read at each call)."""
+    d = tempfile.mkdtemp(prefix="shipradar-bench-")
+    os.environ["SHIPRADAR_TABLES"] = d
+    return d
+
+
 def main() -> None:
+    from sensors.dwell import DwellModel, radar_constants
+    from sim.scenario import load_scenario
+    from tables import scene as ts
+    from tables.clutter import build_sea_clutter_map
+    from tables.store import StackedLookup2D
+
+    scenario = load_scenario(RAID)
+    print(f"scenario {scenario.name}: wind {scenario.environment.wind_speed_mps} m/s, "
+          f"waves {scenario.wave_height:.2f} m")
     rng = np.random.default_rng(0)
-    for name, radar in RADARS.items():
-        for n_range in (1501, 4001):
-            kw = {**ENV, **radar, "n_range": n_range}
-            t_build, table = best_of(
-                lambda kw=kw: build_sea_clutter_map(elevation_directivity=cosec2_like, **kw), 3
-            )
-            cells = table.values.size
-            print(
-                f"{name}: build {n_range}x361 map: {t_build * 1e3:.0f} ms "
-                f"({t_build / cells * 1e9:.0f} ns/cell)"
-            )
-        for n_cells in (300, 3000):
-            ranges = np.sort(rng.uniform(0.0, 150e3, n_cells))
-            az = rng.uniform(0.0, 2 * math.pi)
+    for platform, radar in scenario.radars():
+        def spec(kind, radar=radar):
+            return next(s for s in ts.table_specs(scenario)
+                        if s.radar_id == radar.id and s.kind == kind)
 
-            def dwell(table=table, ranges=ranges, az=az):
-                p = lookup_clutter(table, ranges, az)
-                a = lookup_clutter(table, ranges, az, "weibull_a")
-                mu = lookup_clutter(table, ranges, az, "doppler_mean_hz")
-                sd = lookup_clutter(table, ranges, az, "doppler_spread_hz")
-                return p, a, mu, sd
+        def build():
+            _fresh_cache()
+            return spec("sea_clutter").make()
 
-            t_dwell, _ = best_of(dwell, 200)
-            print(
-                f"{name}: Table.lookup of {n_cells} cells x 4 arrays: "
-                f"{t_dwell * 1e6:.0f} us per dwell"
+        t_build, table = best_of(build, 3)
+        t_load, _ = best_of(lambda: spec("sea_clutter").make(), 5)
+        n_r, n_a = table.values.shape
+        print(f"\n{radar.id} ({radar.frequency_hz / 1e9:g} GHz {radar.polarization}P, "
+              f"{radar.pulse_width_s * 1e6:g} us, {radar.instrumented_range_m / 1e3:g} km)")
+        print(f"  sea-clutter map {n_r} x {n_a}: build + save {t_build * 1e3:7.1f} ms "
+              f"({t_build / table.values.size * 1e9:.0f} ns/cell), load {t_load * 1e3:6.1f} ms")
+
+        # a 4x finer range grid, built directly (the scene's grid is fixed by clutter_grid_size)
+        directivity = radar_constants(scenario, radar).elevation_pattern(radar)
+        for factor in (1, 4):
+            kw = dict(table.inputs)
+            kw["n_range"] = factor * (n_r - 1) + 1
+            kw["elevation_pattern"] = tuple(kw["elevation_pattern"])
+            t_pure, pure = best_of(
+                lambda g=directivity, kw=kw: build_sea_clutter_map(elevation_directivity=g, **kw),
+                3)
+            print(f"  physics only (no save), {pure.values.shape[0]} x {n_a}"
+                  f"{' (range step /4)' if factor > 1 else ''}: {t_pure * 1e3:7.1f} ms "
+                  f"({t_pure / pure.values.size * 1e9:.0f} ns/cell)")
+
+        tables = ts.SceneTables()
+        rt = tables.for_radar(radar.id)
+        rt.sea_clutter = table
+        kw_if = ts.improvement_kwargs(scenario, radar)
+        if kw_if is not None:
+            from tables.improvement import improvement_table
+
+            rt.improvement = improvement_table(radar.processor.type, **kw_if)[0]
+        model = DwellModel(scenario, platform, radar, tables)
+        reader = StackedLookup2D(table, (None, "doppler_mean_hz", "doppler_spread_hz",
+                                         "weibull_a"), periodic1=True)
+        for n in TARGETS_PER_DWELL:
+            az = np.full(n, rng.uniform(0.0, 2 * math.pi))
+            geom = SimpleNamespace(
+                ground_range=rng.uniform(1e3, 0.9 * radar.instrumented_range_m, n),
+                azimuth=az,
+                radial_velocity=rng.uniform(-700.0, 300.0, n),
             )
-            reader = ClutterMapReader(table)
-            t_fast, _ = best_of(lambda r=reader, x=ranges, a=az: r.read(x, a), 200)
-            print(
-                f"{name}: ClutterMapReader.read of {n_cells} cells x 6 arrays: "
-                f"{t_fast * 1e6:.0f} us per dwell"
-            )
-    kw = dict(
-        freq_hz=5.6e9,
-        antenna_height_m=25.0,
-        beamwidth_az_rad=math.radians(1.5),
-        beamwidth_el_rad=BW_EL,
-        pulse_width_s=0.25e-6,
-        prf_hz=1000.0,
-        radar_constant_w_m2=3.0e2,
-        rain_rate_mm_h=4.0,
-        cloud_base_m=3000.0,
-        rotation_rate_rad_s=2 * math.pi / 4,
-        wind_speed_mps=9.0,
-        wind_direction_rad=0.5,
-        max_range_m=150e3,
-        n_range=1501,
-        n_azimuth=360,
-    )
-    t_w, _ = best_of(lambda: build_weather_clutter_map(**kw), 3)
-    print(f"C-band weather map 1501x361: build {t_w * 1e3:.0f} ms")
+            tpos = np.zeros((n, 3))
+            t_read, _ = best_of(lambda g=geom, r=reader: r(g.ground_range, g.azimuth), 300)
+            t_dwell, _ = best_of(lambda g=geom, p=tpos, m=model: m.clutter_at(g, p, None), 300)
+            print(f"  {n:5d} targets in the beam: map read {t_read * 1e6:7.1f} us, "
+                  f"DwellModel.clutter_at (read + I_F lookup + L_d) {t_dwell * 1e6:7.1f} us "
+                  f"per dwell")
 
 
 if __name__ == "__main__":
