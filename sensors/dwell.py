@@ -266,12 +266,12 @@ class DwellModel:
         sigma = self.rcs_const[rows].copy()
         m = kind == _RCS_MISSILE
         tab = kind == _RCS_TABLE
-        if np.any(m | tab):
+        if (m | tab).any():
             theta, phi = rcs.aspect_angles(los_enu, vel_enu)
-            if np.any(m):
+            if m.any():
                 p = self.rcs_missile[rows[m]]
                 sigma[m] = rcs.missile_rcs(p[:, 0], p[:, 1], p[:, 2], theta[m], phi[m])
-            if np.any(tab):
+            if tab.any():
                 off = rcs.off_nose_angle(theta[tab], phi[tab])
                 x = np.clip(off / self.rcs_grid_step, 0, self.rcs_tables.shape[1] - 1.000001)
                 i = np.floor(x).astype(int)
@@ -292,7 +292,7 @@ class DwellModel:
 
         f = pe_lookup(self.tables.propagation, ground_range, target_height)
         bad = ~np.isfinite(f)
-        if np.any(bad):
+        if bad.any():
             f = f.copy()
             f[bad] = two_ray(ground_range[bad], target_height[bad])
         return f, int(np.count_nonzero(bad))
@@ -474,8 +474,13 @@ class DwellModel:
         rc = np.floor(geom.slant_range / self.range_cell).astype(np.int64)
         ac = np.floor(geom.azimuth / self.theta_b).astype(np.int64)
         fc = self._doppler_filter(geom.radial_velocity)
-        keys = np.stack([rc, ac, fc], axis=1)
-        _, group = np.unique(keys, axis=0, return_inverse=True)
+        # One integer per (range cell, azimuth cell, filter), ordered as the triples are
+        # lexicographically (all three are >= 0), so the groups are numbered as
+        # np.unique(axis=0) would number them, at a fraction of its cost.
+        n_ac = int(ac.max()) + 1
+        n_fc = int(fc.max()) + 1
+        keys = (rc * n_ac + ac) * n_fc + fc
+        _, group = np.unique(keys, return_inverse=True)
         group = group.ravel().astype(np.int64)
         return group, int(group.max()) + 1
 
@@ -619,7 +624,7 @@ class _TwoRayFallback:
         h2 = np.asarray(height_m, dtype=float)
         if d.size == 0:
             return np.zeros(d.shape)
-        if np.any(d < 0) or np.any(h2 < 0):
+        if (d < 0).any() or (h2 < 0).any():
             raise ValueError("range and heights must be >= 0")
         cache = self._cache
         keys = h2.tolist()
@@ -632,17 +637,21 @@ class _TwoRayFallback:
                 cache = {**cache, **new}
         per = np.array([cache[h] for h in keys], dtype=float).reshape(d.size, 4)
         d_h, d_lim, f_lim, f_diff_h = (per[:, i] for i in range(4))
-        prop = self._prop
-        diffraction = prop.smooth_earth_diffraction_factor(
-            np.maximum(d, d_h), np.full(d.shape, self.h1), h2, self.freq, self.pol,
-            k_factor=self.k_factor, permittivity=self.eps) * self.g_horizon
-        f_inter = self._terms(np.minimum(d, d_lim), h2)
+        # each branch is evaluated only when some point needs it (its other values unused)
+        beyond = d >= d_h
+        diffraction = np.zeros(d.shape)
+        if beyond.any():
+            diffraction = self._prop.smooth_earth_diffraction_factor(
+                np.maximum(d, d_h), np.full(d.shape, self.h1), h2, self.freq, self.pol,
+                k_factor=self.k_factor, permittivity=self.eps) * self.g_horizon
+        inside = d <= d_lim
+        f_inter = self._terms(np.minimum(d, d_lim), h2) if inside.any() else np.zeros(d.shape)
         tiny = 1e-30
         span = np.maximum(d_h - d_lim, 1e-9)
         w = np.clip((d - d_lim) / span, 0.0, 1.0)
         intermediate = np.exp((1 - w) * np.log(np.maximum(f_lim, tiny))
                               + w * np.log(np.maximum(f_diff_h, tiny)))
-        return np.where(d <= d_lim, f_inter, np.where(d < d_h, intermediate, diffraction))
+        return np.where(inside, f_inter, np.where(beyond, diffraction, intermediate))
 
 
 def _argmax_by_group(group: np.ndarray, value: np.ndarray, n_groups: int) -> np.ndarray:

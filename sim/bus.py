@@ -472,7 +472,8 @@ class Bus:
         if self.publisher is not None:
             self.publisher.send(frames)
         self._messages[bytes(frames[0])] += 1
-        self._bytes += sum(len(f) for f in frames)
+        self._bytes += len(frames[0]) + len(frames[1]) if len(frames) == 2 else sum(
+            len(f) for f in frames)
 
     def flush(self, fsync: bool = False) -> None:
         """End of scan: hand the recording to the OS (``fsync``: to the disk).

@@ -28,11 +28,11 @@ import simpy.rt
 from sim import protocol
 from sim.kinematics import (
     TWO_PI,
+    LocalFrame,
     Trajectories,
     antenna_azimuth,
     antenna_geometry,
     beam_crossing_times,
-    LocalFrame,
     waypoint_enu,
 )
 from sim.scenario import Platform, Radar, Scenario
@@ -96,21 +96,20 @@ class Simulation:
         self.stats = RunStats()
         origin = scenario.origin
         self.frame = LocalFrame(origin)
-        self.targets = Trajectories([waypoint_enu(t.waypoints, self.frame) for t in scenario.targets],
-                                    hold=False)
+        self.targets = Trajectories(
+            [waypoint_enu(t.waypoints, self.frame) for t in scenario.targets], hold=False)
         self.platforms = Trajectories(
             [waypoint_enu(p.waypoints, self.frame) for p in scenario.platforms], hold=True)
-        self.jammers = Trajectories([waypoint_enu(j.waypoints, self.frame) for j in scenario.jammers],
-                                    hold=True)
+        self.jammers = Trajectories(
+            [waypoint_enu(j.waypoints, self.frame) for j in scenario.jammers], hold=True)
         self.tables = tables if tables is not None else load_scene_tables(scenario)
         seeds = np.random.SeedSequence(self.seed).spawn(len(scenario.radars()))
         self.radars = []
         for k, (platform, radar) in enumerate(scenario.radars()):
             p_index = scenario.platforms.index(platform)
             model = DwellModel(scenario, platform, radar, self.tables)
-            self.radars.append(
-                _RadarProcess(self, p_index, platform, radar, model, np.random.default_rng(seeds[k]))
-            )
+            rng = np.random.default_rng(seeds[k])
+            self.radars.append(_RadarProcess(self, p_index, platform, radar, model, rng))
 
     # ------------------------------------------------------------------ running
     def run(self) -> dict[str, Any]:
@@ -192,6 +191,7 @@ class _RadarProcess:
         self._plan_rows = np.zeros(0, dtype=int)
         self._plan_lo = self._plan_hi = np.zeros(0)
         self.target_ids = [t.id for t in sim.scenario.targets]
+        self._eos_cache: dict[float, tuple[float, float]] = {}
 
     # ------------------------------------------------------------------ helpers
     def beam_azimuth(self, t: float) -> float:
@@ -307,7 +307,7 @@ class _RadarProcess:
         ppos, _ = self.platform_state(tc)
         ok = active & (geom.ground_range <= self.radar.instrumented_range_m)
         ok &= geom.slant_range > 0.0
-        if not np.any(ok):
+        if not ok.any():
             return []
         idx = np.flatnonzero(ok)
         res = self.model.process_targets(
@@ -330,7 +330,7 @@ class _RadarProcess:
         fa = self.model.noise_false_alarms(self.rng)
         t = t_scan + np.mod(fa["azimuth_rad"] - self.beam_azimuth(t_scan), TWO_PI) / self.omega
         keep = t < t_end
-        if not np.any(keep):
+        if not keep.any():
             return None
         plots = self.model.false_alarm_plots(fa["range_m"][keep], fa["azimuth_rad"][keep],
                                              t[keep], self.rng)
@@ -360,7 +360,7 @@ class _RadarProcess:
                 tc = beam_crossing_times(az_at, t_scan, self.beam_azimuth(t_scan), self.omega,
                                          rows.size)
                 sel = (tc >= t_scan) & (tc < t_end)
-                if np.any(sel):
+                if sel.any():
                     parts.extend(self._dwell(rows[sel], tc[sel], t_scan, t_end))
         noise_fa = self._scan_false_alarms(t_scan, t_end)
         if noise_fa is not None:
@@ -385,6 +385,8 @@ class _RadarProcess:
         n = i1 - i0
         plot_id = np.arange(self.plot_counter, self.plot_counter + n, dtype=np.int64)
         self.plot_counter += n
+        if self.sim.bus is None:
+            return
         payload = {"sensor": self.radar.id, "scan": scan, "plot_id": plot_id}
         payload.update({c: scan_plots[c][i0:i1] for c in PLOT_COLUMNS})
         self.sim.emit(protocol.TOPIC_PLOTS, t_b, payload)
@@ -396,16 +398,35 @@ class _RadarProcess:
             "plot_id": plot_id,
             "origin": scan_plots["origin"][i0:i1],
             "target": scan_plots["target"][i0:i1],
-            "contrib_offsets": (off[i0:i1 + 1] - off[i0]).astype(np.int64),
+            "contrib_offsets": (off[i0:i1 + 1] - off[i0]).astype(np.int64, copy=False),
             "contrib_targets": scan_plots["contrib_targets"][off[i0]:off[i1]],
         }
         self.sim.emit(protocol.TOPIC_TRUTH, t_b, truth)
+
+    def _eos_lat_lon(self, t: float, scan: int) -> tuple[float, float]:
+        """Latitude and longitude [deg] of the platform at the end of scan ``scan`` (time t).
+
+        The geodetic conversion (iterative, ``pymap3d``) is done for the next
+        :data:`_EOS_BATCH` ends of scan at once, at the times the run will reach them; a time
+        not predicted (never, in practice) is converted on its own.
+        """
+        cached = self._eos_cache.pop(t, None)
+        if cached is not None:
+            return cached
+        last = self.n_sectors * np.arange(scan + 1, scan + 1 + _EOS_BATCH)
+        times = [min(float(k) * self.sector_s, self.sim.duration) for k in last.tolist()]
+        times = sorted({t, *times})
+        ppos, _ = self.platform_state(np.array(times))
+        lat, lon, _ = self.sim.frame.geodetic(ppos)
+        self._eos_cache = dict(zip(times, zip(lat.tolist(), lon.tolist(), strict=True),
+                                   strict=True))
+        return self._eos_cache.pop(t)
 
     def _end_of_scan(self, t: float, scan: int) -> None:
         sim = self.sim
         sim.stats.scans += 1
         pos, vel = self.platform_state(np.array([t]))
-        lat, lon, _ = sim.frame.geodetic(pos)
+        lat, lon = self._eos_lat_lon(t, scan)
         speed = float(np.hypot(vel[0, 0], vel[0, 1]))
         heading = (math.degrees(math.atan2(vel[0, 0], vel[0, 1])) % 360.0 if speed > 0
                    else self.platform.heading_deg)
@@ -414,7 +435,7 @@ class _RadarProcess:
             "scan": scan,
             "time_s": t,
             "position": {
-                "lat_deg": float(lat[0]), "lon_deg": float(lon[0]),
+                "lat_deg": lat, "lon_deg": lon,
                 "alt_m": float(pos[0, 2] + self.radar.antenna_height_m),
                 "east_m": float(pos[0, 0]), "north_m": float(pos[0, 1]),
                 "up_m": float(pos[0, 2] + self.radar.antenna_height_m),
@@ -437,6 +458,9 @@ class _RadarProcess:
         if sim.bus is not None:
             sim.bus.flush()
 
+
+#: Ends of scan whose platform latitude/longitude are converted together.
+_EOS_BATCH = 256
 
 #: Plot-topic columns, in the order they are published.
 PLOT_COLUMNS = ("time_s", "range_m", "azimuth_rad", "snr_db", "sigma_range_m",

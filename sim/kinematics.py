@@ -131,6 +131,13 @@ class Trajectories:
                                np.zeros((self.n, 1, 3))], axis=1)
         self.vel = np.where(real[:, :, None],
                             dpos / np.where(real, self.seg_dt, 1.0)[:, :, None], 0.0)
+        # Every object on one segment (at most two waypoints: the usual case): the segment
+        # search of :meth:`state` is skipped, with the first segment's columns kept contiguous.
+        self._one_segment = w <= 2
+        self._t0 = np.ascontiguousarray(self.times[:, 0]) if self.n else np.zeros(0)
+        self._pos0 = np.ascontiguousarray(self.pos[:, 0])
+        self._vel0 = np.ascontiguousarray(self.vel[:, 0])
+        self._dt0 = np.ascontiguousarray(self.seg_dt[:, 0])
 
     def state(
         self, t: float | np.ndarray, rows: np.ndarray | None = None
@@ -140,6 +147,8 @@ class Trajectories:
         ``rows`` picks the objects (default: all N, M = N; repeats allowed, e.g. one platform
         at many times); ``t`` is a scalar or one time per row [s].
         """
+        if self._one_segment:
+            return self._state_one_segment(t, rows)
         rows = np.arange(self.n) if rows is None else np.asarray(rows, dtype=int)
         t = np.broadcast_to(np.asarray(t, dtype=float), rows.shape)
         times = self.times[rows]
@@ -156,6 +165,27 @@ class Trajectories:
         else:
             active = inside
         return pos, vel, active
+
+    def _state_one_segment(self, t, rows):
+        """:meth:`state` when every object has at most two waypoints (same arithmetic)."""
+        if rows is None:
+            t0, p0, v0, dt0 = self._t0, self._pos0, self._vel0, self._dt0
+            first, last = self.t_first, self.t_last
+            shape = (self.n,)
+        else:
+            rows = np.asarray(rows, dtype=int)
+            t0, p0, v0, dt0 = self._t0[rows], self._pos0[rows], self._vel0[rows], self._dt0[rows]
+            first, last = self.t_first[rows], self.t_last[rows]
+            shape = rows.shape
+        t = np.asarray(t, dtype=float)
+        if t.shape != shape:
+            t = np.broadcast_to(t, shape)
+        tau = np.minimum(np.maximum(t - t0, 0.0), dt0)
+        pos = p0 + v0 * tau[:, None]
+        inside = (t >= first) & (t <= last)
+        if self.hold:
+            return pos, v0 * inside[:, None], np.ones(shape, dtype=bool)
+        return pos, v0.copy(), inside
 
 
 @dataclass(frozen=True)
@@ -330,6 +360,6 @@ def beam_crossing_times(
         beam = beam_azimuth_start + rate_rad_s * (t - t_start)
         step = wrap_pi(azimuth_at(t) - beam) / rate_rad_s
         t = t + step
-        if np.all(np.abs(step) < 1e-10):
+        if (np.abs(step) < 1e-10).all():
             break
     return t

@@ -274,6 +274,14 @@ _KEY_CACHE: dict[str, bytes] = {}
 _KEY_CACHE_MAX = 4096
 
 
+_U64 = struct.Struct("<Q")
+# Array header start (ndim 1) of the wire dtypes that need no conversion: native-order dtypes
+# that are already little-endian (or byte-sized).
+_COLUMN_HEADS: dict[np.dtype, bytes] = {
+    dt: _array_head(dt, 1)[0] for dt in _WIRE_DTYPES.values() if _array_head(dt, 1)[1] == dt
+}
+
+
 def _map_header(n: int) -> bytes:
     """msgpack header of a map of ``n`` entries (fixmap, map 16 or map 32)."""
     if n < 16:
@@ -359,8 +367,18 @@ def encode(topic: bytes, t_sim: float, payload: Mapping[str, Any]) -> list[bytes
     append = parts.append
     packer = None
     for key, value in payload.items():
-        append(_packed_key(key))
+        packed_key = _KEY_CACHE.get(key)
+        append(_packed_key(key) if packed_key is None else packed_key)
         if type(value) is np.ndarray:
+            head = _COLUMN_HEADS.get(value.dtype) if value.ndim == 1 else None
+            if head is not None and value.flags.c_contiguous:
+                # the usual column: 1-d, little-endian, contiguous (same bytes as below)
+                data = value.tobytes()
+                append(_ext_header(16 + len(data)))
+                append(head)
+                append(_U64.pack(value.shape[0]))
+                append(data)
+                continue
             data = encode_array(value)
             append(_ext_header(len(data)))
             append(data)

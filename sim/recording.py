@@ -51,6 +51,7 @@ _HEADER = struct.Struct("<8sHHI")
 _PREFIX = struct.Struct("<II")  # record length, CRC-32
 _RECORD_HEAD = struct.Struct("<dH")  # t_sim, frame count
 _FRAME_LEN = struct.Struct("<I")
+_RECORD_HEAD_2 = struct.Struct("<dHI")  # t_sim, frame count 2, length of the first frame
 HEADER_BYTES: int = _HEADER.size
 
 
@@ -123,18 +124,26 @@ class Recorder:
             If there are more than :data:`MAX_FRAMES` frames or the record would exceed
             :data:`MAX_RECORD_BYTES` (nothing is written then).
         """
-        if len(frames) > MAX_FRAMES:
-            raise RecordingError(f"{len(frames)} frames in one record, at most {MAX_FRAMES}")
-        parts = [_RECORD_HEAD.pack(float(t_sim), len(frames))]
-        for frame in frames:
-            parts.append(_FRAME_LEN.pack(len(frame)))
-            parts.append(bytes(frame))
-        record = b"".join(parts)
+        if len(frames) == 2:  # every message of the stream: [topic, body]
+            topic, body = bytes(frames[0]), bytes(frames[1])
+            record = b"".join((_RECORD_HEAD_2.pack(float(t_sim), 2, len(topic)), topic,
+                               _FRAME_LEN.pack(len(body)), body))
+        else:
+            if len(frames) > MAX_FRAMES:
+                raise RecordingError(f"{len(frames)} frames in one record, at most {MAX_FRAMES}")
+            parts = [_RECORD_HEAD.pack(float(t_sim), len(frames))]
+            for frame in frames:
+                parts.append(_FRAME_LEN.pack(len(frame)))
+                parts.append(bytes(frame))
+            record = b"".join(parts)
         if len(record) > MAX_RECORD_BYTES:
             raise RecordingError(
                 f"record of {len(record)} bytes exceeds the {MAX_RECORD_BYTES}-byte maximum"
             )
-        self._write_raw(_PREFIX.pack(len(record), zlib.crc32(record)) + record)
+        write = self._file.write
+        write(_PREFIX.pack(len(record), zlib.crc32(record)))
+        write(record)
+        self.bytes_written += _PREFIX.size + len(record)
         self.records += 1
 
     def flush(self, fsync: bool = False) -> None:

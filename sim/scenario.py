@@ -248,7 +248,8 @@ class TableRcs(_Model):
         if len(self.aspect_deg) != len(self.sigma_m2):
             raise ValueError("aspect_deg and sigma_m2 must have the same length")
         a = self.aspect_deg
-        if any(not 0.0 <= x <= 180.0 for x in a) or any(a[i] >= a[i + 1] for i in range(len(a) - 1)):
+        if (any(not 0.0 <= x <= 180.0 for x in a)
+                or any(a[i] >= a[i + 1] for i in range(len(a) - 1))):
             raise ValueError("aspect_deg must increase strictly within [0, 180]")
         if any(not s > 0.0 for s in self.sigma_m2):
             raise ValueError("sigma_m2 values must be > 0")
@@ -267,7 +268,8 @@ class Target(_Model):
         None, ge=0, le=4, description="Swerling case 0-4; default 3 for a missile model, else 1"
     )
 
-    _check_times = field_validator("waypoints")(classmethod(lambda cls, v: _check_waypoint_times(v)))
+    _check_times = field_validator("waypoints")(
+        classmethod(lambda cls, v: _check_waypoint_times(v)))
 
     @property
     def swerling_case(self) -> int:
@@ -287,7 +289,8 @@ class Platform(_Model):
     )
     radars: list[Radar] = Field(min_length=1, max_length=8)
 
-    _check_times = field_validator("waypoints")(classmethod(lambda cls, v: _check_waypoint_times(v)))
+    _check_times = field_validator("waypoints")(
+        classmethod(lambda cls, v: _check_waypoint_times(v)))
 
 
 class Jammer(_Model):
@@ -299,7 +302,8 @@ class Jammer(_Model):
     gain_db: float = Field(ge=-10.0, le=40.0, description="G_j, jammer antenna gain [dBi]")
     bandwidth_hz: float = Field(ge=1.0e5, le=1.0e10, description="B_j, jammer bandwidth [Hz]")
 
-    _check_times = field_validator("waypoints")(classmethod(lambda cls, v: _check_waypoint_times(v)))
+    _check_times = field_validator("waypoints")(
+        classmethod(lambda cls, v: _check_waypoint_times(v)))
 
 
 # --------------------------------------------------------------------------- environment
@@ -379,7 +383,8 @@ class Environment(_Model):
         0.0, ge=0.0, lt=360.0, description="direction the wind blows FROM (true north) [deg]"
     )
     wave_height_m: float | None = Field(
-        None, ge=0.0, le=20.0, description="w_h, significant wave height [m]; default from sea state"
+        None, ge=0.0, le=20.0,
+        description="w_h, significant wave height [m]; default from sea state"
     )
     duct: Duct | None = Field(
         None, description="evaporation duct (height or bulk model) or an M-profile; "
@@ -433,7 +438,8 @@ class Scenario(_Model):
         ids += [j.id for j in self.jammers] + [r.id for p in self.platforms for r in p.radars]
         for i in ids:
             if i in seen:
-                raise ValueError(f"ids must be unique across platforms, radars, targets and jammers: {i!r} repeats")
+                raise ValueError("ids must be unique across platforms, radars, targets and "
+                                 f"jammers: {i!r} repeats")
             seen.add(i)
         return self
 
@@ -524,7 +530,7 @@ def _message(err: dict) -> str:
     if typ == "union_tag_invalid":
         return f"type must be one of {ctx.get('expected_tags')}, got {_fmt_value(ctx.get('tag'))}"
     if typ == "union_tag_not_found":
-        return f"needs a 'type' field, one of the allowed kinds"
+        return "needs a 'type' field, one of the allowed kinds"
     if typ == "value_error":
         return str(ctx.get("error", err["msg"]))
     if typ.endswith("_parsing") or typ.endswith("_type"):
@@ -561,7 +567,8 @@ def load_scenario(path: str | Path) -> Scenario:
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
-        raise ScenarioError([f"{path}: not valid YAML{where}: {getattr(exc, 'problem', exc)}"]) from None
+        problem = getattr(exc, "problem", exc)
+        raise ScenarioError([f"{path}: not valid YAML{where}: {problem}"]) from None
     except UnicodeDecodeError:
         raise ScenarioError([f"{path}: not UTF-8 text"]) from None
     return parse_scenario(data)
