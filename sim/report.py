@@ -16,11 +16,14 @@ Figures (each skipped with a note in the index when its inputs or module are mis
   it has one (:func:`sim.figures.clutter.plot_clutter_ppi`);
 - ``improvement_doppler.png``: I_F against Doppler for the radar's processor
   (:func:`sim.figures.doppler.plot_improvement_vs_doppler`);
-- ``false_alarms_range.png``: histograms of false-alarm range by origin, from the dwell
-  model's own per-scan draws (noise [90]-[93], sea clutter 7.2) over ``fa_scans`` scans — the
-  code the engine runs every scan, repeated to get a visible histogram;
-- ``ppi.png``: one scan of a run (the scan with the most plots), plots coloured by origin,
-  with the targets' tracks.
+- ``false_alarms_range.png``: the seed's Fig. 8, histograms of false-alarm range, noise-induced
+  (flat) beside sea-clutter-induced (falling with range), from the dwell model's own per-scan
+  draws (:func:`sim.figures.false_alarms.generated_false_alarms`) over ``fa_scans`` scans —
+  the code the engine runs every scan, repeated to get a visible histogram (noise panel from
+  500 draws' worth of scans);
+- ``ppi.png``: one scan of a run (the scan with the most plots, one with a target plot if
+  any), plots coloured by origin, full range and zoomed on the sea-clutter false alarms, with
+  the targets' tracks (:func:`sim.figures.false_alarms.plot_ppi_by_origin`).
 
 Only the first radar of the scene is drawn. matplotlib runs with the Agg backend.
 """
@@ -32,6 +35,7 @@ import csv
 import html
 import inspect
 import json
+import math
 import os
 import sys
 from pathlib import Path
@@ -45,8 +49,6 @@ import numpy as np  # noqa: E402
 
 __all__ = ["build_report", "cli_main"]
 
-ORIGIN_NAMES = ("target", "noise", "sea_clutter")
-ORIGIN_COLOURS = {"target": "tab:red", "noise": "tab:blue", "sea_clutter": "tab:green"}
 
 
 class _Bus:
@@ -131,7 +133,19 @@ def _fig_pd(path: Path, model_rows: list[dict], study_csv: Path | None) -> str:
             hi = np.array([float(r["ci_hi"]) for r in rows])
             ax.errorbar(mid, pd, yerr=[pd - lo, hi - pd], fmt="o", ms=4, capsize=2,
                         label=f"runs: {kind} (95 % Wilson)")
-        caption += f"; points: Monte Carlo study {study_csv.name}"
+            # the model averaged over the same bins: what the points estimate
+            model_kind = [m for m in model_rows if m["kind"] == kind]
+            if model_kind:
+                rg = np.array([m["ground_range_m"] for m in model_kind])
+                pm = np.array([m["pd"] for m in model_kind])
+                avg = [pm[(rg >= float(r["range_lo_m"])) & (rg < float(r["range_hi_m"]))]
+                       for r in rows]
+                sel = np.array([a.size > 0 for a in avg])
+                if sel.any():
+                    ax.plot(mid[sel], [a.mean() for a in avg if a.size], "s", mfc="none",
+                            ms=7, color="0.3", label=f"model: {kind}, bin mean")
+        caption += (f"; points: Monte Carlo study {study_csv.name} (95 % Wilson intervals), "
+                    "squares: the model's P_d averaged over the same range bins")
     ax.set_xlabel("ground range [km]")
     ax.set_ylabel("P_d")
     ax.set_ylim(-0.02, 1.02)
@@ -143,39 +157,30 @@ def _fig_pd(path: Path, model_rows: list[dict], study_csv: Path | None) -> str:
     return caption
 
 
-def _fig_false_alarms(path: Path, sim, scans: int, seed: int) -> str:
-    rp = sim.radars[0]
-    model = rp.model
-    rng = np.random.default_rng(seed)
-    ranges: dict[str, list[np.ndarray]] = {"noise": [], "sea_clutter": []}
-    for k in range(scans):
-        fa = model.noise_false_alarms(rng)
-        ranges["noise"].append(np.asarray(fa["range_m"], float))
-        for s in range(rp.n_sectors):
-            t_a = (k * rp.n_sectors + s) * rp.sector_s
-            c = model.clutter_false_alarms(t_a, t_a + rp.sector_s, rp.beam_azimuth(t_a),
-                                           rp.omega, rng)
-            if c is not None and np.size(c["range_m"]):
-                ranges["sea_clutter"].append(np.asarray(c["range_m"], float))
-    r_max = rp.radar.instrumented_range_m / 1e3
-    bins = np.linspace(0.0, r_max, 41)
-    fig, axes = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
-    for ax, origin in zip(axes, ("noise", "sea_clutter"), strict=True):
-        r = np.concatenate(ranges[origin]) / 1e3 if ranges[origin] else np.zeros(0)
-        ax.hist(r, bins=bins, color=ORIGIN_COLOURS[origin])
-        ax.set_ylabel("false alarms")
-        ax.set_title(f"{origin}: {r.size} in {scans} scans ({r.size / scans:.3g} per scan)",
-                     fontsize=9)
-        ax.grid(alpha=0.3)
-    axes[-1].set_xlabel("range [km]")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return (f"False alarms against range by origin: the dwell model's per-scan draws over "
-            f"{scans} scans")
+def _fig_false_alarms(path: Path, scenario, tables, radar_id: str, scans: int,
+                      seed: int) -> tuple[str, dict]:
+    """The seed's Fig. 8 for the scene: noise-induced (flat) beside sea-clutter-induced
+    (falling with range), from the dwell model's own per-scan generators."""
+    from sim.figures.false_alarms import generated_false_alarms, plot_false_alarm_histograms
+
+    fa = generated_false_alarms(scenario, radar_id, scans=scans, seed=seed, min_noise=500,
+                                tables=tables)
+    noise, clutter = fa["origin"] == 1, fa["origin"] == 2
+    plot_false_alarm_histograms(path, fa["range_m"][noise], fa["range_m"][clutter],
+                                max_range_m=fa["max_range_m"], noise_scans=fa["noise_scans"],
+                                clutter_scans=fa["scans"],
+                                title=f"{scenario.name}: {radar_id} (seed Fig. 8)")
+    caption = (f"False alarms against range (seed Fig. 8): (a) noise-induced [90]-[93], "
+               f"uniform in range; (b) sea-clutter-induced (7.2), falling with range; the "
+               f"dwell model's per-scan draws ({scans} scans; panel a from "
+               f"{fa['noise_scans']:,.0f} scans' worth, noise false alarms being rare)")
+    return caption, fa
 
 
-def _fig_ppi(path: Path, messages: list, sensor: str, r_max_m: float) -> str:
+def _fig_ppi(path: Path, messages: list, sensor: str, r_max_m: float,
+             wind_from_rad: float) -> str:
+    from sim.figures.false_alarms import clutter_extent_m, plot_ppi_by_origin
+
     plots, truth_plots, targets, eos = {}, {}, [], {}
     for topic, _t, p in messages:
         if p.get("sensor") != sensor:
@@ -196,40 +201,33 @@ def _fig_ppi(path: Path, messages: list, sensor: str, r_max_m: float) -> str:
         return (n_t > 0, n, -scan)  # ties: the earliest, target farthest out
 
     scan = max(eos, key=count) if eos else None
-    fig = plt.figure(figsize=(7, 7))
-    ax = fig.add_subplot(projection="polar")
-    ax.set_theta_zero_location("N")
-    ax.set_theta_direction(-1)
-    caption = "PPI: no scan in the run"
-    if scan is not None:
-        rng = np.concatenate([np.asarray(p["range_m"]) for p in plots.get(scan, [])] or
-                             [np.zeros(0)])
-        az = np.concatenate([np.asarray(p["azimuth_rad"]) for p in plots.get(scan, [])] or
-                            [np.zeros(0)])
-        origin = np.concatenate([np.asarray(p["origin"]) for p in truth_plots.get(scan, [])]
-                                or [np.zeros(0, np.uint8)])
-        # the ship's tracks of the targets, relative to its position at that scan
-        pe, pn = eos[scan]["position"]["east_m"], eos[scan]["position"]["north_m"]
-        if targets:
-            e = np.array([np.asarray(t["east_m"]) for t in targets]) - pe
-            n = np.array([np.asarray(t["north_m"]) for t in targets]) - pn
-            act = np.array([np.asarray(t["active"]) for t in targets])
-            for j in range(e.shape[1]):
-                m = act[:, j]
-                ax.plot(np.arctan2(e[m, j], n[m, j]), np.hypot(e[m, j], n[m, j]) / 1e3,
-                        color="0.6", lw=0.8)
-        for code, name in enumerate(ORIGIN_NAMES):
-            m = origin == code
-            ax.scatter(az[m], rng[m] / 1e3, s=14, color=ORIGIN_COLOURS[name],
-                       label=f"{name} ({int(m.sum())})")
-        ax.set_rlim(0, r_max_m / 1e3)
-        ax.legend(loc="lower left", bbox_to_anchor=(-0.1, -0.1), fontsize=8)
-        ax.set_title(f"scan {scan} (t = {eos[scan]['time_s']:.1f} s), range in km", fontsize=9)
-        caption = (f"PPI of scan {scan}: plots coloured by origin (truth topic), grey: target "
-                   "tracks of the run relative to the ship")
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return caption
+    if scan is None:
+        plot_ppi_by_origin(path, np.zeros(0), np.zeros(0), np.zeros(0, np.uint8),
+                           max_range_m=r_max_m, title="no scan in the run")
+        return "PPI: no scan in the run"
+    rng = np.concatenate([np.asarray(p["range_m"]) for p in plots.get(scan, [])] or
+                         [np.zeros(0)])
+    az = np.concatenate([np.asarray(p["azimuth_rad"]) for p in plots.get(scan, [])] or
+                        [np.zeros(0)])
+    origin = np.concatenate([np.asarray(p["origin"]) for p in truth_plots.get(scan, [])]
+                            or [np.zeros(0, np.uint8)])
+    # the targets' tracks over the run, relative to the ship's position at that scan
+    tracks = []
+    pe, pn = eos[scan]["position"]["east_m"], eos[scan]["position"]["north_m"]
+    if targets:
+        e = np.array([np.asarray(t["east_m"]) for t in targets]) - pe
+        n = np.array([np.asarray(t["north_m"]) for t in targets]) - pn
+        act = np.array([np.asarray(t["active"]) for t in targets])
+        for j in range(e.shape[1]):
+            m = act[:, j]
+            tracks.append((np.arctan2(e[m, j], n[m, j]), np.hypot(e[m, j], n[m, j])))
+    zoom = clutter_extent_m({"range_m": rng, "origin": origin})
+    plot_ppi_by_origin(path, rng, az, origin, max_range_m=r_max_m, zoom_range_m=zoom,
+                       tracks=tracks, wind_from_rad=wind_from_rad,
+                       title=f"{sensor}: scan {scan} (t = {eos[scan]['time_s']:.1f} s)")
+    return (f"PPI of scan {scan}: every plot of the scan coloured by origin (truth topic), "
+            f"full range" + (f" and out to {zoom / 1e3:g} km" if zoom else "") +
+            "; grey: the targets' tracks relative to the ship; arrow: wind direction")
 
 
 def _doppler_kwargs(radar) -> dict[str, Any] | None:
@@ -286,7 +284,6 @@ def build_report(scenario, out_dir: str | os.PathLike = "report", *,
         ``index`` (path), ``figures``: list of ``{"file", "caption"}``, ``notes``: list of
         str (figures skipped and why).
     """
-    from sim.engine import Simulation
     from sim.montecarlo import model_pd_looks, study_paths
     from sim.scenario import Scenario, load_scenario
     from tables.scene import load_scene_tables
@@ -389,13 +386,12 @@ def build_report(scenario, out_dir: str | os.PathLike = "report", *,
                 f"I_F against normalized Doppler f_d/f_r for the radar's processor ({kw})")
         except Exception as exc:
             notes.append(f"I_F against Doppler failed: {exc!r}")
-    # false alarms and PPI
-    sim = Simulation(scenario, tables=tables, seed=seed)
-    add("false_alarms_range.png", _fig_false_alarms(
-        out / "false_alarms_range.png", sim, fa_scans,
-        scenario.seed if seed is None else seed))
-    add("ppi.png", _fig_ppi(out / "ppi.png", bus.messages, radar.id,
-                            radar.instrumented_range_m))
+    # false alarms (seed Fig. 8) and the PPI of one scan of the run
+    caption, _ = _fig_false_alarms(out / "false_alarms_range.png", scenario, tables, radar.id,
+                                   fa_scans, scenario.seed if seed is None else seed)
+    add("false_alarms_range.png", caption)
+    add("ppi.png", _fig_ppi(out / "ppi.png", bus.messages, radar.id, radar.instrumented_range_m,
+                            math.radians(scenario.environment.wind_direction_deg)))
     index = _write_index(out, scenario, figures, notes)
     return {"index": str(index), "figures": figures, "notes": notes}
 

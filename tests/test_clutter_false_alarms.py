@@ -438,7 +438,11 @@ def test_engine_run_emits_sea_clutter_plots(table_cache):
     sim = Simulation(s, bus=bus)
     assert sim.radars[0].model.tables.pfac is not None
     sim.run()
-    assert sim.stats.clutter_false_alarms > 100
+    # the run's count is the generator's: 3 revolutions of Σ η (var Σ η for the normal and
+    # Poisson regimes, less for Bernoulli), within 5 σ
+    expected = 3 * sim.radars[0].model.tables.pfac.extra["expected_count"].sum()
+    assert expected > 1000
+    assert abs(sim.stats.clutter_false_alarms - expected) < 5 * math.sqrt(expected)
     plots = bus.of(protocol.TOPIC_PLOTS)
     truth = [p for _, p in bus.of(protocol.TOPIC_TRUTH) if p["kind"] == "plots"]
     assert len(plots) == len(truth)
@@ -462,6 +466,7 @@ def test_engine_run_emits_sea_clutter_plots(table_cache):
 
 def test_figures_write_png(tmp_path, table_cache):
     from sim.figures.false_alarms import (
+        clutter_extent_m,
         generated_false_alarms,
         plot_false_alarm_histograms,
         plot_ppi_by_origin,
@@ -477,5 +482,14 @@ def test_figures_write_png(tmp_path, table_cache):
     first = fa_["scan"] == 0
     p2 = plot_ppi_by_origin(tmp_path / "ppi.png", fa_["range_m"][first],
                             fa_["azimuth_rad"][first], fa_["origin"][first], wind_from_rad=0.0)
-    for p in (p1, p2):
+    # the extra noise draw stands for min_noise/η scans
+    model = model_of(s)
+    assert fa_["noise_scans"] == pytest.approx(3 + 200 / model.noise_false_alarms_per_scan)
+    zoom = clutter_extent_m(fa_)
+    assert fa_["range_m"][clutter].max() <= zoom * 1.5 and zoom < 0.5 * fa_["max_range_m"]
+    p3 = plot_ppi_by_origin(tmp_path / "ppi2.png", fa_["range_m"][first],
+                            fa_["azimuth_rad"][first], fa_["origin"][first],
+                            max_range_m=fa_["max_range_m"], zoom_range_m=zoom,
+                            tracks=[(np.array([0.1, 0.2]), np.array([5e3, 6e3]))])
+    for p in (p1, p2, p3):
         assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

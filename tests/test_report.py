@@ -53,6 +53,13 @@ def test_report_writes_every_listed_figure(tmp_path, scene):
         assert f"src='{name}'" in index
     pd_caption = next(f["caption"] for f in res["figures"] if f["file"] == "pd_range.png")
     assert "montecarlo_pd_range.csv" in pd_caption
+    fa_caption = next(f["caption"] for f in res["figures"]
+                      if f["file"] == "false_alarms_range.png")
+    assert "Fig. 8" in fa_caption
+    # two panels side by side (Fig. 8 a and b; PPI full range and zoomed): wider than tall
+    for name in ("false_alarms_range.png", "ppi.png"):
+        w, h = check_png(tmp_path / name)
+        assert w > 1.5 * h, name
     for note in res["notes"]:  # every skipped figure is explained on the page
         assert note.split(":")[0] in index
     # nothing else was written

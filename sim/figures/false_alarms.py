@@ -21,7 +21,13 @@ import numpy as np  # noqa: E402
 
 #: Origin codes as on the truth topic (sim.engine): target, noise, sea clutter.
 ORIGIN_LABELS = {0: "target", 1: "noise", 2: "sea clutter"}
-ORIGIN_COLOURS = {0: "tab:green", 1: "tab:blue", 2: "tab:orange"}
+ORIGIN_COLOURS = {0: "tab:red", 1: "tab:blue", 2: "tab:orange"}
+
+
+def _panel_title(name: str, n: int, scans: float | None) -> str:
+    if not scans:
+        return f"{name} ({n})"
+    return f"{name}: {n} in {scans:,.0f} scans ({n / scans:.3g} per scan)"
 
 
 def plot_false_alarm_histograms(
@@ -33,6 +39,8 @@ def plot_false_alarm_histograms(
     n_bins: int = 40,
     clutter_max_range_m: float | None = None,
     title: str = "",
+    noise_scans: float | None = None,
+    clutter_scans: float | None = None,
 ) -> Path:
     """The seed's Fig. 8: false alarms against range, (a) noise-induced, (b) sea-clutter-induced.
 
@@ -51,6 +59,10 @@ def plot_false_alarm_histograms(
         lie near the ship).
     title : str, optional
         Figure title.
+    noise_scans, clutter_scans : float, optional
+        Revolutions the noise and the clutter false alarms come from: each panel's title then
+        gives the rate per scan (noise false alarms are rare at a real t_fa, so panel a is
+        usually drawn from many more scans than panel b).
     """
     path = Path(path)
     noise = np.asarray(noise_range_m, dtype=float)
@@ -58,13 +70,14 @@ def plot_false_alarm_histograms(
     fig, (ax_n, ax_c) = plt.subplots(1, 2, figsize=(10, 4), dpi=110)
     ax_n.hist(noise / 1e3, bins=np.linspace(0.0, max_range_m / 1e3, n_bins + 1),
               color=ORIGIN_COLOURS[1], edgecolor="k", linewidth=0.3)
-    ax_n.set_title(f"(a) noise-induced ({noise.size})")
+    ax_n.set_title(_panel_title("(a) noise-induced", noise.size, noise_scans), fontsize=10)
     c_max = clutter_max_range_m
     if c_max is None:
         c_max = float(clutter.max()) if clutter.size else max_range_m
     ax_c.hist(clutter / 1e3, bins=np.linspace(0.0, c_max / 1e3, n_bins + 1),
               color=ORIGIN_COLOURS[2], edgecolor="k", linewidth=0.3)
-    ax_c.set_title(f"(b) sea-clutter-induced ({clutter.size})")
+    ax_c.set_title(_panel_title("(b) sea-clutter-induced", clutter.size, clutter_scans),
+                   fontsize=10)
     for ax in (ax_n, ax_c):
         ax.set_xlabel("range [km]")
         ax.set_ylabel("false alarms per bin")
@@ -85,8 +98,13 @@ def plot_ppi_by_origin(
     max_range_m: float | None = None,
     title: str = "",
     wind_from_rad: float | None = None,
+    zoom_range_m: float | None = None,
+    tracks: list[tuple[np.ndarray, np.ndarray]] | None = None,
 ) -> Path:
     """PPI (north up, clockwise) of one scan's plots coloured by origin (truth topic codes).
+
+    With ``zoom_range_m`` a second panel shows the same plots out to that range (the sea-clutter
+    false alarms crowd the first kilometres, a dot at the centre of a full-range PPI).
 
     Parameters
     ----------
@@ -101,37 +119,51 @@ def plot_ppi_by_origin(
     title : str, optional
     wind_from_rad : float, optional
         Direction the wind blows from [rad]: drawn as an arrow (clutter is upwind).
+    zoom_range_m : float, optional
+        Radius of a second, zoomed panel [m]; None: one panel.
+    tracks : list of (azimuth [rad], range [m]) arrays, optional
+        Target tracks relative to the radar, drawn as grey lines.
     """
     path = Path(path)
     r = np.asarray(range_m, dtype=float) / 1e3
     az = np.asarray(azimuth_rad, dtype=float)
     org = np.asarray(origin)
-    fig = plt.figure(figsize=(6.5, 6.5), dpi=110)
-    ax = fig.add_subplot(projection="polar")
-    ax.set_theta_zero_location("N")
-    ax.set_theta_direction(-1)
-    for code, label in ORIGIN_LABELS.items():
-        sel = org == code
-        ax.scatter(az[sel], r[sel], s=4 if code else 16, c=ORIGIN_COLOURS[code],
-                   label=f"{label} ({int(sel.sum())})", linewidths=0)
     r_max = (max_range_m / 1e3) if max_range_m else (float(r.max()) if r.size else 1.0)
-    ax.set_rmax(r_max)
-    if wind_from_rad is not None:
-        ax.annotate("", xy=(wind_from_rad, 0.15 * r_max), xytext=(wind_from_rad, 0.95 * r_max),
-                    arrowprops={"arrowstyle": "->", "color": "k"})
-        ax.text(wind_from_rad, 0.98 * r_max, "wind", ha="center")
-    ax.set_xlabel("range [km]")
-    ax.legend(loc="lower left", bbox_to_anchor=(-0.12, -0.12), fontsize=8, markerscale=2)
+    radii = [r_max] + ([zoom_range_m / 1e3] if zoom_range_m else [])
+    fig = plt.figure(figsize=(6.5 * len(radii), 6.8), dpi=110)
+    for k, rad in enumerate(radii):
+        ax = fig.add_subplot(1, len(radii), k + 1, projection="polar")
+        ax.set_theta_zero_location("N")
+        ax.set_theta_direction(-1)
+        for t_az, t_r in tracks or []:
+            ax.plot(np.asarray(t_az), np.asarray(t_r) / 1e3, color="0.6", lw=0.8)
+        # targets last, larger and outlined: a handful among hundreds of false alarms
+        for code in (1, 2, 0):
+            sel = org == code
+            ax.scatter(az[sel], r[sel], s=30 if code == 0 else 5, c=ORIGIN_COLOURS[code],
+                       edgecolors="k" if code == 0 else "none", linewidths=0.6 if code == 0
+                       else 0, label=f"{ORIGIN_LABELS[code]} ({int(sel.sum())})", zorder=3)
+        ax.set_rmax(rad)
+        if wind_from_rad is not None:
+            ax.annotate("", xy=(wind_from_rad, 0.15 * rad), xytext=(wind_from_rad, 0.95 * rad),
+                        arrowprops={"arrowstyle": "->", "color": "k"})
+            ax.text(wind_from_rad, 0.98 * rad, "wind", ha="center")
+        ax.set_xlabel("range [km]")
+        if len(radii) > 1:
+            ax.set_title(f"out to {rad:g} km", fontsize=9)
+    handles, labels = fig.axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=3, fontsize=9, markerscale=1.5)
     if title:
-        ax.set_title(title)
-    fig.tight_layout()
+        fig.suptitle(title)
+    fig.tight_layout(rect=(0.0, 0.05, 1.0, 1.0))
     fig.savefig(path)
     plt.close(fig)
     return path
 
 
 def generated_false_alarms(scenario, radar_id: str | None = None, scans: int = 20,
-                           seed: int = 0, min_noise: int = 0) -> dict[str, np.ndarray]:
+                           seed: int = 0, min_noise: int = 0,
+                           tables=None) -> dict[str, np.ndarray]:
     """Noise and sea-clutter false alarms of ``scans`` revolutions of one radar, drawn by the
     model's generators (no targets, no engine): ranges [m], azimuths [rad], scan and origin.
 
@@ -147,11 +179,22 @@ def generated_false_alarms(scenario, radar_id: str | None = None, scans: int = 2
         Default: the first radar with a P_fac map, else the first radar.
     scans : int, optional
     seed : int, optional
+    min_noise : int, optional
+    tables : tables.scene.SceneTables, optional
+        The scene's tables; default loaded (or built) through the cache.
+
+    Returns
+    -------
+    dict
+        ``range_m``, ``azimuth_rad``, ``origin`` (1 noise, 2 sea clutter), ``scan`` (-1 for
+        the extra noise draw) arrays; ``radar_id``, ``max_range_m``, ``scans``,
+        ``noise_scans`` (revolutions the noise false alarms stand for) and ``wind_from_rad``.
     """
     from sensors.dwell import DwellModel
     from tables.scene import load_scene_tables
 
-    tables = load_scene_tables(scenario)
+    if tables is None:
+        tables = load_scene_tables(scenario)
     pairs = scenario.radars()
     if radar_id is None:
         with_map = [pr for pr in pairs if tables.for_radar(pr[1].id).pfac is not None]
@@ -188,7 +231,21 @@ def generated_false_alarms(scenario, radar_id: str | None = None, scans: int = 2
     res = {k: np.concatenate(v) for k, v in out.items()}
     res["radar_id"] = radar.id
     res["max_range_m"] = radar.instrumented_range_m
+    res["scans"] = scans
+    # the extra noise draw stands for min_noise/η further revolutions
+    res["noise_scans"] = scans + (min_noise / eta if min_noise > 0 and eta > 0 else 0.0)
+    res["wind_from_rad"] = math.radians(scenario.environment.wind_direction_deg)
     return res
+
+
+def clutter_extent_m(fa: dict, quantile: float = 0.999) -> float | None:
+    """Radius [m] of a zoomed PPI holding the sea-clutter false alarms of ``fa``
+    (:func:`generated_false_alarms`): 1.1 × their ``quantile`` range, rounded up to 0.5 km;
+    None without any."""
+    r = fa["range_m"][fa["origin"] == 2]
+    if r.size == 0:
+        return None
+    return 500.0 * math.ceil(1.1 * float(np.quantile(r, quantile)) / 500.0)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -207,14 +264,14 @@ def main(argv: list[str] | None = None) -> int:
     noise, clutter = fa["origin"] == 1, fa["origin"] == 2
     p1 = plot_false_alarm_histograms(
         out / "fig8_false_alarms.png", fa["range_m"][noise], fa["range_m"][clutter],
-        max_range_m=fa["max_range_m"], title=f"{scenario.name}: {fa['radar_id']}, {scans} scans")
+        max_range_m=fa["max_range_m"], title=f"{scenario.name}: {fa['radar_id']}",
+        noise_scans=fa["noise_scans"], clutter_scans=fa["scans"])
     first = fa["scan"] == 0
     p2 = plot_ppi_by_origin(
         out / "ppi_false_alarms.png", fa["range_m"][first], fa["azimuth_rad"][first],
         fa["origin"][first], title=f"{fa['radar_id']}: one scan's false alarms",
-        max_range_m=float(fa["range_m"][first & clutter].max()) * 1.1 if np.any(first & clutter)
-        else None,
-        wind_from_rad=math.radians(scenario.environment.wind_direction_deg))
+        max_range_m=fa["max_range_m"], zoom_range_m=clutter_extent_m(fa),
+        wind_from_rad=fa["wind_from_rad"])
     print(p1)
     print(p2)
     return 0
