@@ -294,14 +294,31 @@ def _map_header(n: int) -> bytes:
 def _ext_header(size: int) -> bytes:
     """msgpack header of an :data:`EXT_NDARRAY` extension holding ``size`` bytes, in the
     smallest format (the choice every msgpack packer makes)."""
+    head = _EXT_HEADERS.get(size)
+    if head is not None:
+        return head
     fixed = _FIXEXT.get(size)
     if fixed is not None:
-        return fixed
-    if size < 0x100:
-        return _EXT8.pack(0xC7, size, EXT_NDARRAY)
-    if size < 0x10000:
-        return _EXT16.pack(0xC8, size, EXT_NDARRAY)
-    return _EXT32.pack(0xC9, size, EXT_NDARRAY)
+        head = fixed
+    elif size < 0x100:
+        head = _EXT8.pack(0xC7, size, EXT_NDARRAY)
+    elif size < 0x10000:
+        head = _EXT16.pack(0xC8, size, EXT_NDARRAY)
+    else:
+        head = _EXT32.pack(0xC9, size, EXT_NDARRAY)
+    if size < _EXT_HEADERS_MAX_SIZE:
+        _EXT_HEADERS[size] = head
+    return head
+
+
+# Extension headers by data size, for the sizes of small and medium columns.
+_EXT_HEADERS: dict[int, bytes] = {}
+_EXT_HEADERS_MAX_SIZE = 1 << 16
+# Packed small values that recur in every message: positive fixints and short strings
+# (sensor ids, kinds). Same bytes as msgpack's.
+_FIXINTS: tuple[bytes, ...] = tuple(bytes((i,)) for i in range(128))
+_STR_CACHE: dict[str, bytes] = {}
+_STR_CACHE_MAX = 4096
 
 
 def _packed_key(key: Any) -> bytes:
@@ -382,6 +399,21 @@ def encode(topic: bytes, t_sim: float, payload: Mapping[str, Any]) -> list[bytes
             data = encode_array(value)
             append(_ext_header(len(data)))
             append(data)
+            continue
+        vtype = type(value)
+        if vtype is int and 0 <= value < 128:
+            append(_FIXINTS[value])
+            continue
+        if vtype is str:
+            packed = _STR_CACHE.get(value)
+            if packed is None:
+                try:
+                    packed = msgpack.packb(value, use_bin_type=True)
+                except ValueError as exc:  # e.g. a lone surrogate, not UTF-8 encodable
+                    raise ProtocolError(f"payload cannot be encoded: {exc}") from exc
+                if len(value) <= 64 and len(_STR_CACHE) < _STR_CACHE_MAX:
+                    _STR_CACHE[value] = packed
+            append(packed)
             continue
         if isinstance(value, dict):
             _check_keys(value, 1)

@@ -388,6 +388,11 @@ def test_fast_encoder_errors_are_the_documented_ones():
         encode(TOPIC_PLOTS, 0.0, {"a": object()})
     with pytest.raises(ProtocolError, match="cannot be encoded"):
         encode(TOPIC_PLOTS, 0.0, {"a": 2**70})
+    with pytest.raises(ProtocolError, match="cannot be encoded"):
+        encode(TOPIC_PLOTS, 0.0, {"a": "\udc80"})
+    for v in (0, 127, 128, -1, 2**40, True, None, 1.5, "x" * 100):  # fixint and str shortcuts
+        assert encode(TOPIC_EOS, 1.0, {"v1": v}) == protocol._encode_reference(
+            TOPIC_EOS, 1.0, {"v1": v})
     # the packer is left clean after an error
     assert encode(TOPIC_EOS, 1.0, {"scan": 1}) == protocol._encode_reference(
         TOPIC_EOS, 1.0, {"scan": 1})
