@@ -60,6 +60,12 @@ Choices where the model or the seed is ambiguous (docs/clutter.md repeats them):
   fall), but the ducting extension takes over there (see :func:`ducted_reflectivity_db`).
 * ψ ≤ 0 (behind the antenna's horizon), zero wind or zero waves give σ0 = 0 exactly.
 * φ enters through cos φ, signed: downwind is below upwind, crosswind is in between.
+* two variants of the published text circulate: Gregers-Hansen's NRL MATLAB re-implementation
+  (``GTI_SigmaSea.m``, 2010) divides σ_φ by (λ + 0.015) instead of λ, uses |cos φ| (upwind equal
+  to downwind) and moves the band split to 12 GHz.  We follow Horst et al. as reproduced by
+  Long and by Antipov (σ_φ ∝ 1/λ, signed cos φ, split at 10 GHz).  The σ_φ variant matters only
+  below the critical angle, where A_i ∝ σ_φ⁴: there it would lower σ0 by up to
+  40 log10(1 + 0.015/λ), 6.9 dB at 9.8 GHz and 1.1 dB at 1.3 GHz.
 """
 
 from __future__ import annotations

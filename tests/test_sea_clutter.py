@@ -72,6 +72,23 @@ def test_git_matches_hand_computation(f, psi_deg, vw, phi, wh, pol):
     assert got_db == pytest.approx(expected_db, abs=1e-9)
 
 
+def test_git_literal_values_worked_by_hand():
+    # 9.8 GHz, ψ = 1°, V_w = 7 m/s upwind, w_h = 1.2 m (h_av = 0.75 m), worked step by step on
+    # paper from the published formulas: λ = 0.030591 m, σ_φ = 2.5419, A_i = 0.97661,
+    # (λ + 0.015)^-0.4 = 3.4393, A_u = 1.9236, q = 3.7830, 1.94 V_w/(1 + V_w/15.4) = 9.3363,
+    # A_w = 4679.5, σ_HH = 3.9e-6 λ ψ^0.4 A_i A_u A_w = -36.83 dB; the 3-10 GHz VV correction
+    # -1.05 ln(0.765) + 1.09 ln λ + 1.27 ln(0.017553) + 9.70 = +1.05 dB.  Frozen literals guard
+    # against the code and the test's transcription drifting together.
+    args = (math.radians(1.0), 9.8e9, 7.0, 0.0, 1.2)
+    assert 10 * np.log10(sc.git_reflectivity(*args, "H")) == pytest.approx(-36.83, abs=0.01)
+    assert 10 * np.log10(sc.git_reflectivity(*args, "V")) == pytest.approx(-35.78, abs=0.01)
+    # 2 GHz, 0.5°, 5 m/s downwind, w_h = 0.5 m: below the critical angle (σ_φ = 0.1393,
+    # A_i = 3.767e-4), σ_HH = -86.99 dB, the 1-3 GHz VV correction +5.36 dB
+    args = (math.radians(0.5), 2.0e9, 5.0, math.pi, 0.5)
+    assert 10 * np.log10(sc.git_reflectivity(*args, "H")) == pytest.approx(-86.99, abs=0.01)
+    assert 10 * np.log10(sc.git_reflectivity(*args, "V")) == pytest.approx(-81.63, abs=0.01)
+
+
 def test_git_x_band_magnitude_is_plausible():
     # Nathanson's tables (sea state 3-4, X band, 1°) list HH around -40 dB; GIT is known to
     # sit a few dB above them (Gregers-Hansen & Mital 2012).  A ±8 dB window catches unit
