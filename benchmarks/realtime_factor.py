@@ -1,18 +1,23 @@
 """Real-time factor of the raid scenario in fast mode with a recording (issue 2).
 
     python benchmarks/realtime_factor.py [--duration 600] [--scenario scenarios/raid.yaml]
+                                         [--repeat 2]
 
-Builds (or loads) the scene's tables first, outside the timed run, then runs the scenario
-for the simulated duration with a recording and prints scans/s, plots/s and the real-time
-factor, plus a baseline in the same process: the same run without a recording, and with the
-cheapest fidelity (free-space propagation, no clutter), so the cost of each part shows as a
-ratio.  Target: >= 200x real time on a 2-core machine.
+Builds (or loads) the scene's tables first, and makes a short warm-up run, both outside the
+timed runs; then runs the scenario for the simulated duration with a recording and prints
+scans/s, plots/s and the real-time factor, plus baselines in the same process: the same run
+without a recording, and with the cheapest fidelity (free-space propagation, no clutter, no
+atmosphere), so the cost of each part shows as a ratio.  Each case is run ``--repeat``
+times and the fastest run is kept (as ``timeit`` does: other processes only ever slow a run
+down); the process CPU time of that run is printed too, a better guide than the wall clock on
+a loaded machine.  Target: >= 200x real time on a 2-core machine (design: 1000x).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import tempfile
 import time
 from pathlib import Path
@@ -24,50 +29,72 @@ from sim.scenario import load_scenario
 from tables.scene import load_scene_tables
 
 ROOT = Path(__file__).resolve().parents[1]
+#: Required real-time factor of the raid with a recording (issue 2).
+TARGET_FACTOR = 200.0
 
 
-def run_once(scenario, duration, record: bool) -> dict:
-    tables = load_scene_tables(scenario)
+def run_once(scenario, duration, record: bool, tables) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
-        bus = Bus(None, Recorder(Path(tmp) / "bench.rec")) if record else None
+        path = Path(tmp) / "bench.rec"
+        bus = Bus(None, Recorder(path)) if record else None
         sim = Simulation(scenario, bus=bus, duration_s=duration, tables=tables)
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         summary = sim.run()
-        wall = time.perf_counter() - t0
         if bus is not None:
-            bus.close()
+            bus.close()  # the recording is complete and on the OS's side: part of the cost
+        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+        size = path.stat().st_size if record else 0
     plots = summary["target_plots"] + summary["noise_false_alarms"] + summary[
         "clutter_false_alarms"]
     return {
         "wall_s": round(wall, 3),
+        "cpu_s": round(cpu, 3),
         "scans_per_s": round(summary["scans"] / wall, 1),
         "plots_per_s": round(plots / wall, 1),
         "dwells_per_s": round(summary["dwells"] / wall, 1),
         "realtime_factor": round(duration / wall, 1),
         "plots": plots,
+        "recording_mb": round(size / 1e6, 2),
     }
+
+
+def best_of(scenario, duration, record: bool, repeat: int) -> dict:
+    tables = load_scene_tables(scenario)
+    Simulation(scenario, bus=None, duration_s=min(duration, 5.0), tables=tables).run()  # warm
+    runs = [run_once(scenario, duration, record, tables) for _ in range(max(1, repeat))]
+    return min(runs, key=lambda r: r["wall_s"])
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scenario", default=str(ROOT / "scenarios/raid.yaml"))
     ap.add_argument("--duration", type=float, default=600.0)
+    ap.add_argument("--repeat", type=int, default=2, help="runs per case; the fastest is kept")
     args = ap.parse_args()
     s = load_scenario(args.scenario)
     cheap = s.model_copy(update={"fidelity": s.fidelity.model_copy(
         update={"propagation": "free_space", "clutter": False, "atmosphere": False})})
+    load0 = os.getloadavg()[0]
     rows = {
-        "full fidelity + recording": run_once(s, args.duration, True),
-        "full fidelity, no recording": run_once(s, args.duration, False),
-        "free space, no clutter, no atmosphere": run_once(cheap, args.duration, True),
+        "full fidelity + recording": best_of(s, args.duration, True, args.repeat),
+        "full fidelity, no recording": best_of(s, args.duration, False, args.repeat),
+        "free space, no clutter, no atmosphere": best_of(cheap, args.duration, True, args.repeat),
     }
     base = rows["full fidelity + recording"]["wall_s"]
-    print(f"scenario {s.name}, {args.duration:g} simulated s, fast mode")
-    print(f"{'case':40s} {'wall s':>8s} {'scans/s':>9s} {'plots/s':>10s} {'RT factor':>10s} "
-          f"{'vs full':>8s}")
+    print(f"scenario {s.name}, {args.duration:g} simulated s, fast mode, best of {args.repeat}; "
+          f"{os.cpu_count()} CPUs, load average {load0:.2f} before, "
+          f"{os.getloadavg()[0]:.2f} after")
+    print(f"{'case':40s} {'wall s':>8s} {'cpu s':>7s} {'scans/s':>9s} {'plots/s':>10s} "
+          f"{'RT factor':>10s} {'vs full':>8s}")
     for name, r in rows.items():
-        print(f"{name:40s} {r['wall_s']:8.2f} {r['scans_per_s']:9.1f} {r['plots_per_s']:10.1f} "
-              f"{r['realtime_factor']:10.1f} {base / r['wall_s']:8.2f}x")
+        print(f"{name:40s} {r['wall_s']:8.2f} {r['cpu_s']:7.2f} {r['scans_per_s']:9.1f} "
+              f"{r['plots_per_s']:10.1f} {r['realtime_factor']:10.1f} "
+              f"{base / r['wall_s']:8.2f}x")
+    full = rows["full fidelity + recording"]
+    factor = full["realtime_factor"]
+    verdict = "meets" if factor >= TARGET_FACTOR else "MISSES"
+    print(f"real-time factor with recording {factor:.0f}x {verdict} the {TARGET_FACTOR:.0f}x "
+          f"target (CPU-time factor {args.duration / full['cpu_s']:.0f}x)")
     print(json.dumps(rows))
 
 
