@@ -26,6 +26,8 @@ from pydantic import (
 
 #: Largest scenario file we agree to read [bytes].
 MAX_SCENARIO_BYTES = 4 * 1024 * 1024
+#: Largest number of YAML nodes a scenario may expand to, aliases included.
+MAX_YAML_NODES = 2_000_000
 
 
 class _Model(BaseModel):
@@ -553,22 +555,52 @@ def parse_scenario(data: Any) -> Scenario:
         raise ScenarioError(format_validation_error(exc, data)) from None
 
 
+def _expanded_nodes(node, memo: dict) -> int:
+    """Nodes of a composed YAML graph once aliases are expanded (shared nodes counted at each
+    use), computed in time linear in the distinct nodes."""
+    key = id(node)
+    if key in memo:
+        return memo[key]
+    memo[key] = 1  # a recursive structure counts once per cycle (it is refused later anyway)
+    if isinstance(node, yaml.MappingNode):
+        total = 1 + sum(_expanded_nodes(k, memo) + _expanded_nodes(v, memo)
+                        for k, v in node.value)
+    elif isinstance(node, yaml.SequenceNode):
+        total = 1 + sum(_expanded_nodes(v, memo) for v in node.value)
+    else:
+        total = 1
+    memo[key] = total
+    return total
+
+
 def load_scenario(path: str | Path) -> Scenario:
-    """Read a scenario YAML file safely (size-checked, ``yaml.safe_load``) and validate it."""
+    """Read a scenario YAML file safely and validate it.
+
+    Safety: the file is size-checked (:data:`MAX_SCENARIO_BYTES`) before it is read, parsed
+    with ``yaml.safe_load`` (no Python tags), and refused when its aliases would expand to
+    more than :data:`MAX_YAML_NODES` nodes (the "billion laughs" pattern). Error lines do not
+    repeat the path: the command line prefixes it.
+    """
     path = Path(path)
     try:
         size = path.stat().st_size
     except OSError as exc:
-        raise ScenarioError([f"{path}: cannot read ({exc.strerror})"]) from None
+        raise ScenarioError([f"cannot read ({exc.strerror})"]) from None
     if size > MAX_SCENARIO_BYTES:
-        raise ScenarioError([f"{path}: file is {size} bytes, must be <= {MAX_SCENARIO_BYTES}"])
+        raise ScenarioError([f"file is {size} bytes, must be <= {MAX_SCENARIO_BYTES}"])
     try:
-        data = yaml.safe_load(path.read_text(encoding="utf-8"))
+        text = path.read_text(encoding="utf-8")
+        node = yaml.compose(text, Loader=yaml.SafeLoader)
+        if node is not None and _expanded_nodes(node, {}) > MAX_YAML_NODES:
+            raise ScenarioError([f"YAML aliases expand to more than {MAX_YAML_NODES} nodes"])
+        data = yaml.safe_load(text)
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
         problem = getattr(exc, "problem", exc)
-        raise ScenarioError([f"{path}: not valid YAML{where}: {problem}"]) from None
+        raise ScenarioError([f"not valid YAML{where}: {problem}"]) from None
     except UnicodeDecodeError:
-        raise ScenarioError([f"{path}: not UTF-8 text"]) from None
+        raise ScenarioError(["not UTF-8 text"]) from None
+    except OSError as exc:
+        raise ScenarioError([f"cannot read ({exc.strerror})"]) from None
     return parse_scenario(data)
