@@ -14,7 +14,8 @@ from sim.scenario import load_scenario  # noqa: E402
 
 from .helpers import ROOT  # noqa: E402
 
-RUNS = 16
+#: Replications of the two same-seed studies (≈1300 looks each, enough for the P_d check).
+RUNS = 12
 
 
 # --------------------------------------------------------------------------- statistics
@@ -77,7 +78,8 @@ def test_reduce_run_counts_looks_misses_and_false_alarms():
 # --------------------------------------------------------------------------- studies
 @pytest.fixture(scope="module")
 def studies(tmp_path_factory):
-    """Two studies with the same seed and one with another, on a local two-worker cluster."""
+    """Two studies with the same seed and a smaller one with another, on a local two-worker
+    cluster (processes, closed on exit)."""
     from distributed import Client, LocalCluster
 
     sc = load_scenario(ROOT / "scenarios" / "single_missile.yaml")
@@ -85,9 +87,10 @@ def studies(tmp_path_factory):
     out = {}
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                       dashboard_address=None) as cluster, Client(cluster) as client:
-        for name, seed in (("a", None), ("b", None), ("c", 12345)):
-            out[name] = mc.run_study(sc, RUNS, seed=seed, out=base / name / "study.csv",
-                                     progress=False, client=client)
+        for name, seed, runs, duration in (("a", None, RUNS, None), ("b", None, RUNS, None),
+                                           ("c", 12345, 4, None)):
+            out[name] = mc.run_study(sc, runs, seed=seed, out=base / name / "study.csv",
+                                     progress=False, client=client, duration_s=duration)
     return sc, out
 
 
@@ -99,9 +102,13 @@ def test_same_seed_same_files(studies):
         a = open(out["a"]["files"][key], "rb").read()
         b = open(out["b"]["files"][key], "rb").read()
         assert len(a) > 0 and a == b, key
-    # and the seed matters (otherwise the check above proves nothing)
-    c = open(out["c"]["files"]["looks"], "rb").read()
-    assert c != open(out["a"]["files"]["looks"], "rb").read()
+    # and the seed matters (otherwise the check above proves nothing): study c (another
+    # seed, 4 runs) has other run seeds and other per-run draws than the first 4 runs of a
+    rows_a, rows_c = _read(out["a"]["files"]["results"])[:4], _read(out["c"]["files"]["results"])
+    assert len(rows_c) == 4
+    assert not {r["seed"] for r in rows_a} & {r["seed"] for r in rows_c}
+    assert [r["sea_clutter_false_alarms"] for r in rows_a] != \
+        [r["sea_clutter_false_alarms"] for r in rows_c]
 
 
 def _read(path):
@@ -166,3 +173,40 @@ def test_false_alarms_per_scan_agree_with_meta_rate(studies):
     assert scans == RUNS * math.ceil(sc.duration_s / sc.platforms[0].radars[0].scan_period_s)
     lo, hi = mc.poisson_interval(k, scans, confidence=0.999)
     assert lo <= rate <= hi
+
+
+def test_cli_local_cluster_is_closed(tmp_path, capsys):
+    """``shipradar montecarlo`` with its own local cluster: the files appear, the summary line
+    is printed, and the worker processes are gone afterwards (no hang, nothing left)."""
+    import json
+    import multiprocessing
+
+    before = {p.pid for p in multiprocessing.active_children()}
+    out = tmp_path / "cli.csv"
+    assert mc.cli_main([str(ROOT / "scenarios" / "single_missile.yaml"), "--runs", "2",
+                        "--workers", "1", "--duration", "5", "--out", str(out),
+                        "--no-progress"]) == 0
+    summary = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert summary["runs"] == 2 and summary["n_workers"] == 1
+    for path in mc.study_paths(out).values():
+        assert path.exists() and path.stat().st_size > 0
+    left = {p.pid for p in multiprocessing.active_children()} - before
+    assert not left
+
+
+def test_sea_clutter_false_alarms_per_scan_agree_with_pfac_map(studies):
+    """Sea-clutter false alarms per scan: the study's exact Poisson interval (99.9 %) covers
+    the P_fac map's expected count Σ P_fac × cells (≈388 per scan for this scene; the count
+    of a scan is a sum of per-sector normal/Poisson/Bernoulli draws, variance ≤ mean, so the
+    Poisson interval is, if anything, conservative)."""
+    from tables.scene import load_scene_tables
+
+    sc, out = studies
+    tab = load_scene_tables(sc).for_radar(sc.platforms[0].radars[0].id).pfac
+    expected = float(tab.extra["expected_count"].sum())
+    assert 350.0 < expected < 430.0
+    rows = {r["origin"]: r for r in _read(out["a"]["files"]["false_alarms"])}
+    k, scans = int(rows["sea_clutter"]["false_alarms"]), int(rows["sea_clutter"]["scans"])
+    lo, hi = mc.poisson_interval(k, scans, confidence=0.999)
+    assert lo <= expected <= hi
+    assert float(rows["sea_clutter"]["ci_lo"]) <= k / scans <= float(rows["sea_clutter"]["ci_hi"])
