@@ -22,10 +22,12 @@ in the bearing-range measurement space that is λ / (2π R) [1/(rad m)]. Sea-clu
 alarms are not in that figure; a floor of ``min_false_alarms_per_scan`` keeps the density
 non-zero for a radar with a very long false-alarm time.
 
-Sea clutter: the radar's sea-clutter false alarms are not in the meta rate and crowd the
-first kilometres around the ship (hundreds per scan). The tracker learns a clutter map from
-the stream itself (it never reads the truth): the mean number of plots per scan in each
-range ring. It uses it twice: (1) the PDA clutter density at a track's predicted position is
+Sea clutter: the radar's sea-clutter false alarms crowd the first kilometres around the
+ship (hundreds per scan). When the meta carries the radar's expected sea-clutter false alarms
+per range ring (``clutter_false_alarm_profile``, from its P_fac map), the tracker's clutter map
+starts from it (as if 10 scans had been seen); in any case it learns from the stream itself
+(it never reads the truth): the mean number of plots per scan in each range ring. It uses
+the map twice: (1) the PDA clutter density at a track's predicted position is
 the larger of the meta rate's and the ring's, λ_ring / (2π Δr); (2) no track is initiated
 from a plot in a ring whose plot density exceeds ``max_initiation_clutter_per_km2`` (a
 clutter-map initiation gate, as operational trackers do), so hundreds of tentative tracks
@@ -71,7 +73,7 @@ from stonesoup.updater.kalman import ExtendedKalmanUpdater
 
 from sim.stonesoup_reader import ShipradarDetectionReader
 
-__all__ = ["clutter_density", "track", "main"]
+__all__ = ["ClutterMap", "clutter_density", "main", "radar_clutter_profile", "track"]
 
 
 def clutter_density(meta: dict, *, min_false_alarms_per_scan: float = 0.01) -> float:
@@ -85,13 +87,36 @@ def clutter_density(meta: dict, *, min_false_alarms_per_scan: float = 0.01) -> f
     return lam / (2.0 * math.pi * r_max)
 
 
-class ClutterMap:
-    """Mean plots per scan in range rings, learned from the stream (tracker-side only)."""
+def radar_clutter_profile(meta: dict):
+    """The radar's expected sea-clutter false alarms per scan by range ring, from the meta
+    (``clutter_false_alarm_profile``: ``range_edges_m``, ``per_scan``), or None."""
+    prof = meta.get("clutter_false_alarm_profile")
+    if not prof:
+        return None
+    return np.asarray(prof["range_edges_m"], float), np.asarray(prof["per_scan"], float)
 
-    def __init__(self, r_max_m: float, ring_m: float = 250.0):
+
+class ClutterMap:
+    """Mean plots per scan in range rings, learned from the stream (tracker-side only).
+
+    Optionally started from the radar's own expected false alarms per ring (``prior``, as
+    ``(range_edges_m, per_scan)``), counted as ``prior_scans`` scans already seen: the map
+    then holds the radar's rate from the first scan and the stream refines it.
+    """
+
+    def __init__(self, r_max_m: float, ring_m: float = 250.0, prior=None,
+                 prior_scans: int = 10):
         self.ring_m = ring_m
         self.counts = np.zeros(int(math.ceil(r_max_m / ring_m)) + 1)
         self.scans = 0
+        if prior is not None and prior_scans > 0:
+            edges, per_scan = (np.asarray(v, dtype=float) for v in prior)
+            if per_scan.size:
+                # the prior's cumulative count, read at this map's ring edges
+                mine = ring_m * np.arange(self.counts.size + 1, dtype=float)
+                cum = np.interp(mine, edges, np.concatenate([[0.0], np.cumsum(per_scan)]))
+                self.counts += prior_scans * np.diff(cum)
+                self.scans = prior_scans
 
     def update(self, ranges_m: np.ndarray) -> None:
         idx = np.minimum((np.asarray(ranges_m) // self.ring_m).astype(int), self.counts.size - 1)
@@ -240,7 +265,8 @@ def track(
         if cmap is None:
             background = clutter_density(
                 reader.meta, min_false_alarms_per_scan=min_false_alarms_per_scan)
-            cmap = ClutterMap(float(reader.meta["radar"]["instrumented_range_m"]))
+            cmap = ClutterMap(float(reader.meta["radar"]["instrumented_range_m"]),
+                              prior=radar_clutter_profile(reader.meta))
         dets = sorted(detections, key=lambda d: d.metadata["plot_id"])  # deterministic order
         xy = _cartesian(dets)
         sensor_xy = np.asarray(reader.sensor_position, dtype=float)

@@ -233,6 +233,43 @@ def pfac_map(sea_map: Table, *, root: Path | None = None, **kwargs: Any) -> tupl
                         lambda: build_pfac_map(sea_map, **kwargs), root)
 
 
+def clutter_range_profile(table: Table, ring_m: float = 250.0) -> tuple[np.ndarray, np.ndarray]:
+    """Expected sea-clutter false alarms per scan in range rings, from a P_fac map.
+
+    What a tracker needs for its clutter density (the radar's own false-alarm rate, 7.2):
+    the map's η = P_fac × cells summed over azimuth and regrouped into rings of ``ring_m``
+    (each sector's η split between rings in proportion to the overlap, η being uniform in
+    ground range inside a sector), out to the last ring holding any.
+
+    Parameters
+    ----------
+    table : Table
+        A P_fac map (:func:`build_pfac_map`).
+    ring_m : float, optional
+        Ring width [m], > 0.
+
+    Returns
+    -------
+    edges_m : ndarray
+        Ring edges in ground range [m], from 0 (length n + 1; n = 0 for a map without any).
+    per_scan : ndarray
+        Expected false alarms per scan in each ring [-] (sums to Σ η).
+    """
+    if not ring_m > 0.0:
+        raise ValueError("ring_m must be > 0")
+    r_edges, _ = sector_edges(table)
+    eta_r = np.asarray(table.extra["expected_count"], dtype=float).sum(axis=1)
+    nz = np.nonzero(eta_r > 0.0)[0]
+    if nz.size == 0:
+        return np.zeros(1), np.zeros(0)
+    n = int(math.ceil(r_edges[nz[-1] + 1] / ring_m))
+    edges = ring_m * np.arange(n + 1, dtype=float)
+    # cumulative η, linear in range inside each sector, read at the ring edges
+    cum = np.concatenate([[0.0], np.cumsum(eta_r)])
+    at = np.interp(edges, r_edges, cum)
+    return edges, np.diff(at)
+
+
 def clutter_false_alarm_generator(
     table: Table,
     *,

@@ -20,6 +20,7 @@ from tables.pfac import (
     PFAC_MAP_NAME,
     build_pfac_map,
     clutter_false_alarm_generator,
+    clutter_range_profile,
     pfac_map_inputs,
     sector_edges,
 )
@@ -493,3 +494,23 @@ def test_figures_write_png(tmp_path, table_cache):
                             tracks=[(np.array([0.1, 0.2]), np.array([5e3, 6e3]))])
     for p in (p1, p2, p3):
         assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_clutter_range_profile(table_cache):
+    """Per-ring expected false alarms (the radar's rate a tracker can use): sums to Σ η,
+    equals the sector sums on sector edges, falls with range, and is empty without any."""
+    tab = pfac_table(clutter_scene())
+    prof, _ = range_profile(tab)
+    edges, per = clutter_range_profile(tab, ring_m=100.0)  # = the sectors
+    assert per.sum() == pytest.approx(prof.sum(), rel=1e-12)
+    assert per == pytest.approx(prof[:per.size], rel=1e-9, abs=1e-12)
+    assert np.all(prof[per.size:] == 0.0)
+    e2, p2 = clutter_range_profile(tab, ring_m=1000.0)
+    assert p2.sum() == pytest.approx(prof.sum(), rel=1e-12)
+    assert np.all(np.diff(p2[1:]) < 0.0)  # beyond the first km, fewer in each ring
+    assert e2[0] == 0.0 and np.all(np.diff(e2) == 1000.0)
+    calm = pfac_table(clutter_scene(env={"sea_state": 0, "wind_speed_mps": 0.0}))
+    e0, p0 = clutter_range_profile(calm)
+    assert p0.size == 0 and e0.size == 1
+    with pytest.raises(ValueError):
+        clutter_range_profile(tab, ring_m=0.0)

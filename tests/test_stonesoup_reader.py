@@ -334,3 +334,31 @@ def test_end_to_end_single_missile_live_and_recorded(tmp_path):
     assert np.mean([by_scan[k]["ospa"] for k in held]) < 50.0
     assert np.median([by_scan[k]["ospa"] for k in visible]) < 50.0
     assert all(s["tracks"] <= 1 for s in live["scans"])  # no false or duplicate tracks
+
+
+def test_tracker_clutter_map_starts_from_the_radar_profile():
+    """The meta's expected sea-clutter false alarms per ring seed the tracker's clutter map:
+    its PDA density at a range is the radar's rate per ring over 2π Δr from the first scan,
+    and the learned counts then move it."""
+    import importlib.util
+
+    from .helpers import ROOT
+
+    spec = importlib.util.spec_from_file_location(
+        "track_stonesoup", ROOT / "examples" / "track_stonesoup.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    edges, per_scan = np.array([0.0, 500.0, 1000.0, 1500.0]), np.array([100.0, 40.0, 10.0])
+    meta = {"clutter_false_alarm_profile": {"range_edges_m": edges, "per_scan": per_scan}}
+    prior = mod.radar_clutter_profile(meta)
+    cmap = mod.ClutterMap(60000.0, ring_m=250.0, prior=prior, prior_scans=10)
+    # 250 m rings: half of each 500 m prior ring
+    assert cmap.per_scan([100.0, 300.0, 600.0, 1400.0, 5000.0]) == pytest.approx(
+        [50.0, 50.0, 20.0, 5.0, 0.0], rel=1e-12, abs=1e-12)
+    assert cmap.density_bearing_range(100.0) == pytest.approx(50.0 / (2 * math.pi * 250.0))
+    # ten scans of stream with nothing inside 250 m halve the first ring's rate
+    for _ in range(10):
+        cmap.update(np.array([5000.0]))
+    assert cmap.per_scan(100.0) == pytest.approx(25.0)
+    assert mod.radar_clutter_profile({}) is None
+    assert mod.ClutterMap(60000.0, prior=None).scans == 0
