@@ -108,6 +108,11 @@ def cmd_run(args) -> int:
             for part in (publisher, recorder):
                 if part is not None:
                     part.close()
+    pub = (summary.get("bus") or {}).get("publisher") or {}
+    if pub.get("dropped"):
+        print(f"warning: {pub['dropped']} message(s) dropped for slow subscribers "
+              f"({pub['dropped_by_topic']}); the recording, if any, holds them all",
+              file=sys.stderr)
     print(json.dumps(summary))
     return EXIT_OK
 
@@ -118,8 +123,17 @@ def cmd_replay(args) -> int:
     if not Path(args.recording).exists():
         raise BadInput(f"replay: recording {args.recording} does not exist")
     summary = replay(args.recording, endpoint=args.publish, speed=args.speed, fast=args.fast,
-                     wait_subscribers=args.wait_subscribers, allow_remote=args.allow_remote,
+                     wait_subscribers=args.wait_subscribers, wait_timeout_s=args.wait_timeout,
+                     on_slow=args.on_slow, allow_remote=args.allow_remote,
                      out=None if args.publish else sys.stdout)
+    if summary["truncated"]:
+        print(f"warning: {args.recording} is truncated: {summary['frames']} whole frame(s) "
+              f"replayed, {summary['bytes_ignored']} byte(s) of a partial last frame ignored",
+              file=sys.stderr)
+    pub = summary.get("publisher") or {}
+    if pub.get("dropped"):
+        print(f"warning: {pub['dropped']} message(s) dropped for slow subscribers",
+              file=sys.stderr)
     print(json.dumps(summary))
     return EXIT_OK
 
@@ -179,7 +193,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--publish", default=None, help="ZeroMQ endpoint, e.g. tcp://127.0.0.1:5556")
     r.add_argument("--wait-subscribers", type=_count("--wait-subscribers"), default=0,
                    help="wait for N subscribers before starting")
-    r.add_argument("--wait-timeout", type=_positive("--wait-timeout"), default=60.0)
+    r.add_argument("--wait-timeout", type=_positive("--wait-timeout"), default=60.0,
+                   help="longest wait for those subscribers [s]")
     r.add_argument("--on-slow", choices=("pace", "drop"), default="pace",
                    help="slow subscriber: slow the run down (pace) or count dropped frames")
     r.add_argument("--allow-remote", action="store_true",
@@ -195,7 +210,12 @@ def build_parser() -> argparse.ArgumentParser:
     g = rp.add_mutually_exclusive_group()
     g.add_argument("--speed", type=_positive("--speed"), default=1.0)
     g.add_argument("--fast", action="store_true")
-    rp.add_argument("--wait-subscribers", type=_count("--wait-subscribers"), default=0)
+    rp.add_argument("--wait-subscribers", type=_count("--wait-subscribers"), default=0,
+                    help="wait for N subscribers before the first frame")
+    rp.add_argument("--wait-timeout", type=_positive("--wait-timeout"), default=60.0,
+                    help="longest wait for those subscribers [s]")
+    rp.add_argument("--on-slow", choices=("pace", "drop"), default="pace",
+                    help="slow subscriber: slow the replay down (pace) or count dropped frames")
     rp.add_argument("--allow-remote", action="store_true",
                     help="allow binding a non-loopback address")
     rp.set_defaults(func=cmd_replay)

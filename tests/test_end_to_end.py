@@ -118,6 +118,13 @@ def test_truncated_recording_replays_whole_frames(tmp_path, env):
     assert proc.returncode == 0, proc.stderr
     out = json.loads(proc.stdout.strip().splitlines()[-1])
     assert out["frames"] == len(whole) - 1 and out["truncated"] is True
+    assert out["bytes_ignored"] == reader.bytes_ignored
+    assert (f"warning: {cut} is truncated: {len(whole) - 1} whole frame(s) replayed, "
+            f"{reader.bytes_ignored} byte(s) of a partial last frame ignored") in proc.stderr
+    # without --publish every replayed frame is also printed as a JSON line
+    lines = proc.stdout.strip().splitlines()[:-1]
+    assert len(lines) == len(whole) - 1
+    assert {json.loads(x)["topic"] for x in lines} >= {"meta", "plots", "eos", "truth"}
 
 
 def test_record_refuses_to_overwrite(tmp_path, env):
@@ -135,3 +142,37 @@ def test_every_example_runs(name, env, tmp_path):
     assert proc.returncode == 0, proc.stderr
     summary = json.loads(proc.stdout.strip().splitlines()[-1])
     assert summary["scans"] >= 1
+
+
+def test_progress_bar_only_on_a_terminal(tmp_path, env):
+    """stderr on a pseudo-terminal: a progress bar; on a pipe: none (the summary alone)."""
+    import fcntl
+    import pty
+    import struct
+    import termios
+
+    master, slave = pty.openpty()
+    fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 100, 0, 0))  # 100 columns
+    chunks = []
+    try:
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "sim.cli", "run", "scenarios/single_missile.yaml",
+             "--duration", "30"], stdout=subprocess.PIPE, stderr=slave, cwd=ROOT, env=env)
+        os.close(slave)
+        while True:  # read while it runs: Linux drops a pty's data once its child side closes
+            try:
+                data = os.read(master, 65536)
+            except OSError:  # EIO: the child side is closed
+                break
+            if not data:
+                break
+            chunks.append(data)
+        out, _ = proc.communicate(timeout=300)
+    finally:
+        os.close(master)
+    assert proc.returncode == 0
+    tty_err = b"".join(chunks).decode(errors="replace")
+    assert "sim s" in tty_err and "30/30" in tty_err  # tqdm's bar, run to the end
+    assert json.loads(out.decode().strip().splitlines()[-1])["simulated_s"] == 30
+    piped = _cli("run", "scenarios/single_missile.yaml", "--duration", "30", env=env)
+    assert piped.returncode == 0 and "sim s" not in piped.stderr
