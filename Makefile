@@ -22,7 +22,7 @@ install: $(STAMP)
 demo: $(STAMP)
 	mkdir -p $(OUT)
 	$(VENV)/bin/shipradar tables build $(DEMO)
-	$(VENV)/bin/shipradar run $(DEMO) --record $(OUT)/demo.rec
+	$(VENV)/bin/shipradar run $(DEMO) --record $(OUT)/demo.rec --overwrite
 
 tables: $(STAMP)
 	$(VENV)/bin/shipradar tables build $(DEMO)

@@ -19,7 +19,7 @@ from typing import Any, TextIO
 
 import zmq
 
-from sim.protocol import ProtocolError, decode, encode, to_jsonable
+from sim.protocol import MAX_BODY_BYTES, ProtocolError, decode, encode, to_jsonable
 from sim.recording import Recorder, read_recording
 
 __all__ = [
@@ -688,6 +688,8 @@ def tail(
     ctx = zmq.Context.instance() if context is None else context
     sock = ctx.socket(zmq.SUB)
     sock.setsockopt(zmq.LINGER, 0)
+    # a message larger than any valid one drops the connection instead of being allocated
+    sock.setsockopt(zmq.MAXMSGSIZE, MAX_BODY_BYTES + 1024)
     count = 0
     try:
         sock.connect(endpoint)
