@@ -57,7 +57,8 @@ def test_snr_falls_as_r4(r1, k):
     out = []
     for r in (r1, k * r1):
         pos = np.array([[0.0, r, 20.0]])
-        geom = antenna_geometry(np.zeros(3), np.zeros(3), 20.0, pos, np.zeros((1, 3)), LocalFrame(s.origin))
+        geom = antenna_geometry(np.zeros(3), np.zeros(3), 20.0, pos, np.zeros((1, 3)),
+                                LocalFrame(s.origin))
         res = m.process_targets(geom, np.array([0]), np.zeros(1), pos, np.random.default_rng(1))
         out.append((res["snr_db"][0], geom.slant_range[0]))
     expected = 40 * math.log10(out[1][1] / out[0][1])
@@ -123,6 +124,22 @@ def test_truth_marks_noise_origin():
     truth = [p for _, p in bus.of(protocol.TOPIC_TRUTH) if p["kind"] == "plots"]
     plots = bus.of(protocol.TOPIC_PLOTS)
     assert len(truth) == len(plots)
-    for (_, p), t in zip(plots, truth):
+    for (_, p), t in zip(plots, truth, strict=True):
         assert np.array_equal(p["plot_id"], t["plot_id"])
         assert np.all(t["origin"] == ORIGIN_NOISE)
+
+
+def test_realtime_mode_runs_the_same_model_paced_by_the_clock():
+    """simpy.rt with a factor: the same frames as fast mode, and the wall clock follows
+    simulated time / factor."""
+    import time
+
+    s = bare_scene(targets=[_target(0.0, 20e3, 20.0, 1.0)], duration_s=3.0)
+    fast, paced = CaptureBus(), CaptureBus()
+    Simulation(s, bus=fast, tables=SceneTables()).run()
+    t0 = time.perf_counter()
+    summary = Simulation(s, bus=paced, tables=SceneTables(), realtime=10.0).run()
+    wall = time.perf_counter() - t0
+    assert paced.frames == fast.frames
+    assert 0.3 - 0.02 <= wall < 3.0  # 3 simulated s at 10x: 0.3 s, never faster
+    assert summary["realtime_factor"] == pytest.approx(10.0, rel=0.5)

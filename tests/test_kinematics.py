@@ -94,7 +94,8 @@ def test_beam_crossing_exact_moving_ship_and_targets(rpm):
     tg = _traj(tracks, hold=False)
     omega = rpm / 60 * 2 * math.pi
 
-    def az_at(t, rows=np.arange(n)):
+    def az_at(t, rows=None):
+        rows = np.arange(n) if rows is None else rows
         tp, tv, _ = tg.state(t, rows)
         sp, sv, _ = ship.state(t, np.zeros(rows.size, dtype=int))
         return antenna_geometry(sp, sv, 25.0, tp, tv, FRAME).azimuth
@@ -104,7 +105,9 @@ def test_beam_crossing_exact_moving_ship_and_targets(rpm):
     period = 2 * math.pi / omega
     assert np.all(tc >= t_start - 1e-9) and np.all(tc < t_start + 1.5 * period)
     for i in range(n):
-        f = lambda t: wrap_pi(az_at(np.array([t]), np.array([i]))[0] - (beam0 + omega * (t - t_start)))  # noqa: E731
+        def f(t, i=i):
+            return wrap_pi(az_at(np.array([t]), np.array([i]))[0] - (beam0 + omega * (t - t_start)))
+
         root = brentq(f, tc[i] - 0.05 * period, tc[i] + 0.05 * period, xtol=1e-12)
         assert tc[i] == pytest.approx(root, abs=1e-7)
 
@@ -137,3 +140,24 @@ def test_radial_velocity_sign():
     tgt = np.array([[0.0, 10e3, 10.0]])
     g = antenna_geometry(ant, np.zeros(3), 20, tgt, np.array([[0.0, -300.0, 0.0]]), FRAME)
     assert g.radial_velocity[0] == pytest.approx(-300.0, rel=1e-4)  # closing: negative
+
+
+@pytest.mark.parametrize("hold", [False, True])
+def test_one_segment_fast_path_equals_the_general_search(hold):
+    """Trajectories of at most two waypoints skip the segment search: same numbers."""
+    rng = np.random.default_rng(2)
+    tracks = [[(0, 0, 0, 5)]]  # a single waypoint
+    for _ in range(30):
+        t0 = rng.uniform(0, 50)
+        tracks.append([(t0, *rng.uniform(-1e4, 1e4, 3)), (t0 + rng.uniform(1, 100),
+                                                          *rng.uniform(-1e4, 1e4, 3))])
+    fast = _traj(tracks, hold=hold)
+    slow = _traj(tracks, hold=hold)
+    slow._one_segment = False
+    assert fast._one_segment
+    rows = rng.integers(0, len(tracks), 200)
+    for t in (rng.uniform(-10, 200, 200), 37.5):
+        for r in (rows, None):
+            tt = t if r is not None or np.isscalar(t) else t[: len(tracks)]
+            for a, b in zip(fast.state(tt, r), slow.state(tt, r), strict=True):
+                np.testing.assert_array_equal(a, b)
