@@ -29,7 +29,9 @@ Method (docs/propagation.md has the reasoning and the measured errors)
 from __future__ import annotations
 
 import sys
+import weakref
 from collections.abc import Callable, Mapping
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -42,21 +44,22 @@ from tables.store import Table, get_or_build
 
 #: Builder name and version (part of the cache key; bump on any change of results).
 TABLE_NAME = "propagation_factor"
-TABLE_VERSION = 1
+TABLE_VERSION = 2
 
 #: Fidelity presets.  max_angle_deg: largest propagation angle carried (the table is NaN
 #: beyond it); nyquist_factor: oversampling of the angular spectrum (Nyquist angle over the
 #: end of the taper); boundary_kz_dz: largest k sin(max_angle) dz for the impedance boundary
 #: of vertical polarization (the discrete condition reflects like the continuous one at
 #: sin(p dz) / dz instead of p; see :func:`grid_steps`); phase_error_rad: allowed splitting
-#: phase error at max_angle, which sets the range step.
+#: phase error at max_angle, which sets the range step; lobe_samples and surface_step_m: the
+#: table's sampling in h / R (see :func:`table_axes`).
 FIDELITY = {
     "coarse": {"max_angle_deg": 3.0, "nyquist_factor": 1.1, "boundary_kz_dz": 0.8,
-               "phase_error_rad": 0.6},
+               "phase_error_rad": 0.6, "lobe_samples": 16, "surface_step_m": 1.0},
     "standard": {"max_angle_deg": 5.0, "nyquist_factor": 1.2, "boundary_kz_dz": 0.45,
-                 "phase_error_rad": 0.25},
+                 "phase_error_rad": 0.25, "lobe_samples": 32, "surface_step_m": 0.5},
     "fine": {"max_angle_deg": 8.0, "nyquist_factor": 1.5, "boundary_kz_dz": 0.3,
-             "phase_error_rad": 0.08},
+             "phase_error_rad": 0.08, "lobe_samples": 48, "surface_step_m": 0.25},
 }
 #: End of the cosine roll-off of the starting spectrum, in units of max_angle.
 TAPER_END = 2.0
@@ -240,6 +243,138 @@ def _rough_alpha(alpha: complex, psi: float, rho: float, k: float) -> complex:
 
 
 # =========================================================================== solver
+def _prepare(
+    freq_hz, antenna_height_m, *, polarization, elevation_pattern, profile, wave_height_m,
+    max_range_m, max_height_m, fidelity, tilt_rad, surface, permittivity, max_angle_rad,
+    range_step_m, step_scale,
+) -> SimpleNamespace:
+    """Everything the march needs: grid, boundary, starting field, propagators (solve_pe)."""
+    pol = prop.normalize_polarization(polarization)
+    if surface not in ("sea", "pec"):
+        raise ValueError("surface must be 'sea' or 'pec'")
+    if not 0 < antenna_height_m < max_height_m:
+        raise ValueError("antenna height must be in (0, max_height_m)")
+    if max_range_m <= 0:
+        raise ValueError("max_range_m must be > 0")
+    m_of_h = prop.profile_from_spec(profile) if isinstance(profile, Mapping) else profile
+    pattern = elevation_pattern if elevation_pattern is not None else prop._isotropic
+    steps = grid_steps(freq_hz, max_height_m, max_range_m, m_of_h, fidelity, max_angle_rad,
+                       polarization=pol, surface=surface)
+    if step_scale != 1.0:
+        # a convergence study: the same domain with both steps scaled
+        n_scaled = int(sfft.next_fast_len(int(np.ceil(steps["n"] / step_scale))))
+        steps["dz"] = steps["domain_m"] / n_scaled
+        steps["n"] = n_scaled
+    s = SimpleNamespace()
+    s.pol, s.surface, s.steps = pol, surface, steps
+    dz, n, theta_max = steps["dz"], steps["n"], steps["max_angle_rad"]
+    if range_step_m is None:
+        n_steps = int(np.ceil(max_range_m / (steps["dx"] * step_scale)))
+        dx = max_range_m / n_steps
+        every = 1
+    else:
+        every = int(np.ceil(range_step_m / (steps["dx"] * step_scale)))
+        dx = range_step_m / every
+        n_steps = every * int(np.ceil(max_range_m / range_step_m - 1e-9))
+    s.dz, s.n, s.theta_max, s.dx, s.n_steps, s.every = dz, n, theta_max, dx, n_steps, every
+    lam = sc.c / freq_hz
+    k = 2 * np.pi / lam
+    s.lam, s.k = lam, k
+    z = dz * np.arange(n + 1)
+    s.z = z
+    eps = prop.sea_water_permittivity(freq_hz) if permittivity is None else complex(permittivity)
+
+    # ---- boundary
+    if surface == "pec":
+        alpha = np.inf
+        gamma_of_p = (lambda p: -np.ones_like(p)) if pol == "H" else (lambda p: np.ones_like(p))
+    else:
+        alpha = _surface_alpha(freq_hz, pol, eps)
+        gamma_of_p = lambda p: _plane_wave_gamma(p, k, alpha)  # noqa: E731
+    s.alpha = alpha
+
+    # ---- starting field: angular spectrum of the pattern and its image (FFT over 2N samples)
+    m_idx = np.fft.fftfreq(2 * n, d=1.0 / (2 * n))
+    p = m_idx * np.pi / (n * dz)
+    theta = np.arcsin(np.clip(p / k, -1.0, 1.0))
+    taper = _angular_taper(np.abs(theta), theta_max) * (np.abs(p) < k)
+    norm = np.sqrt(2 * np.pi / k)
+    z_a = float(antenna_height_m)
+    s.z_a = z_a
+    rho0 = (prop.roughness_factor(np.abs(theta), wave_height_m, freq_hz)
+            if surface == "sea" else 1.0)
+    spectrum = norm * taper * (
+        pattern(theta - tilt_rad) * np.exp(-1j * p * z_a)
+        + rho0 * gamma_of_p(p) * pattern(-theta - tilt_rad) * np.exp(1j * p * z_a)
+    )
+    dp = np.pi / (n * dz)
+    u = (dp / (2 * np.pi)) * (2 * n) * np.fft.ifft(spectrum)[: n + 1]
+    u[n] = 0.0
+    s.u0 = u
+
+    # ---- propagators
+    p_sine = np.arange(1, n) * np.pi / (n * dz)
+    p_cos = np.arange(0, n + 1) * np.pi / (n * dz)
+    s.free_sine = np.exp(1j * dx * (np.sqrt((k * k - p_sine**2).astype(complex)) - k))
+    s.free_cos = np.exp(1j * dx * (np.sqrt((k * k - p_cos**2).astype(complex)) - k))
+    m_surface = float(np.asarray(m_of_h(0.0)))
+    screen = np.exp(1j * k * dx * (np.asarray(m_of_h(z), dtype=float) - m_surface) * 1e-6)
+    z_abs = n * dz * (1 - ABSORBER_FRACTION)
+    window = np.where(z <= z_abs, 1.0, 0.5 * (1 + np.cos(np.pi * (z - z_abs) / (n * dz - z_abs))))
+    # the Hanning window once per absorber step: the absorption per metre of range, not per
+    # step, is fixed, so results do not depend on dx through the absorber
+    s.screen = screen * window ** (dx / steps["absorber_dx"])
+    s.rough = surface == "sea" and wave_height_m > 0
+    s.wave_height_m, s.freq_hz = float(wave_height_m), float(freq_hz)
+    return s
+
+
+def _march(s: SimpleNamespace, sample: Callable[[float, np.ndarray], np.ndarray],
+           progress: bool | None):
+    """Run the split-step march; ``sample(range_m, u)`` is called every ``s.every`` steps.
+
+    Returns the output ranges [m] and the stacked rows that ``sample`` returned.
+    """
+    from tqdm import tqdm
+
+    n, dx, pol = s.n, s.dx, s.pol
+    u = s.u0.copy()
+    a_e = prop.STANDARD_K_FACTOR * prop.EARTH_RADIUS_M
+    boundary = None
+    if s.surface == "sea" and not s.rough:
+        boundary = _ImpedanceBoundary(s.alpha, s.dz, n, s.k, dx)
+    keep = np.arange(s.every, s.n_steps + 1, s.every)
+    ranges = keep * dx
+    out = None
+    show = sys.stderr.isatty() if progress is None else progress
+    for step in tqdm(range(1, s.n_steps + 1), disable=not show, desc="PE", unit="step",
+                     leave=False):
+        x_mid = (step - 0.5) * dx
+        if s.surface == "pec" and pol == "H":
+            u[1:n] = sfft.idst(sfft.dst(u[1:n], type=1, norm="ortho") * s.free_sine, type=1,
+                               norm="ortho")
+            u[0] = 0.0
+        elif s.surface == "pec":
+            u = sfft.idct(sfft.dct(u, type=1) * s.free_cos, type=1)
+        else:
+            if s.rough:
+                psi_x = float(np.arctan(s.z_a / x_mid) - x_mid / (2 * a_e))
+                rho_x = float(prop.roughness_factor(max(psi_x, 0.0), s.wave_height_m, s.freq_hz))
+                boundary = _ImpedanceBoundary(_rough_alpha(s.alpha, psi_x, rho_x, s.k), s.dz, n,
+                                              s.k, dx)
+            w, mode = boundary.forward(u)
+            w = sfft.idst(sfft.dst(w, type=1, norm="ortho") * s.free_sine, type=1, norm="ortho")
+            u = boundary.inverse(w, mode * boundary.mode_propagator)
+        u = u * s.screen
+        u[n] = 0.0
+        if step % s.every == 0:
+            row = sample(step * dx, u)
+            if out is None:
+                out = np.empty((keep.size, row.size), dtype=row.dtype)
+            out[step // s.every - 1] = row
+    return ranges, out
+
+
 def solve_pe(
     freq_hz: float,
     antenna_height_m: float,
@@ -260,7 +395,7 @@ def solve_pe(
     step_scale: float = 1.0,
     progress: bool | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Propagation factor F(R_t, h) by the split-step Fourier PE (seed [5]-[6]).
+    """Propagation factor F(R_t, h) by the split-step Fourier PE (seed [5]-[6]), on PE nodes.
 
     Parameters
     ----------
@@ -292,9 +427,10 @@ def solve_pe(
         Overrides the fidelity's largest propagation angle [rad].
     range_step_m, height_step_m : float, optional
         Output grid steps [m]; default the PE range step and the height step that samples the
-        finest interference period, lambda / (2 sin max_angle), twice.  With range_step_m the
-        PE step is the largest divisor of it below the grid's step, and the last range is
-        max_range_m rounded up to a multiple of it.
+        finest interference period, lambda / (2 sin max_angle), twice (heights are PE nodes,
+        the step is rounded to a multiple of dz).  With range_step_m the PE step is the
+        largest divisor of it below the grid's step, and the last range is max_range_m
+        rounded up to a multiple of it.
     step_scale : float
         Multiplies both PE steps (dz, dx) for convergence studies; 1 in production.
     progress : bool, optional
@@ -310,127 +446,135 @@ def solve_pe(
         Linear propagation factor, shape (len(ranges_m), len(heights_m)), float32; NaN where
         the image ray's elevation exceeds the largest angle carried (use the two-ray model).
     """
-    from tqdm import tqdm
-
-    pol = prop.normalize_polarization(polarization)
-    if surface not in ("sea", "pec"):
-        raise ValueError("surface must be 'sea' or 'pec'")
-    if not 0 < antenna_height_m < max_height_m:
-        raise ValueError("antenna height must be in (0, max_height_m)")
-    if max_range_m <= 0:
-        raise ValueError("max_range_m must be > 0")
-    m_of_h = prop.profile_from_spec(profile) if isinstance(profile, Mapping) else profile
-    pattern = elevation_pattern if elevation_pattern is not None else prop._isotropic
-    steps = grid_steps(freq_hz, max_height_m, max_range_m, m_of_h, fidelity, max_angle_rad,
-                       polarization=pol, surface=surface)
-    if step_scale != 1.0:
-        # a convergence study: the same domain with both steps scaled
-        n_scaled = int(sfft.next_fast_len(int(np.ceil(steps["n"] / step_scale))))
-        steps["dz"] = steps["domain_m"] / n_scaled
-        steps["n"] = n_scaled
-    dz, n, theta_max = steps["dz"], steps["n"], steps["max_angle_rad"]
-    if range_step_m is None:
-        n_steps = int(np.ceil(max_range_m / (steps["dx"] * step_scale)))
-        dx = max_range_m / n_steps
-        every = 1
-    else:
-        every = int(np.ceil(range_step_m / (steps["dx"] * step_scale)))
-        dx = range_step_m / every
-        n_steps = every * int(np.ceil(max_range_m / range_step_m - 1e-9))
-    lam = sc.c / freq_hz
-    k = 2 * np.pi / lam
-    z = dz * np.arange(n + 1)
-    eps = prop.sea_water_permittivity(freq_hz) if permittivity is None else complex(permittivity)
-
-    # ---- boundary
-    if surface == "pec":
-        alpha = np.inf
-        gamma_of_p = (lambda p: -np.ones_like(p)) if pol == "H" else (lambda p: np.ones_like(p))
-    else:
-        alpha = _surface_alpha(freq_hz, pol, eps)
-        gamma_of_p = lambda p: _plane_wave_gamma(p, k, alpha)  # noqa: E731
-
-    # ---- starting field: angular spectrum of the pattern and its image (FFT over 2N samples)
-    m_idx = np.fft.fftfreq(2 * n, d=1.0 / (2 * n))
-    p = m_idx * np.pi / (n * dz)
-    sin_t = np.clip(p / k, -1.0, 1.0)
-    theta = np.arcsin(sin_t)
-    taper = _angular_taper(np.abs(theta), theta_max) * (np.abs(p) < k)
-    norm = np.sqrt(2 * np.pi / k)
-    z_a = float(antenna_height_m)
-    psi = np.abs(theta)
-    rho0 = prop.roughness_factor(psi, wave_height_m, freq_hz) if surface == "sea" else 1.0
-    spectrum = norm * taper * (
-        pattern(theta - tilt_rad) * np.exp(-1j * p * z_a)
-        + rho0 * gamma_of_p(p) * pattern(-theta - tilt_rad) * np.exp(1j * p * z_a)
-    )
-    dp = np.pi / (n * dz)
-    u = (dp / (2 * np.pi)) * (2 * n) * np.fft.ifft(spectrum)[: n + 1]
-    u[n] = 0.0
-
-    # ---- propagators
-    p_sine = np.arange(1, n) * np.pi / (n * dz)
-    p_cos = np.arange(0, n + 1) * np.pi / (n * dz)
-    free_sine = np.exp(1j * dx * (np.sqrt((k * k - p_sine**2).astype(complex)) - k))
-    free_cos = np.exp(1j * dx * (np.sqrt((k * k - p_cos**2).astype(complex)) - k))
-    m_surface = float(np.asarray(m_of_h(0.0)))
-    screen = np.exp(1j * k * dx * (np.asarray(m_of_h(z), dtype=float) - m_surface) * 1e-6)
-    z_abs = n * dz * (1 - ABSORBER_FRACTION)
-    window = np.where(z <= z_abs, 1.0, 0.5 * (1 + np.cos(np.pi * (z - z_abs) / (n * dz - z_abs))))
-    # the Hanning window once per absorber step: the absorption per metre of range, not per
-    # step, is fixed, so results do not depend on dx through the absorber
-    screen = screen * window ** (dx / steps["absorber_dx"])
-
-    # ---- output grid
+    s = _prepare(freq_hz, antenna_height_m, polarization=polarization,
+                 elevation_pattern=elevation_pattern, profile=profile,
+                 wave_height_m=wave_height_m, max_range_m=max_range_m,
+                 max_height_m=max_height_m, fidelity=fidelity, tilt_rad=tilt_rad,
+                 surface=surface, permittivity=permittivity, max_angle_rad=max_angle_rad,
+                 range_step_m=range_step_m, step_scale=step_scale)
     if height_step_m is None:
-        height_step_m = lam / (4 * np.sin(theta_max))
-    decim = max(1, int(round(height_step_m / dz)))
-    out_idx = np.arange(0, n + 1, decim)
-    out_idx = out_idx[: np.searchsorted(z[out_idx], max_height_m) + 1]
-    heights = z[out_idx]
-    keep = np.arange(every, n_steps + 1, every)
-    ranges = keep * dx
-    out = np.empty((ranges.size, heights.size), dtype=np.float32)
+        height_step_m = s.lam / (4 * np.sin(s.theta_max))
+    decim = max(1, int(round(height_step_m / s.dz)))
+    out_idx = np.arange(0, s.n + 1, decim)
+    out_idx = out_idx[: np.searchsorted(s.z[out_idx], max_height_m) + 1]
+    heights = s.z[out_idx]
 
-    a_e = prop.STANDARD_K_FACTOR * prop.EARTH_RADIUS_M
-    rough = surface == "sea" and wave_height_m > 0
-    boundary = None
-    if surface == "sea" and not rough:
-        boundary = _ImpedanceBoundary(alpha, dz, n, k, dx)
-    show = sys.stderr.isatty() if progress is None else progress
-    col = 0
-    for step in tqdm(range(1, n_steps + 1), disable=not show, desc="PE", unit="step", leave=False):
-        x_mid = (step - 0.5) * dx
-        if surface == "pec" and pol == "H":
-            u[1:n] = sfft.idst(sfft.dst(u[1:n], type=1, norm="ortho") * free_sine, type=1,
-                               norm="ortho")
-            u[0] = 0.0
-        elif surface == "pec":
-            u = sfft.idct(sfft.dct(u, type=1) * free_cos, type=1)
-        else:
-            if rough:
-                psi_x = float(np.arctan(z_a / x_mid) - x_mid / (2 * a_e))
-                rho_x = float(prop.roughness_factor(max(psi_x, 0.0), wave_height_m, freq_hz))
-                boundary = _ImpedanceBoundary(_rough_alpha(alpha, psi_x, rho_x, k), dz, n, k, dx)
-            w, mode = boundary.forward(u)
-            w = sfft.idst(sfft.dst(w, type=1, norm="ortho") * free_sine, type=1, norm="ortho")
-            u = boundary.inverse(w, mode * boundary.mode_propagator)
-        u = u * screen
-        u[n] = 0.0
-        if col < keep.size and step == keep[col]:
-            out[col] = np.abs(u[out_idx]) * np.sqrt(step * dx)
-            col += 1
+    def sample(range_m: float, u: np.ndarray) -> np.ndarray:
+        return (np.abs(u[out_idx]) * np.sqrt(range_m)).astype(np.float32)
 
+    ranges, out = _march(s, sample, progress)
     # NaN where the image ray (the steeper one) leaves the angles carried by the grid
-    image_elev = np.arctan2(heights[None, :] + z_a, ranges[:, None])
-    out[image_elev > theta_max] = np.nan
+    out[_beyond_angle(ranges[:, None], heights[None, :], s.z_a, s.theta_max)] = np.nan
     return ranges, heights, out
+
+
+def _beyond_angle(range_m, height_m, antenna_height_m, max_angle_rad):
+    """True where the image ray's elevation exceeds the largest angle the PE grid carries."""
+    return np.arctan2(height_m + antenna_height_m, range_m) > max_angle_rad
 
 
 def _angular_taper(abs_theta: np.ndarray, theta_max: float) -> np.ndarray:
     """1 up to theta_max, cosine roll-off to 0 at TAPER_END * theta_max."""
     t = np.clip((abs_theta - theta_max) / ((TAPER_END - 1) * theta_max), 0.0, 1.0)
     return 0.5 * (1 + np.cos(np.pi * t))
+
+
+def _lanczos_abs(u: np.ndarray, dz: float, heights_m: np.ndarray) -> np.ndarray:
+    """|u| at arbitrary heights [m] by Lanczos (windowed-sinc) interpolation of complex u.
+
+    The PE samples u at 2.4 points per shortest wavelength it carries with weight (the angle
+    max_angle): linear interpolation of |u| there loses up to 2 dB between nodes, a 6-tap
+    Lanczos kernel on the complex field about 0.05 dB (docs/propagation.md).  Within two
+    nodes of the surface (or of the top) linear interpolation of u is used.
+    """
+    n = u.size - 1
+    x = heights_m / dz
+    i0 = np.floor(x).astype(np.intp)
+    t = x - i0
+    taps = np.arange(-_LANCZOS_A + 1, _LANCZOS_A + 1)
+    idx = i0[:, None] + taps[None, :]
+    d = t[:, None] - taps[None, :]
+    w = np.sinc(d) * np.sinc(d / _LANCZOS_A)
+    w /= w.sum(axis=1, keepdims=True)
+    edge = (idx[:, 0] < 0) | (idx[:, -1] > n)
+    vals = np.einsum("ij,ij->i", w, u[np.clip(idx, 0, n)])
+    if np.any(edge):
+        j = np.clip(i0[edge], 0, n - 1)
+        te = t[edge]
+        vals[edge] = (1 - te) * u[j] + te * u[j + 1]
+    return np.abs(vals)
+
+
+#: Half-width of the Lanczos kernel used to sample the PE field between its nodes.
+_LANCZOS_A = 3
+
+
+# =========================================================================== table grid
+def table_axes(
+    freq_hz: float,
+    antenna_height_m: float,
+    max_range_m: float,
+    max_height_m: float,
+    range_step_m: float,
+    max_angle_rad: float,
+    fidelity: str = "standard",
+) -> tuple[np.ndarray, np.ndarray]:
+    """Axes of a propagation table: terrestrial range [m] and height over range w = h / R [1].
+
+    Why h / R: over the sea F is dominated by the interference of the direct and the
+    sea-reflected rays, whose phase difference ``2 k h_a h / R`` is (to O((h/R)^2)) a
+    function of w alone.  On a (R, h) grid the lobes are 20 m long in range at 5 km and
+    300 m in height (the default PE output, range step ~ 175 m, missed them: 5 dB rms
+    between range nodes inside 20 km); on a (R, w) grid they are straight lines along R.
+    The w axis has two uniform segments (both looked up by index arithmetic):
+
+    * below ``w_low = h_low / R_max``: step ``surface_step / R_max``, so that near the
+      surface at long range (ducts, the diffraction zone) heights are sampled every
+      ``surface_step`` metres or finer; ``h_low = max(LOW_LAYER_M, 3 h_a)``;
+    * above it up to ``tan(max_angle)``: ``lambda / (2 h_a lobe_samples)`` (the lobe
+      period in w sampled ``lobe_samples`` times), and no coarser than ``DIFFRACTION_STEP``
+      times the natural height unit ``(a_e lambda^2 / (8 pi^2))^(1/3)`` at max range.
+
+    Parameters
+    ----------
+    freq_hz : float
+        [Hz].
+    antenna_height_m, max_range_m, max_height_m : float
+        [m].
+    range_step_m : float
+        Range step of the table [m] (the PE step).
+    max_angle_rad : float
+        Largest propagation angle the PE carries [rad].
+    fidelity : str
+        Preset of :data:`FIDELITY` (``lobe_samples``, ``surface_step_m``).
+
+    Returns
+    -------
+    ranges_m, w : ndarray
+        Range axis (uniform, from ``range_step_m``) and the w axis (0 first).
+    """
+    preset = FIDELITY[fidelity]
+    lam = sc.c / freq_hz
+    a_e = prop.STANDARD_K_FACTOR * prop.EARTH_RADIUS_M
+    height_unit = (a_e * lam**2 / (8 * np.pi**2)) ** (1 / 3)
+    dw_coarse = min(lam / (2 * antenna_height_m * preset["lobe_samples"]),
+                    DIFFRACTION_STEP * height_unit / max_range_m)
+    dw_fine = min(dw_coarse, preset["surface_step_m"] / max_range_m)
+    w_max = np.tan(max_angle_rad)
+    h_low = min(max(LOW_LAYER_M, 3 * antenna_height_m), max_height_m)
+    n_fine = int(np.ceil(h_low / max_range_m / dw_fine))
+    w_low = n_fine * dw_fine
+    n_coarse = max(1, int(np.ceil((w_max - w_low) / dw_coarse)))
+    w = np.concatenate([np.arange(n_fine) * dw_fine, w_low + np.arange(n_coarse + 1) * dw_coarse])
+    n_r = int(np.ceil(max_range_m / range_step_m - 1e-9))
+    ranges = range_step_m * np.arange(1, n_r + 1)
+    return ranges, w
+
+
+#: Lowest height [m] whose w interval is sampled with the fine (surface) step at max range.
+LOW_LAYER_M = 100.0
+#: Largest step of the w axis at max range, in natural height units (a_e lambda^2/8pi^2)^(1/3).
+DIFFRACTION_STEP = 0.5
 
 
 # =========================================================================== table
@@ -489,7 +633,12 @@ def build_propagation_table(
     max_angle_rad: float | None = None,
     progress: bool | None = None,
 ) -> Table:
-    """Build the table F(R_t, h) with :func:`solve_pe` (no cache; see :func:`get_propagation_table`).
+    """Build the table F(R_t, h) with the PE (no cache; see :func:`get_propagation_table`).
+
+    The field is stored on the (range, w = h / R) grid of :func:`table_axes`, sampled from
+    the PE nodes by :func:`_lanczos_abs`; :func:`propagation_factor` looks it up at (R, h).
+    The PE domain reaches one w cell above ``max_height_m`` so that every height up to
+    ``max_height_m`` lies in a complete cell.
 
     The callable pattern cannot be hashed: ``pattern_description`` (e.g. ``{"kind":
     "gaussian", "beamwidth_rad": ..., "sidelobe_db": ...}``) stands for it in the provenance
@@ -499,8 +648,8 @@ def build_propagation_table(
     Returns
     -------
     Table
-        Axes ``("range_m", "height_m")`` in metres; values: linear F (float32), NaN where the
-        PE does not apply (short range, steep angles).
+        Axes ``("range_m", "height_over_range")`` in ``("m", "1")``; values: linear F
+        (float32), NaN where the PE does not apply (steep angles, above the domain).
     """
     if pattern_description is None:
         if elevation_pattern is not None:
@@ -514,19 +663,41 @@ def build_propagation_table(
         max_angle_rad=max_angle_rad,
     )
     eps = prop.sea_water_permittivity(freq_hz, sea_temperature_c, salinity_psu)
-    ranges, heights, f = solve_pe(
-        freq_hz, antenna_height_m, polarization=polarization, elevation_pattern=elevation_pattern,
-        profile=inputs["profile"], wave_height_m=wave_height_m, max_range_m=max_range_m,
-        max_height_m=max_height_m, fidelity=fidelity, tilt_rad=tilt_rad, surface=surface,
-        permittivity=complex(eps), max_angle_rad=max_angle_rad, progress=progress,
-    )
+    m_of_h = prop.profile_from_spec(inputs["profile"])
+    # the w axis needs the PE's range step and angle; the PE domain needs the w axis
+    first = grid_steps(freq_hz, max_height_m, max_range_m, m_of_h, fidelity, max_angle_rad,
+                       polarization=polarization, surface=surface)
+    _, w_probe = table_axes(freq_hz, antenna_height_m, max_range_m, max_height_m,
+                            first["dx"], first["max_angle_rad"], fidelity)
+    top = max_height_m + max_range_m * float(np.max(np.diff(w_probe)))
+    s = _prepare(freq_hz, antenna_height_m, polarization=polarization,
+                 elevation_pattern=elevation_pattern, profile=m_of_h,
+                 wave_height_m=wave_height_m, max_range_m=max_range_m, max_height_m=top,
+                 fidelity=fidelity, tilt_rad=tilt_rad, surface=surface,
+                 permittivity=complex(eps), max_angle_rad=max_angle_rad, range_step_m=None,
+                 step_scale=1.0)
+    ranges, w = table_axes(freq_hz, antenna_height_m, max_range_m, max_height_m, s.dx,
+                           s.theta_max, fidelity)
+    tan_max = np.tan(s.theta_max)
+
+    def sample(range_m: float, u: np.ndarray) -> np.ndarray:
+        row = np.full(w.size, np.nan, dtype=np.float32)
+        h = w * range_m
+        # nodes inside the domain and the carried angles (image ray, as solve_pe)
+        ok = (h <= top) & (h + s.z_a <= tan_max * range_m)
+        row[ok] = _lanczos_abs(u, s.dz, h[ok]) * np.sqrt(range_m)
+        return row
+
+    r_pe, values = _march(s, sample, progress)
+    if not np.allclose(r_pe, ranges, rtol=1e-9, atol=1e-6):
+        raise RuntimeError("PE ranges do not match the table axis")
     return Table(
         name=TABLE_NAME,
         version=TABLE_VERSION,
-        axes=(ranges, heights),
-        axis_names=("range_m", "height_m"),
-        axis_units=("m", "m"),
-        values=f,
+        axes=(ranges, w),
+        axis_names=("range_m", "height_over_range"),
+        axis_units=("m", "1"),
+        values=values,
         value_name="propagation_factor",
         value_unit="1 (linear field ratio)",
         inputs=inputs,
@@ -553,39 +724,129 @@ def get_propagation_table(
     )
 
 
-def propagation_factor(table: Table, range_m: np.ndarray, height_m: np.ndarray) -> np.ndarray:
-    """Linear F at terrestrial ranges [m] and heights [m] by bilinear interpolation in a table.
+# =========================================================================== lookup
+#: Stands for NaN inside the lookup's copy of the table: a corner of zero weight adds
+#: exactly 0 * SENTINEL = 0, any positive weight makes the result negative (F >= 0), so one
+#: sign test replaces a NaN mask per corner.
+_SENTINEL = np.float32(-1e30)
 
-    Vectorized, O(1) per point: the axes of a PE table are uniform, so cell indices are
-    computed, not searched (a generic table falls back to :meth:`Table.lookup`).  NaN outside
-    the table's domain and where the table holds NaN (steep angles, short range): the caller
-    falls back to :func:`sensors.propagation.two_ray_factor` and counts it.
+
+class PropagationLookup:
+    """Bilinear lookup of F at (range [m], height [m]) in a table of :func:`table_axes`.
+
+    O(1) per point and vectorized: both axes are uniform (w in two uniform segments), so
+    cell indices are computed, not searched; the four corners are gathered from one flat
+    float32 array.  NaN outside the table's domain (range outside the axis, height < 0 or
+    above ``max_height_m``) and where any corner of positive weight is NaN (steep angles):
+    the caller falls back to :func:`sensors.propagation.two_ray_factor` and counts it.
     """
-    r_axis, h_axis = table.axes
-    r, h = np.broadcast_arrays(np.asarray(range_m, dtype=float), np.asarray(height_m, dtype=float))
-    dr = (r_axis[-1] - r_axis[0]) / (len(r_axis) - 1)
-    dh = (h_axis[-1] - h_axis[0]) / (len(h_axis) - 1)
-    uniform = (np.allclose(np.diff(r_axis), dr, rtol=1e-9, atol=0)
-               and np.allclose(np.diff(h_axis), dh, rtol=1e-9, atol=0))
-    if not uniform:
-        return table.lookup(r, h)
-    x = (r - r_axis[0]) / dr
-    y = (h - h_axis[0]) / dh
-    eps = 1e-9  # index rounding: a point on a node is on that node
-    inside = ((x >= -eps) & (x <= len(r_axis) - 1 + eps)
-              & (y >= -eps) & (y <= len(h_axis) - 1 + eps))
-    x = np.where(inside, np.clip(x, 0, len(r_axis) - 1), 0.0)
-    y = np.where(inside, np.clip(y, 0, len(h_axis) - 1), 0.0)
-    i = np.minimum(x.astype(np.intp), len(r_axis) - 2)
-    j = np.minimum(y.astype(np.intp), len(h_axis) - 2)
-    tx = x - i
-    ty = y - j
-    tx = np.where(tx < eps, 0.0, np.where(tx > 1 - eps, 1.0, tx))
-    ty = np.where(ty < eps, 0.0, np.where(ty > 1 - eps, 1.0, ty))
-    v = table.values
-    out = np.zeros(x.shape)
-    # a corner of zero weight must not spread a NaN neighbour (points on a table edge)
-    for di, dj, w in ((0, 0, (1 - tx) * (1 - ty)), (0, 1, (1 - tx) * ty),
-                      (1, 0, tx * (1 - ty)), (1, 1, tx * ty)):
-        out += np.where(w > 0, w * v[i + di, j + dj], 0.0)
-    return np.where(inside, out, np.nan)
+
+    def __init__(self, table: Table):
+        r_axis, w_axis = table.axes
+        self.nr, self.nw = len(r_axis), len(w_axis)
+        self.r0 = float(r_axis[0])
+        self.inv_dr = (self.nr - 1) / float(r_axis[-1] - r_axis[0])
+        dw = np.diff(w_axis)
+        if w_axis[0] != 0.0:
+            raise ValueError("the w axis must start at 0")
+        change = np.nonzero(~np.isclose(dw, dw[0], rtol=1e-6, atol=0))[0]
+        n_fine = int(change[0]) if change.size else self.nw - 1
+        rest = dw[n_fine:]
+        if (not np.allclose(np.diff(r_axis), 1 / self.inv_dr, rtol=1e-6, atol=0)
+                or (rest.size and not np.allclose(rest, rest[0], rtol=1e-6, atol=0))):
+            raise ValueError("a propagation table needs uniform axes (w in two segments)")
+        self.inv_fine = 1.0 / float(dw[0])
+        self.inv_coarse = 1.0 / float(rest[0]) if rest.size else self.inv_fine
+        self.w_low = float(w_axis[n_fine])
+        self.n_fine = n_fine
+        self.max_height = float(table.inputs.get("max_height_m", np.inf))
+        v = np.asarray(table.values, dtype=np.float32)
+        self.flat = np.where(np.isnan(v), _SENTINEL, v).ravel()
+
+    def __call__(self, range_m: np.ndarray, height_m: np.ndarray) -> np.ndarray:
+        r, h = np.broadcast_arrays(np.asarray(range_m, dtype=float),
+                                   np.asarray(height_m, dtype=float))
+        shape = r.shape
+        r = r.ravel()
+        h = h.ravel()
+        out = np.empty(r.size)
+        # blocks of LOOKUP_BLOCK points: the temporaries stay in cache and below the size at
+        # which malloc maps fresh pages for each of them (2600 page faults per 1e5 points)
+        for s in range(0, r.size, LOOKUP_BLOCK):
+            self._block(r[s:s + LOOKUP_BLOCK], h[s:s + LOOKUP_BLOCK], out[s:s + LOOKUP_BLOCK])
+        return out.reshape(shape)
+
+    def _block(self, r: np.ndarray, h: np.ndarray, out: np.ndarray) -> None:
+        x = r - self.r0
+        x *= self.inv_dr
+        # index along w: two uniform segments in one expression (no branch per point); at
+        # R = 0, w is inf or NaN and the point is outside
+        with np.errstate(divide="ignore", invalid="ignore"):
+            w = h / r
+            y = w - self.w_low
+            np.maximum(y, 0.0, out=y)
+            y *= self.inv_coarse - self.inv_fine
+            w *= self.inv_fine
+            y += w
+        eps = 1e-9  # index rounding: a point on the last node is on that node
+        inside = x >= -eps
+        inside &= x <= self.nr - 1 + eps
+        inside &= h >= 0.0
+        inside &= h <= self.max_height
+        inside &= y <= self.nw - 1 + eps
+        outside = ~inside
+        x[outside] = 0.0
+        y[outside] = 0.0
+        np.clip(x, 0.0, self.nr - 1, out=x)
+        np.clip(y, 0.0, self.nw - 1, out=y)
+        i = x.astype(np.intp)
+        np.minimum(i, self.nr - 2, out=i)
+        j = y.astype(np.intp)
+        np.minimum(j, self.nw - 2, out=j)
+        x -= i  # now the weight of the upper range node
+        y -= j  # and of the upper w node
+        i *= self.nw
+        i += j  # flat index of the lower-left corner
+        f = self.flat
+        lo = f.take(i) * (1.0 - y)
+        lo += f.take(i + 1) * y
+        i += self.nw
+        hi = f.take(i) * (1.0 - y)
+        hi += f.take(i + 1) * y
+        hi *= x
+        lo *= 1.0 - x
+        np.add(lo, hi, out=out)
+        outside |= out < 0.0
+        out[outside] = np.nan
+
+
+#: Points per block of :meth:`PropagationLookup.__call__` (64 KiB float64 temporaries).
+LOOKUP_BLOCK = 8192
+
+
+_LOOKUPS: dict[int, tuple[weakref.ref, PropagationLookup]] = {}
+
+
+def _lookup_for(table: Table) -> PropagationLookup:
+    """The (cached) lookup of a table; the cache entry dies with the table."""
+    entry = _LOOKUPS.get(id(table))
+    if entry is not None and entry[0]() is table:
+        return entry[1]
+    lookup = PropagationLookup(table)
+    key = id(table)
+    _LOOKUPS[key] = (weakref.ref(table, lambda _ref: _LOOKUPS.pop(key, None)), lookup)
+    return lookup
+
+
+def propagation_factor(table: Table, range_m: np.ndarray, height_m: np.ndarray) -> np.ndarray:
+    """Linear F at terrestrial ranges [m] and heights [m] from a propagation table.
+
+    Bilinear interpolation on the table's (range, h / R) grid by :class:`PropagationLookup`
+    (built once per table and cached); O(1) per point.  NaN outside the table's domain and
+    where the table holds NaN (steep angles): the caller falls back to
+    :func:`sensors.propagation.two_ray_factor` and counts it.
+    """
+    if table.axis_names[1] == "height_m":  # a plain (range, height) table
+        return table.lookup(*np.broadcast_arrays(np.asarray(range_m, float),
+                                                 np.asarray(height_m, float)))
+    return _lookup_for(table)(range_m, height_m)

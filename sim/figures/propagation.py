@@ -4,7 +4,7 @@ Fig. 4 when given several duct heights) and the range-height coverage diagram of
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import matplotlib
@@ -86,13 +86,25 @@ def plot_factor_vs_range(
                  f"target {target_height_m:g} m")
     ax.legend(fontsize=8)
     fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path)
     plt.close(fig)
     return path
 
 
-def plot_coverage(path: str | os.PathLike[str], table: Table) -> Path:
-    """Range-height coverage diagram: F [dB] of a propagation table, NaN (fallback) in grey.
+def plot_table_factor_vs_range(
+    path: str | os.PathLike[str],
+    table: Table,
+    *,
+    height_m: float = 10.0,
+    wave_height_m: float | None = None,
+    elevation_pattern: Callable[[np.ndarray], np.ndarray] | None = None,
+    n_points: int = 3000,
+) -> Path:
+    """F [dB] against range at one height as the on-line model sees it: the PE table, and
+    the two-ray fallback where the table has no value (steep angles, outside its domain).
+
+    The standard-atmosphere two-ray factor is drawn dashed for comparison.
 
     Parameters
     ----------
@@ -100,26 +112,104 @@ def plot_coverage(path: str | os.PathLike[str], table: Table) -> Path:
         Output PNG.
     table : Table
         A table from :func:`tables.propagation.build_propagation_table`.
+    height_m : float
+        Target height [m].
+    wave_height_m : float, optional
+        Significant wave height [m] of the two-ray curves; default the table's.
+    elevation_pattern : callable, optional
+        The pattern the table was built with (absolute elevation [rad] -> field factor), for
+        the two-ray curves; None: isotropic.
+    n_points : int
+        Number of ranges drawn.
     """
     path = Path(path)
-    ranges, heights = table.axes
-    # at most ~1000 x 1000 pixels: decimate for drawing only
-    si = max(1, len(ranges) // 1000)
-    sj = max(1, len(heights) // 1000)
-    img = _db(np.asarray(table.values[::si, ::sj], dtype=float)).T
-    fig, ax = plt.subplots(figsize=(8, 4.5), dpi=110)
-    ax.set_facecolor("0.85")
-    mesh = ax.pcolormesh(ranges[::si] / 1e3, heights[::sj], np.ma.masked_invalid(img),
-                         cmap="viridis", vmin=FLOOR_DB, vmax=10, shading="auto")
-    fig.colorbar(mesh, ax=ax, label="F [dB]")
-    ax.set_xlabel("terrestrial range [km]")
-    ax.set_ylabel("height [m]")
     inputs = table.inputs
-    ax.set_title(f"{inputs.get('freq_hz', float('nan')) / 1e9:g} GHz "
-                 f"{inputs.get('polarization', '')}P, antenna "
-                 f"{inputs.get('antenna_height_m', float('nan')):g} m, "
-                 f"profile {inputs.get('profile', {}).get('kind', '?')}")
+    r_axis = table.axes[0]
+    r = np.linspace(r_axis[0], r_axis[-1], n_points)
+    h = np.full_like(r, float(height_m))
+    f_table = tp.propagation_factor(table, r, h)
+    wave = inputs.get("wave_height_m", 0.0) if wave_height_m is None else wave_height_m
+    f_two_ray = prop.two_ray_factor(r, inputs["antenna_height_m"], h, inputs["freq_hz"],
+                                    inputs["polarization"], wave_height_m=wave,
+                                    elevation_pattern=elevation_pattern)
+    fallback = ~np.isfinite(f_table)
+    fig, ax = plt.subplots(figsize=(7.5, 4.5), dpi=110)
+    ax.plot(r / 1e3, _db(np.where(fallback, np.nan, f_table)), lw=1.0, color="C0",
+            label=f"PE table ({_profile_label(inputs.get('profile', {}))})")
+    if np.any(fallback):
+        ax.plot(r / 1e3, _db(np.where(fallback, f_two_ray, np.nan)), lw=1.0, color="C3",
+                label="two-ray fallback (outside the table)")
+    ax.plot(r / 1e3, _db(f_two_ray), "k--", lw=0.7, alpha=0.7,
+            label="two-ray, standard atmosphere")
+    ax.set_xlabel("terrestrial range [km]")
+    ax.set_ylabel("propagation factor F [dB]")
+    ax.set_ylim(FLOOR_DB, 12)
+    ax.grid(alpha=0.3)
+    ax.set_title(f"{inputs['freq_hz'] / 1e9:g} GHz {inputs['polarization']}P, antenna "
+                 f"{inputs['antenna_height_m']:g} m, target {height_m:g} m")
+    ax.legend(fontsize=8)
     fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path)
     plt.close(fig)
     return path
+
+
+def plot_coverage(
+    path: str | os.PathLike[str],
+    table: Table,
+    *,
+    max_height_m: float | None = None,
+    n_ranges: int = 900,
+    n_heights: int = 600,
+) -> Path:
+    """Range-height coverage diagram: F [dB] of a propagation table, grey where the table has
+    no value (there the on-line model uses the two-ray fallback).
+
+    The picture is the table's own lookup (:func:`tables.propagation.propagation_factor`) on
+    a regular range-height grid, i.e. exactly what the on-line model reads.
+
+    Parameters
+    ----------
+    path : path-like
+        Output PNG.
+    table : Table
+        A table from :func:`tables.propagation.build_propagation_table`.
+    max_height_m : float, optional
+        Top of the diagram [m]; default the table's maximum height.
+    n_ranges, n_heights : int
+        Pixels of the diagram.
+    """
+    path = Path(path)
+    inputs = table.inputs
+    r_axis = table.axes[0]
+    top = float(inputs.get("max_height_m", 1000.0)) if max_height_m is None else max_height_m
+    ranges = np.linspace(r_axis[0], r_axis[-1], n_ranges)
+    heights = np.linspace(0.0, top, n_heights)
+    f = tp.propagation_factor(table, ranges[None, :], heights[:, None])
+    fig, ax = plt.subplots(figsize=(8, 4.5), dpi=110)
+    ax.set_facecolor("0.85")
+    mesh = ax.pcolormesh(ranges / 1e3, heights, np.ma.masked_invalid(_db(f)),
+                         cmap="viridis", vmin=-50.0, vmax=10, shading="auto")
+    fig.colorbar(mesh, ax=ax, label="F [dB]")
+    ax.set_xlabel("terrestrial range [km]")
+    ax.set_ylabel("height [m]")
+    ax.set_title(f"{inputs.get('freq_hz', float('nan')) / 1e9:g} GHz "
+                 f"{inputs.get('polarization', '')}P, antenna "
+                 f"{inputs.get('antenna_height_m', float('nan')):g} m, "
+                 f"{_profile_label(inputs.get('profile', {}))}; grey: two-ray fallback",
+                 fontsize=9)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path)
+    plt.close(fig)
+    return path
+
+
+def _profile_label(profile: dict) -> str:
+    kind = profile.get("kind", "?")
+    if kind == "evaporation":
+        return f"evaporation duct {profile.get('duct_height_m', float('nan')):g} m"
+    if kind == "standard":
+        return "standard atmosphere"
+    return f"{kind} M profile"
