@@ -27,6 +27,16 @@ alternative ``pick="best"`` takes the largest I_F over the filters.
 Besides the I_F (``values``, dB), the table carries ``extra["coherent_gain_db"]``: the I_F
 against white noise (``M_c = I``) with the same pick rule, i.e. the limit of the table for
 ``σ_s -> ∞``.
+
+Steep cells.  For one filter the I_F separates, ``I_F = (|H_p(f)|² + εE_p)/(C_p(σ) + εE_p)``:
+the Doppler enters only through the picked filter's response.  Near a null of that response
+(an MTI's blind speed, a sidelobe null between non-overlapping FIR filters) the response is
+logarithmic and no dB interpolation across the cell follows it (the chord reads tens of dB
+low).  The constant-PRF "response" table therefore also stores the picked filter and its
+response at each Doppler node (``picked_filter``, ``signal_db``); where the response changes by
+more than :data:`STEEP_CELL_DB` across a cell, the lookup evaluates every filter's response
+exactly, picks by the same rule, and keeps only the smooth clutter part ``C_p(σ)`` of the picked
+filter from the grid (O(F N) per such point).
 """
 
 from __future__ import annotations
@@ -45,7 +55,7 @@ from sensors import doppler_filters as df
 from tables.store import Table, get_or_build
 
 BUILDER_NAME = "improvement_factor"
-BUILDER_VERSION = 2
+BUILDER_VERSION = 3
 
 #: Processor kinds: none (I_F = 1, no table), MTI canceller, DFT bank, FIR bank, MTI + bank.
 PROCESSORS = ("none", "mti", "dft_bank", "fir_bank", "mti_bank")
@@ -57,6 +67,11 @@ LOG10_SPREAD_MAX = 0.0
 MAX_STAGGER_PERIOD = 128.0
 #: PRFs are made rational at this resolution to find the stagger period [Hz].
 PRF_RESOLUTION_HZ = 1e-3
+#: A Doppler cell over which the picked filter's response changes by more than this is read
+#: with the exact response of that filter (see :func:`improvement_factor_db`) [dB].
+STEEP_CELL_DB = 3.0
+#: Filter responses this close (relative) are a tie of the pick rule [1].
+TIE_RELATIVE = 1e-9
 
 
 @dataclass(frozen=True)
@@ -284,6 +299,8 @@ def _switch_aware_grid(
         "ahead": ahead,
         "behind": behind,
         "crossover": np.broadcast_to(crossover, shape).copy(),
+        "picked_filter": np.broadcast_to(pick.astype(float), shape).copy(),
+        "signal_db": np.broadcast_to(10.0 * np.log10(sig[pick, cols]), shape).copy(),
     }
 
 
@@ -302,9 +319,11 @@ def build_improvement_table(processor: str, **kwargs: Any) -> Table | None:
 
     Extra arrays: ``coherent_gain_db`` (I_F against white noise, the ``σ_s -> ∞`` limit);
     for the "response" pick at constant PRF, ``ahead_db``, ``behind_db`` and ``crossover``
-    locate the jumps of the I_F where the picked filter changes (see
-    :func:`improvement_factor_db`).  Stagger tables and the "best" pick (a maximum of
-    continuous functions, without jumps) have ``crossover = 1``: plain bilinear interpolation.
+    locate the jumps of the I_F where the picked filter changes, and ``picked_filter`` and
+    ``signal_db`` (the picked filter's ``|H|² + εE`` at each Doppler node [dB]) let the lookup
+    read steep cells exactly (see :func:`improvement_factor_db`).  Stagger tables and the
+    "best" pick (a maximum of continuous functions, without jumps) have ``crossover = 1``:
+    plain bilinear interpolation.
     """
     inputs = improvement_table_inputs(processor, **kwargs)
     if inputs is None:
@@ -344,6 +363,9 @@ def build_improvement_table(processor: str, **kwargs: Any) -> Table | None:
         "behind_db": 10.0 * np.log10(grid["behind"]),
         "crossover": grid["crossover"],
     }
+    if "signal_db" in grid:
+        extra["picked_filter"] = grid["picked_filter"]
+        extra["signal_db"] = grid["signal_db"]
     return Table(
         name=BUILDER_NAME,
         version=BUILDER_VERSION,
@@ -441,4 +463,76 @@ def improvement_factor_db(
         data = table.extra[array]
         lo0, hi0, lo1, hi1 = data[i, j], data[i, j + 1], data[i + 1, j], data[i + 1, j + 1]
     out = (1 - tx) * ((1 - ty) * lo0 + ty * hi0) + tx * ((1 - ty) * lo1 + ty * hi1)
+    if array is None and "signal_db" in table.extra:
+        # along a Doppler cell the I_F of one filter changes only through its response, so
+        # |hi - lo| is that response's change: steep cells are read exactly (module docstring)
+        steep = np.atleast_1d(ok & (np.abs(hi0 - lo0) > STEEP_CELL_DB))
+        if np.any(steep):
+            shape = np.shape(out)
+            out = np.array(out, dtype=float).reshape(-1)
+            flat = steep.reshape(-1)
+            node = np.where(left, j, j + 1)
+            d_s, i_s, tx_s, node_s = (
+                np.atleast_1d(a).reshape(-1)[flat] for a in (d, i, tx, node)
+            )
+            node_filter = table.extra["picked_filter"][0, node_s].astype(np.intp)
+            out[flat] = _steep_cells_db(table, d_s, i_s, tx_s, node_filter, out[flat])
+            out = out.reshape(shape)
     return np.where(ok, out, np.nan)
+
+
+_WEIGHTS_CACHE: dict[str, tuple[NDArray, NDArray, float, NDArray]] = {}
+
+
+def _weights_of(table: Table) -> tuple[NDArray, NDArray, float, NDArray]:
+    """A table's processor, cached by table key: weights (F, N), filter energies (F,), the
+    residue ε, and for each filter the first Doppler node where it is picked (-1: none)."""
+    got = _WEIGHTS_CACHE.get(table.key)
+    if got is None:
+        w = processor_weights(table.inputs)
+        picked = table.extra["picked_filter"][0].astype(np.intp)
+        first = np.full(w.shape[0], -1, dtype=np.intp)
+        filters, where = np.unique(picked, return_index=True)
+        first[filters] = where
+        got = (w, np.sum(np.abs(w) ** 2, axis=-1),
+               df.stability_residue(table.inputs["stability_limit_db"]), first)
+        _WEIGHTS_CACHE[table.key] = got
+    return got
+
+
+def _steep_cells_db(
+    table: Table,
+    doppler: NDArray,
+    i: NDArray,
+    tx: NDArray,
+    node_filter: NDArray,
+    fallback: NDArray,
+) -> NDArray:
+    """I_F [dB] in steep Doppler cells: the exact pick and response over the grid's clutter.
+
+    The responses of every filter are evaluated at the target Doppler and the filter is
+    picked by the table's rule (largest response per unit energy, ties to the lowest index);
+    its clutter output C_p(σ) [dB] is ``signal_db - values`` at a Doppler node where the table
+    picked the same filter, interpolated along the spread axis.  A filter the grid never
+    picks (a sidelobe island narrower than a cell) keeps the interpolated ``fallback``.
+    """
+    w, energy, eps, first = _weights_of(table)
+    n = np.arange(w.shape[-1])
+    steer = np.exp(-2j * np.pi * np.mod(doppler[:, None] * n, 1.0))
+    response = np.abs(steer @ np.conj(w).T) ** 2  # (points, filters)
+    # the table's rule on the table's quantity, |H|²/E + ε (adding ε turns rounding-level
+    # responses at a common null, an MTI's blind speed, into ties); ties within rounding
+    # (symmetric points between two filters) go to the filter the table picked at the cell's
+    # node on that side, else to the lowest index, so that grid nodes read back exactly
+    score = response / energy + eps
+    tied = score >= score.max(axis=1, keepdims=True) * (1.0 - TIE_RELATIVE)
+    rows = np.arange(doppler.size)
+    p = np.where(tied[rows, node_filter], node_filter, np.argmax(tied, axis=1))
+    col = first[p]
+    known = col >= 0
+    col = np.where(known, col, 0)
+    v = table.values
+    clutter_db = table.extra["signal_db"][0, col] - ((1 - tx) * v[i, col] + tx * v[i + 1, col])
+    r_p = response[rows, p]
+    exact = 10.0 * np.log10(r_p + eps * energy[p]) - clutter_db
+    return np.where(known, exact, fallback)
