@@ -339,3 +339,21 @@ def test_piecewise_surface_duct_traps_energy():
     assert np.min(db(f_duct[i, in_duct]) - db(f_std[i, in_duct])) > 20.0
     ok = np.isfinite(f_std) & (f_std > 10 ** (-30 / 20))
     assert np.max(np.abs(db(f_pw[ok]) - db(f_std[ok]))) < 0.05
+
+
+def test_domain_reaches_above_the_shadow_boundary():
+    """The PE domain is raised to twice the shadow-boundary height at max range, so that a
+    low requested max_height does not corrupt the diffraction field (5.6 GHz VP, antenna
+    25 m, target 10 m, 40-60 km: with a 100 m domain F was 14 dB off with a false null)."""
+    kw = dict(polarization="V", elevation_pattern=None, profile={"kind": "standard"},
+              max_range_m=60e3, fidelity="coarse", range_step_m=2000.0)
+    r, h, low = tp.solve_pe(5.6e9, 25.0, max_height_m=100.0, **kw)
+    _, h_hi, high = tp.solve_pe(5.6e9, 25.0, max_height_m=400.0, **kw)
+    assert h[-1] < 120.0  # the output still stops at the requested height
+    far = r >= 40e3
+    f_low = np.array([np.interp(10.0, h, row) for row in low[far]])
+    f_high = np.array([np.interp(10.0, h_hi, row) for row in high[far]])
+    assert np.max(np.abs(db(f_low) - db(f_high))) < 1.5
+    # and both follow the smooth-earth diffraction field (ITU-R P.526 first term)
+    ref = p.smooth_earth_diffraction_factor(r[far], 25.0, 10.0, 5.6e9, "V")
+    assert np.max(np.abs(db(f_high) - db(ref))) < 1.5
