@@ -44,7 +44,7 @@ from tables.store import Table, get_or_build
 
 #: Builder name and version (part of the cache key; bump on any change of results).
 TABLE_NAME = "propagation_factor"
-TABLE_VERSION = 2
+TABLE_VERSION = 3
 
 #: Fidelity presets.  max_angle_deg: largest propagation angle carried (the table is NaN
 #: beyond it); nyquist_factor: oversampling of the angular spectrum (Nyquist angle over the
