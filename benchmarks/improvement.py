@@ -4,8 +4,8 @@ For a few processors (including the raid scenario's two): the build time of the 
 each grid resolution, the error of the coarse and standard tables against the fine one and of
 every table against the exact physics, at the same random points (both tables read through the
 on-line lookup; dB), and the on-line lookup cost per 1e5 points (the fast uniform-grid lookup
-and the generic ``Table.lookup``).  Docs: docs/doppler.md and docs/accuracy.md.  Everything is measured
-in-process with ``time.perf_counter``; run ``python benchmarks/improvement.py``.
+and the generic ``Table.lookup``).  Docs: docs/doppler.md and docs/accuracy.md.  Everything
+is measured in-process with ``time.perf_counter``; run ``python benchmarks/improvement.py``.
 """
 
 from __future__ import annotations
