@@ -10,6 +10,8 @@
    (timed by wrapping them) as a share of the run's wall time, and the end-to-end cost (also
    merging, sorting and emitting those plots): the same run with the clutter false alarms
    switched off.
+3. The same two runs with every message encoded (msgpack frames, as a publisher or recorder
+   would send them; no socket).
 Tables are built or loaded before anything is timed.
 """
 
@@ -77,9 +79,25 @@ def _timed(fn, acc: list):
     return wrapper
 
 
-def run_share(scenario, tables, duration: float, clutter_fa: bool = True) -> dict:
-    """One run: wall time, time inside the false-alarm generators, counts."""
-    sim = Simulation(scenario, bus=None, duration_s=duration, tables=tables)
+class _EncodeBus:
+    """Encodes every message as a publisher would (msgpack frames), then drops it."""
+
+    def emit(self, topic, t, payload):
+        from sim import protocol
+
+        protocol.encode(topic, t, payload)
+
+    def flush(self):
+        pass
+
+
+def run_share(scenario, tables, duration: float, clutter_fa: bool = True,
+              encode: bool = False) -> dict:
+    """One run: wall time, time inside the false-alarm generators, counts.
+
+    ``encode``: every message is encoded (the cost of publishing, minus the socket)."""
+    sim = Simulation(scenario, bus=_EncodeBus() if encode else None, duration_s=duration,
+                     tables=tables)
     t_clutter, t_noise = [0.0], [0.0]
     for rp in sim.radars:
         if clutter_fa:
@@ -113,6 +131,9 @@ def main() -> None:
     on = run_share(s, tables, args.duration, True)
     off = run_share(s, tables, args.duration, False)
     end_to_end = (on["wall_s"] - off["wall_s"]) / on["wall_s"]
+    on_enc = run_share(s, tables, args.duration, True, encode=True)
+    off_enc = run_share(s, tables, args.duration, False, encode=True)
+    end_to_end_enc = (on_enc["wall_s"] - off_enc["wall_s"]) / on_enc["wall_s"]
     print(f"scenario {s.name}, {args.duration:g} simulated s")
     for rid, r in rates.items():
         print(f"  {rid}: {r}")
@@ -122,8 +143,14 @@ def main() -> None:
           f"(clutter {100 * on['clutter_generator_s'] / on['wall_s']:.1f} %, "
           f"noise {100 * on['noise_generator_s'] / on['wall_s']:.1f} %); "
           f"end to end (on vs off): {100 * end_to_end:.1f} %")
+    print(f"with every message encoded    : on {on_enc}")
+    print(f"                                off {off_enc}")
+    print(f"generators' share, encoded run: {100 * on_enc['generator_share']:.1f} %; "
+          f"end to end (on vs off): {100 * end_to_end_enc:.1f} %")
     print(json.dumps({"rates": rates, "on": on, "off": off,
-                      "end_to_end_share": round(end_to_end, 4)}))
+                      "end_to_end_share": round(end_to_end, 4), "on_encoded": on_enc,
+                      "off_encoded": off_enc,
+                      "end_to_end_share_encoded": round(end_to_end_enc, 4)}))
 
 
 if __name__ == "__main__":
