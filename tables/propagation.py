@@ -24,6 +24,11 @@ Method (docs/propagation.md has the reasoning and the measured errors)
   phase F -> g(theta) in free space, i.e. F = 1 on the beam peak.
 * Points whose image-ray elevation exceeds ``max_angle`` hold NaN: the PE grid does not carry
   those angles and the on-line model falls back to :func:`sensors.propagation.two_ray_factor`.
+* Domain: at least twice the height of the antenna's shadow boundary at max range
+  (:func:`pe_top_height`), whatever height the caller wants.
+* Table: F on (range, w = h / R) (:func:`table_axes`), where the direct/reflected-ray lobes
+  are straight lines along range, sampled from the PE nodes by windowed-sinc interpolation
+  of the complex field; :func:`propagation_factor` looks it up at (R, h) in O(1).
 """
 
 from __future__ import annotations

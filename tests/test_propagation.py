@@ -142,7 +142,10 @@ def test_fresnel_grazing_normal_and_brewster():
     # the Brewster minimum of |Gamma_V| at 3 GHz lies near 5-6 deg grazing (issue 4)
     grid = np.radians(np.linspace(0.1, 20, 20000))
     gv = np.abs(p.fresnel_reflection(grid, eps, "V"))
-    assert np.degrees(grid[np.argmin(gv)]) == pytest.approx(6.0, abs=1.0)
+    psi_b = np.degrees(grid[np.argmin(gv)])
+    assert 5.0 <= psi_b <= 7.0  # Klein & Swift sea water at 15 degC: 6.33 deg
+    # the pseudo-Brewster angle of a good dielectric, sin psi = 1 / sqrt|eps| (Blake 6.4)
+    assert psi_b == pytest.approx(np.degrees(np.arcsin(1 / np.sqrt(abs(eps)))), abs=0.1)
     # lossless dielectric: Gamma_V = 0 exactly at the Brewster angle, tan(90 - psi) = sqrt(eps)
     psi_b = np.pi / 2 - np.arctan(2.0)
     assert abs(p.fresnel_reflection(psi_b, 4.0 + 0j, "V")) < 1e-12
@@ -170,7 +173,7 @@ def test_specular_point_obeys_fermat():
     for d, h1, h2 in [(10e3, 20.0, 300.0), (30e3, 25.0, 40.0), (5e3, 100.0, 5.0)]:
         d1 = p._reflection_geometry(d, h1, h2, a_e)
 
-        def path(x):
+        def path(x, d=d, h1=h1, h2=h2):
             return p._chord(h1, 0.0, a_e, x / a_e) + p._chord(0.0, h2, a_e, (d - x) / a_e)
 
         best = minimize_scalar(path, bounds=(0, d), method="bounded", options={"xatol": 1e-6})
