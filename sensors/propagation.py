@@ -135,7 +135,9 @@ def evaporation_duct_profile(
     return m0 + EVAPORATION_DUCT_SLOPE * (h - delta * np.log1p(h / z0))
 
 
-def piecewise_profile(heights_m: ArrayLike, m_units: ArrayLike) -> Callable[[ArrayLike], np.ndarray]:
+def piecewise_profile(
+    heights_m: ArrayLike, m_units: ArrayLike
+) -> Callable[[ArrayLike], np.ndarray]:
     """A user-defined piecewise-linear M profile (surface-based or elevated ducts).
 
     Parameters
@@ -203,7 +205,7 @@ def normalize_profile_spec(spec: Mapping[str, Any]) -> dict[str, Any]:
 
 
 def profile_from_spec(spec: Mapping[str, Any]) -> Callable[[ArrayLike], np.ndarray]:
-    """Build the callable M profile [M units] of a description (see :func:`normalize_profile_spec`)."""
+    """Build the callable M profile [M units] of a description (:func:`normalize_profile_spec`)."""
     s = normalize_profile_spec(spec)
     if s["kind"] == "standard":
         return lambda h: standard_profile(h, s["m0"], s["gradient"])
@@ -257,7 +259,8 @@ def _psi_h(zeta: np.ndarray) -> np.ndarray:
     unstable = 2 * np.log((1 + y) / 2)
     zs = np.maximum(zeta, 0.0)
     stable = -(
-        (1 + 2 * zs / 3) ** 1.5 + (2 / 3) * (zs - 5 / 0.35) * np.exp(-0.35 * zs) + (2 / 3) * 5 / 0.35 - 1
+        (1 + 2 * zs / 3) ** 1.5 + (2 / 3) * (zs - 5 / 0.35) * np.exp(-0.35 * zs)
+        + (2 / 3) * 5 / 0.35 - 1
     )
     return np.where(zeta < 0, unstable, stable)
 
@@ -454,7 +457,9 @@ def sea_water_conductivity(temperature_c: ArrayLike, salinity_psu: ArrayLike) ->
     return sigma25 * np.exp(-delta * beta)
 
 
-def fresnel_reflection(grazing_rad: ArrayLike, permittivity: ArrayLike, polarization: str) -> np.ndarray:
+def fresnel_reflection(
+    grazing_rad: ArrayLike, permittivity: ArrayLike, polarization: str
+) -> np.ndarray:
     """Fresnel reflection coefficient of a smooth plane surface (Blake 1986 eq. 6.8-6.9).
 
     ``Gamma_H = (sin psi - sqrt(eps - cos^2 psi)) / (sin psi + sqrt(eps - cos^2 psi))``,
@@ -500,7 +505,10 @@ def rms_wave_height(wave_height_m: ArrayLike) -> np.ndarray:
 
 
 def roughness_factor(
-    grazing_rad: ArrayLike, wave_height_m: ArrayLike, freq_hz: ArrayLike, model: str = "miller-brown"
+    grazing_rad: ArrayLike,
+    wave_height_m: ArrayLike,
+    freq_hz: ArrayLike,
+    model: str = "miller-brown",
 ) -> np.ndarray:
     """Specular scattering (roughness) factor of a Gaussian sea.
 
@@ -654,7 +662,8 @@ def smooth_earth_diffraction_factor(
 
     def g_y(h_m):
         b = beta * 9.575e-3 * beta * f_mhz ** (2 / 3) * a_km ** (-1 / 3) * np.asarray(h_m, float)
-        high = 17.6 * np.sqrt(np.maximum(b - 1.1, 1e-12)) - 5 * np.log10(np.maximum(b - 1.1, 1e-12)) - 8
+        excess = np.maximum(b - 1.1, 1e-12)
+        high = 17.6 * np.sqrt(excess) - 5 * np.log10(excess) - 8
         low = 20 * np.log10(np.maximum(b + 0.1 * b**3, 1e-300))
         return np.maximum(np.where(b > 2, high, low), 2 + 20 * np.log10(k_adm))
 
@@ -673,7 +682,8 @@ def interference_region_limit(
 
     The range at which the grazing angle at the specular point falls to
     ``fock_angles * (2 / (k a_e))^(1/3)`` (Fock's angular scale, below which ray optics
-    fails; default ``INTERFERENCE_LIMIT_FOCK_ANGLES``).  It is found by bisection: psi decreases with range at fixed heights.
+    fails; default ``INTERFERENCE_LIMIT_FOCK_ANGLES``).  It is found by bisection: psi
+    decreases with range at fixed heights.
     0 when a height is 0 (no specular reflection off the line of sight).
 
     Parameters
@@ -785,7 +795,6 @@ def two_ray_factor(
     if np.any(d < 0) or np.any(h1 < 0) or np.any(h2 < 0):
         raise ValueError("range and heights must be >= 0")
     freq = float(freq_hz)
-    lam = sc.c / freq
     eps = sea_water_permittivity(freq) if permittivity is None else complex(permittivity)
     a_e = k_factor * EARTH_RADIUS_M
     d_h = horizon_range(h1, h2, k_factor)
