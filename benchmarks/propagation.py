@@ -15,6 +15,8 @@ Error metrics (all |20 log10(F / F_ref)| in dB, over points where both are defin
   excluded: a null moved by a few centimetres changes F there by tens of dB, and such a
   number says nothing about the table's use (F enters S/N as F^4; -20 dB is already 80 dB
   down).  ``max`` is still taken at the edge of a null and is reported for completeness.
+* ``two-ray fallback vs PE``: the on-line fallback against the PE in a standard
+  atmosphere, by region (rms and p95 where the PE's F > -60 dB).
 * ``lookup mid-way``: the table looked up half-way between its range nodes, at heights on a
   0.3 m grid (arbitrary with respect to the table's nodes), against the PE run with half the
   range step.  Part of that difference is the PE's own range-step error (the PE with step dx
@@ -110,7 +112,34 @@ def lookup_time(table, n=LOOKUP_POINTS, repeats=50):
     return best_wall, best_cpu
 
 
+def fallback_errors(freq_hz: float, pol: str):
+    """The two-ray fallback against the PE in a standard atmosphere (antenna 20 m,
+    isotropic, 0-70 km, 0-200 m), by region, where the PE's F > -60 dB:
+    ``{region: |dF| [dB]}`` for the interference region (grazing angle above 0.7 Fock
+    angles), the intermediate region (interpolated in dB) and the diffraction region."""
+    from sensors import propagation as prop
+
+    r, h, f = tp.solve_pe(freq_hz, ANTENNA_M, polarization=pol, elevation_pattern=None,
+                          profile={"kind": "standard"}, max_range_m=70e3, max_height_m=200.0,
+                          fidelity="standard", range_step_m=250.0, height_step_m=0.5,
+                          progress=False)
+    rr, hh = np.meshgrid(r, h, indexing="ij")
+    f2 = prop.two_ray_factor(rr, ANTENNA_M, hh, freq_hz, pol)
+    ok = np.isfinite(f) & (f > 10 ** (-60 / 20)) & (f2 > 0) & (hh > 0)
+    d_lim = prop.interference_region_limit(ANTENNA_M, hh, freq_hz)
+    d_h = prop.horizon_range(ANTENNA_M, hh)
+    regions = {"interference": rr <= d_lim, "intermediate": (rr > d_lim) & (rr < d_h),
+               "diffraction": rr >= d_h}
+    return {name: np.abs(20 * np.log10(f2[ok & m] / f[ok & m])) for name, m in regions.items()}
+
+
 def main(pols):
+    for freq in (3e9, 10e9):
+        for pol in pols:
+            for name, err in fallback_errors(freq, pol).items():
+                print(f"two-ray fallback vs PE, {freq / 1e9:g} GHz {pol}, {name:12s} "
+                      f"({err.size} points): rms {np.sqrt(np.mean(err**2)):.2f}  "
+                      f"p95 {np.percentile(err, 95):.2f} dB", flush=True)
     for pol in pols:
         reference = None
         for fid in ("fine", "standard", "coarse"):
