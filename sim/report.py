@@ -21,6 +21,8 @@ Figures (each skipped with a note in the index when its inputs or module are mis
   draws (:func:`sim.figures.false_alarms.generated_false_alarms`) over ``fa_scans`` scans —
   the code the engine runs every scan, repeated to get a visible histogram (noise panel from
   500 draws' worth of scans);
+- ``pfac_map.png``: the radar's P_fac map (7.2) as a PPI, and against range the expected
+  false alarms per scan with P_fac upwind, crosswind and downwind (when it has one);
 - ``ppi.png``: one scan of a run (the scan with the most plots, one with a target plot if
   any), plots coloured by origin, full range and zoomed on the sea-clutter false alarms, with
   the targets' tracks (:func:`sim.figures.false_alarms.plot_ppi_by_origin`).
@@ -390,6 +392,18 @@ def build_report(scenario, out_dir: str | os.PathLike = "report", *,
     caption, _ = _fig_false_alarms(out / "false_alarms_range.png", scenario, tables, radar.id,
                                    fa_scans, scenario.seed if seed is None else seed)
     add("false_alarms_range.png", caption)
+    pfac = tables.for_radar(radar.id).pfac
+    if pfac is None:
+        notes.append("P_fac map: the radar has none (sea clutter off, or not of "
+                     "medium-to-high resolution: X = θ_b τ' ≥ 4 °·µs or τ' ≥ 4 µs)")
+    else:
+        from sim.figures.false_alarms import plot_pfac_map
+
+        plot_pfac_map(out / "pfac_map.png", pfac,
+                      wind_from_rad=math.radians(scenario.environment.wind_direction_deg),
+                      title=f"{scenario.name}: {radar.id}")
+        add("pfac_map.png", "Sea-clutter false-alarm probability P_fac per sector (seed 7.2, "
+            "[94]-[96]) and the expected false alarms per scan against range")
     add("ppi.png", _fig_ppi(out / "ppi.png", bus.messages, radar.id, radar.instrumented_range_m,
                             math.radians(scenario.environment.wind_direction_deg)))
     index = _write_index(out, scenario, figures, notes)

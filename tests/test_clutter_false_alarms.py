@@ -470,6 +470,7 @@ def test_figures_write_png(tmp_path, table_cache):
         clutter_extent_m,
         generated_false_alarms,
         plot_false_alarm_histograms,
+        plot_pfac_map,
         plot_ppi_by_origin,
     )
 
@@ -492,7 +493,10 @@ def test_figures_write_png(tmp_path, table_cache):
                             fa_["azimuth_rad"][first], fa_["origin"][first],
                             max_range_m=fa_["max_range_m"], zoom_range_m=zoom,
                             tracks=[(np.array([0.1, 0.2]), np.array([5e3, 6e3]))])
-    for p in (p1, p2, p3):
+    p4 = plot_pfac_map(tmp_path / "pfac.png", pfac_table(s), wind_from_rad=0.0)
+    calm = pfac_table(clutter_scene(env={"sea_state": 0, "wind_speed_mps": 0.0}))
+    p5 = plot_pfac_map(tmp_path / "pfac0.png", calm)  # all zero: still a figure
+    for p in (p1, p2, p3, p4, p5):
         assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 

@@ -42,9 +42,10 @@ def test_report_writes_every_listed_figure(tmp_path, scene):
          "looks": 10, "detections": 9, "pd": 0.9, "ci_lo": 0.6, "ci_hi": 0.98}])
     res = build_report(scene, tmp_path, duration_s=30.0, fa_scans=20)
     names = [f["file"] for f in res["figures"]]
-    # always drawn: model P_d, false alarms, PPI, I_F (the scene has an FIR bank)
+    # always drawn: model P_d, false alarms, PPI; I_F (the scene has an FIR bank), σ0* and
+    # the P_fac map (clutter on, 1.8° × 0.25 µs: medium/high resolution)
     for required in ("pd_range.png", "false_alarms_range.png", "ppi.png",
-                     "improvement_doppler.png"):
+                     "improvement_doppler.png", "pfac_map.png", "sigma0_range.png"):
         assert required in names
     assert len(names) == len(set(names))
     index = (tmp_path / "index.html").read_text()

@@ -1,9 +1,10 @@
 """False-alarm figures (PNG, matplotlib Agg): the seed's Fig. 8 (histograms against range of
-noise-induced and sea-clutter-induced false alarms) and a PPI of one scan's plots by origin.
+noise-induced and sea-clutter-induced false alarms), a PPI of one scan's plots by origin and
+the P_fac map of 7.2.
 
 Both take plain arrays (from a run's truth and plot topics, or from the generators of
 :mod:`sensors.false_alarms`); :func:`generated_false_alarms` draws them for a scenario without
-running the engine.  ``python -m sim.figures.false_alarms SCENARIO.yaml OUTDIR`` writes both.
+running the engine.  ``python -m sim.figures.false_alarms SCENARIO.yaml OUTDIR`` writes all three.
 """
 
 from __future__ import annotations
@@ -161,6 +162,82 @@ def plot_ppi_by_origin(
     return path
 
 
+def plot_pfac_map(
+    path: str | os.PathLike[str],
+    table,
+    *,
+    wind_from_rad: float | None = None,
+    title: str = "",
+) -> Path:
+    """The P_fac map of seed 7.2: a PPI of P_fac per sector (log colour scale) out to the last
+    range holding any, and against range the expected false alarms per scan and km (summed
+    over azimuth) with P_fac upwind, crosswind and downwind.
+
+    Parameters
+    ----------
+    path : path-like
+        Output PNG.
+    table : tables.store.Table
+        A P_fac map (:func:`tables.pfac.build_pfac_map`).
+    wind_from_rad : float, optional
+        Direction the wind blows from [rad] (picks the upwind/downwind columns).
+    title : str, optional
+    """
+    from matplotlib.colors import LogNorm
+
+    from tables.pfac import sector_edges
+
+    path = Path(path)
+    p = np.asarray(table.values, dtype=float)
+    eta = np.asarray(table.extra["expected_count"], dtype=float)
+    r_c, az_c = table.axes
+    r_e, az_e = sector_edges(table)
+    rows = np.nonzero(p.max(axis=1) > 0.0)[0]
+    fig = plt.figure(figsize=(12, 5.5), dpi=110)
+    ax = fig.add_subplot(1, 2, 1, projection="polar")
+    ax.set_theta_zero_location("N")
+    ax.set_theta_direction(-1)
+    ax2 = fig.add_subplot(1, 2, 2)
+    if rows.size == 0:
+        ax.set_title("P_fac = 0 everywhere", fontsize=9)
+    else:
+        n = rows[-1] + 1
+        pos = p[:n][p[:n] > 0.0]
+        mesh = ax.pcolormesh(az_e, r_e[:n + 1] / 1e3, np.ma.masked_less_equal(p[:n], 0.0),
+                             norm=LogNorm(vmin=max(pos.min(), pos.max() * 1e-4),
+                                          vmax=pos.max()), shading="flat", cmap="viridis")
+        fig.colorbar(mesh, ax=ax, shrink=0.8, label="P_fac per cell")
+        ax.set_title(f"P_fac map, range in km (Σ η = {eta.sum():.4g} per scan)", fontsize=9)
+        dr_km = (r_e[1] - r_e[0]) / 1e3
+        ax2.plot(r_c[:n] / 1e3, eta[:n].sum(axis=1) / dr_km, color=ORIGIN_COLOURS[2],
+                 label="expected false alarms per scan and km")
+        ax2.set_xlabel("ground range [km]")
+        ax2.set_ylabel("false alarms per scan per km")
+        ax2.grid(alpha=0.3)
+        ax3 = ax2.twinx()
+        w = 0.0 if wind_from_rad is None else wind_from_rad
+        for off, name, ls in ((0.0, "upwind", "-"), (0.5 * np.pi, "crosswind", "--"),
+                              (np.pi, "downwind", ":")):
+            j = int(np.argmin(np.abs(np.angle(np.exp(1j * (az_c - w - off))))))
+            ax3.semilogy(r_c[:n] / 1e3, np.where(p[:n, j] > 0, p[:n, j], np.nan), "k",
+                         ls=ls, lw=0.9, label=f"P_fac {name}")
+        ax3.set_ylabel("P_fac per cell")
+        h1, l1 = ax2.get_legend_handles_labels()
+        h2, l2 = ax3.get_legend_handles_labels()
+        ax2.legend(h1 + h2, l1 + l2, fontsize=8)
+        if wind_from_rad is not None:
+            r_top = r_e[n] / 1e3
+            ax.annotate("", xy=(wind_from_rad, 0.15 * r_top),
+                        xytext=(wind_from_rad, 0.95 * r_top),
+                        arrowprops={"arrowstyle": "->", "color": "w"})
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+    return path
+
+
 def generated_false_alarms(scenario, radar_id: str | None = None, scans: int = 20,
                            seed: int = 0, min_noise: int = 0,
                            tables=None) -> dict[str, np.ndarray]:
@@ -274,6 +351,12 @@ def main(argv: list[str] | None = None) -> int:
         wind_from_rad=fa["wind_from_rad"])
     print(p1)
     print(p2)
+    from tables.scene import load_scene_tables
+
+    pfac = load_scene_tables(scenario).for_radar(fa["radar_id"]).pfac
+    if pfac is not None:
+        print(plot_pfac_map(out / "pfac_map.png", pfac, wind_from_rad=fa["wind_from_rad"],
+                            title=f"{scenario.name}: {fa['radar_id']}"))
     return 0
 
 
