@@ -397,7 +397,7 @@ class DwellModel:
         return si, code
 
     def process_targets(self, geom, rows, t, tpos, rng: np.random.Generator, *,
-                        antenna_en=None, jam_geom=None) -> dict:
+                        antenna_en=None, jam_geom=None, jam_power_w=None, batch=None) -> dict:
         """Plots of the targets ``rows`` crossed by the beam at times ``t`` [s].
 
         ``geom`` is their :class:`sim.kinematics.Geometry`, ``tpos`` their origin-frame
@@ -405,6 +405,11 @@ class DwellModel:
         each crossing (N, 2) [m] (default: the origin).  Returns the plot columns of the
         detected contacts, the truth links, and the counts ``missed``, ``merged`` and
         ``fallbacks``.
+
+        ``jam_power_w`` (N,) [W], when given, replaces the jamming computed from ``jam_geom``
+        (the engine computes it per revolution when it processes several at once), and
+        ``batch`` (N,) integers keep targets of different batches (revolutions) from ever
+        being merged as unresolved; contacts come out ordered by batch.
         """
         sigma = self.cross_section(rows, geom.los_enu, geom.velocity_enu)
         f, fallbacks = self.propagation_factor(geom.ground_range, tpos[:, 2], geom.elevation)
@@ -417,9 +422,10 @@ class DwellModel:
         clutter_w = np.zeros(n) if clutter is None else clutter["power_w"]
         improvement = np.ones(n) if clutter is None else clutter["improvement"]
         dist_loss = np.ones(n) if clutter is None else clutter["distribution_loss"]
-        jam_w = self.jamming_power(geom.azimuth, jam_geom)
+        jam_w = (self.jamming_power(geom.azimuth, jam_geom) if jam_power_w is None
+                 else np.asarray(jam_power_w, dtype=float))
         # unresolved targets (2.2.1): one contact per range cell, beam and Doppler filter
-        group, n_groups = self._resolution_groups(geom, clutter)
+        group, n_groups = self._resolution_groups(geom, clutter, batch)
         p_sum = np.bincount(group, weights=p_r, minlength=n_groups)
         lead = _argmax_by_group(group, p_r, n_groups)
         si, code = self.signal_to_interference(
@@ -461,13 +467,14 @@ class DwellModel:
             "target": rows[lead[sel]].astype(np.int32),
             "contrib_offsets": c_off,
             "contrib_targets": rows[order[gather]].astype(np.int32),
+            **({} if batch is None else {"batch": np.asarray(batch)[lead[sel]]}),
             "missed": int(n_groups - sel.size),
             "merged": int(n - n_groups),
             "fallbacks": fallbacks,
         }
 
-    def _resolution_groups(self, geom, clutter):
-        """Group index of each target: same range cell, same beam, same Doppler filter."""
+    def _resolution_groups(self, geom, clutter, batch=None):
+        """Group index of each target: same batch, range cell, beam and Doppler filter."""
         n = geom.slant_range.size
         if n == 1:
             return np.zeros(1, dtype=np.int64), 1
@@ -480,6 +487,8 @@ class DwellModel:
         n_ac = int(ac.max()) + 1
         n_fc = int(fc.max()) + 1
         keys = (rc * n_ac + ac) * n_fc + fc
+        if batch is not None:
+            keys = np.asarray(batch, dtype=np.int64) * (int(keys.max()) + 1) + keys
         _, group = np.unique(keys, return_inverse=True)
         group = group.ravel().astype(np.int64)
         return group, int(group.max()) + 1

@@ -1,13 +1,17 @@
-"""The SimPy engine: one process per radar, rotating its antenna and processing sectors.
+"""The SimPy engine: one process per radar, rotating its antenna and publishing sectors.
 
-Each antenna revolution is cut into ``fidelity.sectors_per_scan`` sectors.  At the end of a
-sector the process (1) solves, for every target, the exact time at which the rotating beam
-crosses it (moving ship and moving targets, :func:`sim.kinematics.beam_crossing_times`),
-(2) hands the targets crossed in that sector to the dwell model, which computes S/I, P_d and
-the noisy contacts, (3) adds the noise and sea-clutter false alarms whose azimuths fall in the
-sector, timed when the beam sweeps them, and (4) publishes one columnar plot frame and one
-truth frame.  The end of each revolution publishes an end-of-scan frame with the antenna's
-position and heading, and the sensor metadata again for late joiners.
+Each antenna revolution is cut into ``fidelity.sectors_per_scan`` sectors.  Ahead of the
+beam, a block of revolutions (:data:`_BLOCK_S` of simulated time, at least one revolution) is
+computed at once: (1) for every target and revolution, the exact time at which the rotating
+beam crosses it (moving ship and moving targets, :func:`sim.kinematics.beam_crossing_times`),
+(2) the dwell model on every crossing of the block in one vectorized call (S/I, P_d, noisy
+contacts; targets of different revolutions are never merged), (3) the noise and sea-clutter
+false alarms of each revolution, timed when the beam sweeps their azimuths.  The process
+then advances sector by sector and, at the end of each sector, publishes one columnar plot
+frame and one truth frame holding exactly the plots the beam made in that sector.  The end
+of each revolution publishes an end-of-scan frame with the antenna's position and heading,
+and the sensor metadata again for late joiners.  Computing ahead changes no time and no
+frame boundary of the stream, only the order of the random draws.
 
 Fast mode uses :class:`simpy.Environment`, real-time mode :class:`simpy.rt.RealtimeEnvironment`;
 the process code is the same in both (STYLE: SimPy's ``rt`` only overrides ``step()``).
@@ -192,6 +196,9 @@ class _RadarProcess:
         self._plan_lo = self._plan_hi = np.zeros(0)
         self.target_ids = [t.id for t in sim.scenario.targets]
         self._eos_cache: dict[float, tuple[float, float]] = {}
+        # revolutions computed ahead (see _compute_block), consumed one per scan
+        self._block: list[dict] = []
+        self.scans_per_block = max(1, int(_BLOCK_S // radar.scan_period_s))
 
     # ------------------------------------------------------------------ helpers
     def beam_azimuth(self, t: float) -> float:
@@ -236,8 +243,9 @@ class _RadarProcess:
             if sector == 0:
                 if scan > 0:
                     self._emit_meta(t_a, scan)
-                t_end = min(t_a + self.radar.scan_period_s, sim.duration)
-                self._scan = self._compute_scan(t_a, t_end)
+                if not self._block:
+                    self._block = self._compute_block(scan)
+                self._scan = self._block.pop(0)
                 self._cursor = 0
             t_b = min((k + 1) * self.sector_s, sim.duration)
             yield env.timeout(t_b - env.now)
@@ -300,19 +308,34 @@ class _RadarProcess:
         self._plan_lo = np.where(fast, t_scan - 1e-6, lo)
         self._plan_hi = np.where(fast, t_scan + 2.0 * period, hi)
 
-    def _dwell(self, rows: np.ndarray, tc: np.ndarray, t_a: float, t_b: float) -> list[dict]:
-        """Run the dwell model on the targets crossed at times ``tc``; update the counters."""
+    def _dwell(self, rows: np.ndarray, tc: np.ndarray, scan_of: np.ndarray,
+               bounds: list[tuple[float, float]]) -> dict | None:
+        """Run the dwell model on the targets crossed at times ``tc``; update the counters.
+
+        ``scan_of`` is the index in ``bounds`` (the [start, end) of each revolution of the
+        block) of each crossing; targets of different revolutions are never merged, and each
+        revolution sees the stand-off jammers where they are at its middle.
+        """
         sim = self.sim
         geom, active, tpos = self.geometry(tc, rows)
         ppos, _ = self.platform_state(tc)
         ok = active & (geom.ground_range <= self.radar.instrumented_range_m)
         ok &= geom.slant_range > 0.0
         if not ok.any():
-            return []
+            return None
         idx = np.flatnonzero(ok)
+        geom, scan_of = _take(geom, idx), scan_of[idx]
+        jam_w = None
+        if sim.jammers.n:
+            jam_w = np.zeros(idx.size)
+            for j, (t_a, t_b) in enumerate(bounds):
+                sel = scan_of == j
+                if sel.any():
+                    jam_w[sel] = self.model.jamming_power(
+                        geom.azimuth[sel], self.jammer_geometry(0.5 * (t_a + t_b)))
         res = self.model.process_targets(
-            _take(geom, idx), rows[idx], tc[idx], tpos[idx], self.rng,
-            antenna_en=ppos[idx, :2], jam_geom=self.jammer_geometry(0.5 * (t_a + t_b)))
+            geom, rows[idx], tc[idx], tpos[idx], self.rng,
+            antenna_en=ppos[idx, :2], jam_power_w=jam_w, batch=scan_of)
         sim.stats.dwells += idx.size
         sim.stats.missed_detections += res.pop("missed")
         sim.stats.merged_targets += res.pop("merged")
@@ -322,7 +345,7 @@ class _RadarProcess:
         for code, name in enumerate(self.model.INTERFERENCE_NAMES):
             sim.stats.by_interference[name] += int(np.count_nonzero(res["interference"] == code))
         res["origin"] = np.full(nplots, ORIGIN_TARGET, dtype=np.uint8)
-        return [res]
+        return res
 
     def _scan_false_alarms(self, t_scan: float, t_end: float) -> dict | None:
         """Noise-induced false alarms of one revolution ([90]-[93]), uniform in R and θ,
@@ -338,40 +361,78 @@ class _RadarProcess:
         self.sim.stats.noise_false_alarms += int(keep.sum())
         return plots
 
-    def _compute_scan(self, t_scan: float, t_end: float) -> dict:
-        """Every plot of one revolution, sorted by time (emitted sector by sector).
+    def _compute_block(self, scan0: int) -> list[dict]:
+        """Every plot of the next revolutions from ``scan0``, one dict per revolution, each
+        sorted by time (emitted sector by sector).
 
-        The beam-crossing times of all targets are solved together, the dwell model runs
-        once on every target crossed, and the false alarms of the revolution are drawn: the
-        on-line level is vectorized per scan, while the plots still leave at the end of the
-        sector in which the beam made them.
+        The on-line level is vectorized over a block of revolutions (:data:`_BLOCK_S` of
+        simulated time, at least one): the beam-crossing times of every target in every
+        revolution are solved together and the dwell model runs once on all of them; the
+        false alarms are drawn revolution by revolution.  The plots still leave at the end of
+        the sector in which the beam made them, so the stream is the same whatever the block
+        (only the order of the random draws depends on it).
         """
         sim = self.sim
-        parts = []
+        period = self.radar.scan_period_s
+        bounds = []
+        for j in range(self.scans_per_block):
+            t_a = (scan0 + j) * self.n_sectors * self.sector_s
+            if t_a >= sim.duration:
+                break
+            bounds.append((t_a, min(t_a + period, sim.duration)))
+        # beam crossings of every (revolution, target) pair, solved at once
+        rows_all, start_all, beam_all, scan_all = [], [], [], []
         if sim.targets.n:
-            self._plan_scan(t_scan)
-            rows = self._plan_rows
-            if rows.size:
-                def az_at(t, rows=rows):
-                    tpos, _, _ = sim.targets.state(t, rows)
-                    ppos, _ = self.platform_state(t)
-                    return antenna_azimuth(ppos, tpos, sim.frame)[0]
+            for j, (t_a, _) in enumerate(bounds):
+                self._plan_scan(t_a)
+                rows = self._plan_rows
+                rows_all.append(rows)
+                # the search starts a hair before the revolution, and a revolution owns the
+                # crossings in [start - ε, end - ε): a crossing on the boundary between two
+                # revolutions (a target on the start azimuth) is found once, by the later one
+                start_all.append(np.full(rows.size, t_a - _CROSSING_EPS_S))
+                beam_all.append(np.full(rows.size, self.beam_azimuth(t_a)
+                                        - self.omega * _CROSSING_EPS_S))
+                scan_all.append(np.full(rows.size, j, dtype=np.int64))
+        target_part = None
+        if rows_all and sum(r.size for r in rows_all):
+            rows = np.concatenate(rows_all)
+            t_start = np.concatenate(start_all)
+            scan_of = np.concatenate(scan_all)
 
-                tc = beam_crossing_times(az_at, t_scan, self.beam_azimuth(t_scan), self.omega,
-                                         rows.size)
-                sel = (tc >= t_scan) & (tc < t_end)
-                if sel.any():
-                    parts.extend(self._dwell(rows[sel], tc[sel], t_scan, t_end))
-        noise_fa = self._scan_false_alarms(t_scan, t_end)
-        if noise_fa is not None:
-            parts.append(noise_fa)
-        clutter = self.model.clutter_false_alarms(t_scan, t_end, self.beam_azimuth(t_scan),
-                                                  self.omega, self.rng)
-        if clutter is not None and clutter["range_m"].size:
-            clutter["origin"] = np.full(clutter["range_m"].size, ORIGIN_SEA_CLUTTER, np.uint8)
-            sim.stats.clutter_false_alarms += clutter["range_m"].size
-            parts.append(clutter)
-        return _merge_parts(parts)
+            def az_at(t, rows=rows):
+                tpos, _, _ = sim.targets.state(t, rows)
+                ppos, _ = self.platform_state(t)
+                return antenna_azimuth(ppos, tpos, sim.frame)[0]
+
+            tc = beam_crossing_times(az_at, t_start, np.concatenate(beam_all), self.omega,
+                                     rows.size)
+            t_end = np.array([b for _, b in bounds])[scan_of]
+            last = t_end >= sim.duration  # the run's end: nothing comes after it
+            sel = (tc >= t_start) & ((tc < t_end - _CROSSING_EPS_S) | (last & (tc < t_end)))
+            if sel.any():
+                target_part = self._dwell(rows[sel], tc[sel], scan_of[sel], bounds)
+        # split the contacts by revolution (they come out ordered by revolution)
+        if target_part is not None:
+            batch = target_part.pop("batch")
+            edges = np.searchsorted(batch, np.arange(len(bounds) + 1), side="left").tolist()
+        out = []
+        for j, (t_a, t_b) in enumerate(bounds):
+            parts = []
+            if target_part is not None and edges[j + 1] > edges[j]:
+                parts.append(_slice_plots(target_part, edges[j], edges[j + 1]))
+            noise_fa = self._scan_false_alarms(t_a, t_b)
+            if noise_fa is not None:
+                parts.append(noise_fa)
+            clutter = self.model.clutter_false_alarms(t_a, t_b, self.beam_azimuth(t_a),
+                                                      self.omega, self.rng)
+            if clutter is not None and clutter["range_m"].size:
+                clutter["origin"] = np.full(clutter["range_m"].size, ORIGIN_SEA_CLUTTER,
+                                            np.uint8)
+                sim.stats.clutter_false_alarms += clutter["range_m"].size
+                parts.append(clutter)
+            out.append(_merge_parts(parts))
+        return out
 
     def _emit_sector(self, t_a: float, t_b: float, scan: int, last: bool) -> None:
         """Publish the plots (and their truth) whose times fall in the sector [t_a, t_b)."""
@@ -459,6 +520,10 @@ class _RadarProcess:
             sim.bus.flush()
 
 
+#: Margin of the beam-crossing search at the boundary between two revolutions [s].
+_CROSSING_EPS_S = 1e-6
+#: Simulated time whose revolutions are computed together [s] (at least one revolution).
+_BLOCK_S = 8.0
 #: Ends of scan whose platform latitude/longitude are converted together.
 _EOS_BATCH = 256
 
@@ -503,6 +568,15 @@ def _merge_parts(parts: list[dict]) -> dict:
                                               - np.repeat(new_off[:-1], c_sorted))
     out.update(origin=origin[order], target=target[order].astype(np.int32),
                contrib_offsets=new_off, contrib_targets=pool[gather].astype(np.int32))
+    return out
+
+
+def _slice_plots(part: dict, i0: int, i1: int) -> dict:
+    """Plots ``i0:i1`` of a batch, with their contributors."""
+    off = part["contrib_offsets"]
+    out = {c: part[c][i0:i1] for c in (*PLOT_COLUMNS, "origin", "target")}
+    out["contrib_offsets"] = off[i0:i1 + 1] - off[i0]
+    out["contrib_targets"] = part["contrib_targets"][off[i0]:off[i1]]
     return out
 
 

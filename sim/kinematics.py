@@ -349,12 +349,12 @@ def beam_crossing_times(
     Parameters
     ----------
     azimuth_at : callable(t (N,) [s]) -> (N,) true-north azimuth from the antenna [rad]
-    t_start : start of the search [s]
-    beam_azimuth_start : beam azimuth at ``t_start`` [rad]
+    t_start : start of the search [s], one for all objects or one per object
+    beam_azimuth_start : beam azimuth at ``t_start`` [rad], scalar or one per object
     rate_rad_s : rotation rate ω > 0 [rad/s]
     n : number of objects
     """
-    t0 = np.full(n, float(t_start))
+    t0 = np.array(np.broadcast_to(np.asarray(t_start, dtype=float), (n,)))
     t = t0 + np.mod(azimuth_at(t0) - beam_azimuth_start, TWO_PI) / rate_rad_s
     for _ in range(iterations):
         beam = beam_azimuth_start + rate_rad_s * (t - t_start)
