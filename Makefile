@@ -8,6 +8,7 @@ OUT ?= out
 
 ENDPOINT ?= tcp://127.0.0.1:5556
 SERVE_ARGS ?= --realtime 1
+TAIL_ARGS ?=
 
 .PHONY: install demo test bench lint clean tables serve tail
 
@@ -31,7 +32,7 @@ serve: $(STAMP)
 	$(VENV)/bin/shipradar run $(DEMO) --publish $(ENDPOINT) $(SERVE_ARGS)
 
 tail: $(STAMP)
-	$(VENV)/bin/shipradar tail $(ENDPOINT)
+	$(VENV)/bin/shipradar tail $(ENDPOINT) $(TAIL_ARGS)
 
 test: $(STAMP)
 	MPLBACKEND=Agg $(PY) -m pytest -q
