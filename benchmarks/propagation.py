@@ -25,6 +25,7 @@ Error metrics (all |20 log10(F / F_ref)| in dB, over points where both are defin
 
 from __future__ import annotations
 
+import resource
 import sys
 import time
 import tracemalloc
@@ -170,3 +171,4 @@ def main(pols):
 
 if __name__ == "__main__":
     main(sys.argv[1:] or ["H", "V"])
+    print(f"process peak RSS: {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**10:.0f} MiB")
