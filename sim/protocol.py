@@ -388,12 +388,13 @@ def encode(topic: bytes, t_sim: float, payload: Mapping[str, Any]) -> list[bytes
         append(_packed_key(key) if packed_key is None else packed_key)
         if type(value) is np.ndarray:
             head = _COLUMN_HEADS.get(value.dtype) if value.ndim == 1 else None
-            if head is not None and value.flags.c_contiguous:
-                # the usual column: 1-d, little-endian, contiguous (same bytes as below)
+            if head is not None:
+                # the usual column: 1-d, already little-endian (same bytes as encode_array;
+                # tobytes gives the elements in order whatever the strides)
                 data = value.tobytes()
                 append(_ext_header(16 + len(data)))
                 append(head)
-                append(_U64.pack(value.shape[0]))
+                append(_U64.pack(len(value)))
                 append(data)
                 continue
             data = encode_array(value)

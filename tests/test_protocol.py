@@ -364,6 +364,10 @@ def test_fast_encoder_matches_msgpack_for_every_extension_size(n):
     payload.update({f"k{i}": i for i in range(16)})  # 21 keys: a map 16 header
     assert encode(TOPIC_PLOTS, 1.5, payload) == protocol._encode_reference(
         TOPIC_PLOTS, 1.5, payload)
+    strided = {"every_other": np.arange(2 * n + 1, dtype=np.float64)[::2],
+               "reversed": np.arange(n, dtype=np.int32)[::-1], "big_endian": np.ones(n, ">f8")}
+    assert encode(TOPIC_PLOTS, 1.5, strided) == protocol._encode_reference(
+        TOPIC_PLOTS, 1.5, strided)
     small = {"x": np.array(1.0), "y": np.array(True), "s": "text", "b": b"\x00\x01"}
     assert encode(TOPIC_EOS, 0.0, small) == protocol._encode_reference(TOPIC_EOS, 0.0, small)
 
