@@ -210,3 +210,23 @@ def test_sea_clutter_false_alarms_per_scan_agree_with_pfac_map(studies):
     lo, hi = mc.poisson_interval(k, scans, confidence=0.999)
     assert lo <= expected <= hi
     assert float(rows["sea_clutter"]["ci_lo"]) <= k / scans <= float(rows["sea_clutter"]["ci_hi"])
+
+
+def test_cli_existing_scheduler(tmp_path, capsys):
+    """``--scheduler ADDRESS``: the study runs on an existing cluster (here an in-process one
+    with a thread worker) and leaves it running."""
+    import json
+
+    from distributed import Client, LocalCluster
+
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                      dashboard_address=None) as cluster:
+        out = tmp_path / "remote.csv"
+        assert mc.cli_main([str(ROOT / "scenarios" / "single_missile.yaml"), "--runs", "2",
+                            "--duration", "5", "--out", str(out), "--no-progress",
+                            "--scheduler", cluster.scheduler_address]) == 0
+        summary = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+        assert summary["runs"] == 2 and summary["n_workers"] == 1
+        with Client(cluster.scheduler_address) as client:  # still up
+            assert len(client.scheduler_info()["workers"]) == 1
+    assert len(_read(out)) == 2
