@@ -24,7 +24,7 @@ Method (docs/propagation.md has the reasoning and the measured errors)
   phase F -> g(theta) in free space, i.e. F = 1 on the beam peak.
 * Points whose image-ray elevation exceeds ``max_angle`` hold NaN: the PE grid does not carry
   those angles and the on-line model falls back to :func:`sensors.propagation.two_ray_factor`.
-* Domain: at least twice the height of the antenna's shadow boundary at max range
+* Domain: at least 2.5 times the height of the antenna's shadow boundary at max range
   (:func:`pe_top_height`), whatever height the caller wants.
 * Table: F on (range, w = h / R) (:func:`table_axes`), where the direct/reflected-ray lobes
   are straight lines along range, sampled from the PE nodes by windowed-sinc interpolation
@@ -49,7 +49,7 @@ from tables.store import Table, get_or_build
 
 #: Builder name and version (part of the cache key; bump on any change of results).
 TABLE_NAME = "propagation_factor"
-TABLE_VERSION = 3
+TABLE_VERSION = 4
 
 #: Fidelity presets.  max_angle_deg: largest propagation angle carried (the table is NaN
 #: beyond it); nyquist_factor: oversampling of the angular spectrum (Nyquist angle over the
@@ -156,8 +156,9 @@ def pe_top_height(max_height_m: float, max_range_m: float, antenna_height_m: flo
 
     The field that diffracts into the shadow comes from just above its boundary: with the
     absorber at 1.1 times that height, F at 10 m, 50-60 km (5.6 GHz, antenna 25 m) was 14 dB
-    off and had a false null; at 2 times, within 0.6 dB of the converged field (measured,
-    docs/propagation.md).  The cost grows with it: (R - sqrt(2 a_e h_a))^2 / a_e.
+    off and had a false null; at 2 times up to 1 dB off, at 2.5 times within 0.2 dB of the
+    converged field (5 times) (measured, docs/propagation.md).  The cost grows with it:
+    (R - sqrt(2 a_e h_a))^2 / a_e.
     """
     a_e = prop.STANDARD_K_FACTOR * prop.EARTH_RADIUS_M
     beyond = max(max_range_m - np.sqrt(2 * a_e * antenna_height_m), 0.0)
@@ -165,7 +166,7 @@ def pe_top_height(max_height_m: float, max_range_m: float, antenna_height_m: flo
 
 
 #: The PE domain reaches at least this many times the shadow-boundary height at max range.
-SHADOW_MARGIN = 2.0
+SHADOW_MARGIN = 2.5
 
 
 def _absorber_step(domain_m: float, max_angle_rad: float) -> float:

@@ -342,7 +342,7 @@ def test_piecewise_surface_duct_traps_energy():
 
 
 def test_domain_reaches_above_the_shadow_boundary():
-    """The PE domain is raised to twice the shadow-boundary height at max range, so that a
+    """The PE domain is raised to 2.5 times the shadow-boundary height at max range, so a
     low requested max_height does not corrupt the diffraction field (5.6 GHz VP, antenna
     25 m, target 10 m, 40-60 km: with a 100 m domain F was 14 dB off with a false null)."""
     kw = dict(polarization="V", elevation_pattern=None, profile={"kind": "standard"},
@@ -353,7 +353,7 @@ def test_domain_reaches_above_the_shadow_boundary():
     far = r >= 40e3
     f_low = np.array([np.interp(10.0, h, row) for row in low[far]])
     f_high = np.array([np.interp(10.0, h_hi, row) for row in high[far]])
-    assert np.max(np.abs(db(f_low) - db(f_high))) < 1.5
+    assert np.max(np.abs(db(f_low) - db(f_high))) < 0.3  # measured 0.08 dB
     # and both follow the smooth-earth diffraction field (ITU-R P.526 first term)
     ref = p.smooth_earth_diffraction_factor(r[far], 25.0, 10.0, 5.6e9, "V")
-    assert np.max(np.abs(db(f_high) - db(ref))) < 1.5
+    assert np.max(np.abs(db(f_high) - db(ref))) < 1.0  # measured 0.55 dB
