@@ -193,7 +193,6 @@ class _RadarProcess:
         self._scan = _merge_parts([])
         self._cursor = 0
         self._plan_rows = np.zeros(0, dtype=int)
-        self._plan_lo = self._plan_hi = np.zeros(0)
         self.target_ids = [t.id for t in sim.scenario.targets]
         self._eos_cache: dict[float, tuple[float, float]] = {}
         # revolutions computed ahead (see _compute_block), consumed one per scan
@@ -275,13 +274,11 @@ class _RadarProcess:
         self.sim.emit(protocol.TOPIC_META, t, payload)
 
     def _plan_scan(self, t_scan: float) -> None:
-        """Bracket, once per revolution, when the beam can meet each target.
+        """The targets the beam may meet in the revolution starting at ``t_scan``.
 
-        From the azimuths at scan start and a bound on each target's angular rate (relative
-        horizontal speed over ground range), the crossing lies in
-        [t + ahead/(ω + r), t + ahead/(ω - r)]; a target faster than ω/2 in angle (very
-        close) is kept for the whole scan.  Sectors then solve exactly only for the targets
-        whose bracket overlaps them.
+        Those that exist during the revolution and can be inside the instrumented range at
+        some time of it (ground range at its start minus what the relative horizontal speed
+        covers in one period); the others are not solved for.  Sets ``_plan_rows``.
         """
         sim = self.sim
         period = self.radar.scan_period_s
@@ -289,24 +286,12 @@ class _RadarProcess:
         rows = np.flatnonzero(live)
         self._plan_rows = rows
         if rows.size == 0:
-            self._plan_lo = self._plan_hi = np.zeros(0)
             return
         tpos, tvel, _ = sim.targets.state(t_scan, rows)
         ppos, pvel = self.platform_state(np.full(rows.size, t_scan))
-        az, ground = antenna_azimuth(ppos, tpos, sim.frame)
-        ahead = np.mod(az - self.beam_azimuth(t_scan), TWO_PI)
-        rate = 1.5 * np.hypot(tvel[:, 0] - pvel[:, 0], tvel[:, 1] - pvel[:, 1]) / np.maximum(
-            ground, 1.0)
-        # beyond the instrumented range for the whole scan: nothing to process
+        _, ground = antenna_azimuth(ppos, tpos, sim.frame)
         reach = np.hypot(tvel[:, 0] - pvel[:, 0], tvel[:, 1] - pvel[:, 1]) * period
-        keep = ground <= self.radar.instrumented_range_m + reach
-        rows, ahead, rate = rows[keep], ahead[keep], rate[keep]
-        self._plan_rows = rows
-        fast = rate > 0.5 * self.omega
-        lo = t_scan + ahead / (self.omega + rate) - 1e-6
-        hi = t_scan + ahead / np.maximum(self.omega - rate, 0.5 * self.omega) + 1e-6
-        self._plan_lo = np.where(fast, t_scan - 1e-6, lo)
-        self._plan_hi = np.where(fast, t_scan + 2.0 * period, hi)
+        self._plan_rows = rows[ground <= self.radar.instrumented_range_m + reach]
 
     def _dwell(self, rows: np.ndarray, tc: np.ndarray, scan_of: np.ndarray,
                bounds: list[tuple[float, float]]) -> dict | None:
