@@ -242,3 +242,33 @@ def test_ray_elevation_hand_geometry():
     expected = -20e3 / (2 * atm.EFFECTIVE_EARTH_RADIUS_M)
     assert atm.ray_elevation_rad(20e3, 0.0, 0.0) == pytest.approx(expected, rel=1e-6)
     assert atm.ray_elevation_rad(0.0, 10.0, 10.0) == 0.0
+
+
+def test_per_plot_path_never_calls_itur(table_cache, monkeypatch):
+    # [16] per plot is a table lookup plus the rain chord: once the scene's grid and its rain
+    # γ_r (P.838) exist, no ITU-R model may run (SPEC §4 item 20, issue 3 item 3).
+    import itur.models.itu838 as itu838
+    import itur.models.itu840 as itu840
+
+    ranges = np.linspace(0.0, 100e3, 21)
+    els = np.deg2rad(np.linspace(-1.0, 10.0, 12))
+    table = atm.atmospheric_loss_grid(F_HZ, ranges, els, fog_lwc_g_m3=0.1, fog_top_m=100.0)
+    gamma_r = atm.rain_specific_attenuation_db_per_km(F_HZ, 10.0, "H")
+
+    def forbidden(*args, **kwargs):
+        raise AssertionError("an ITU-R model was called per plot")
+
+    for module in (itu676, itu838, itu840):
+        for name in dir(module):
+            if not name.startswith("_") and callable(getattr(module, name)):
+                monkeypatch.setattr(module, name, forbidden)
+    rng = np.random.default_rng(3)
+    r = rng.uniform(1e3, 120e3, 1000)
+    el = rng.uniform(-0.01, 0.2, 1000)
+    loss = atm.lookup_gas_fog_loss_db(table, r, el)
+    targets = np.column_stack([r, np.zeros_like(r)])
+    chord = atm.rain_path_length_m(
+        np.zeros(2), targets, 20.0, 100.0, np.array([30e3, 0.0]), 10e3, 3e3
+    )
+    loss = loss + atm.rain_loss_db(gamma_r, chord)
+    assert np.all(np.isfinite(loss)) and np.all(loss >= 0.0)
