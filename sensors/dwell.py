@@ -360,6 +360,10 @@ class DwellModel:
 
         prf = self.radar.prf_hz
         i_f_db = improvement_factor_db(self.tables.improvement, spread / prf, (fd - mean) / prf)
+        # the same filter's gain against white noise: what thermal noise gets through the
+        # processor while the clutter filters are on (the I_F table's sigma -> inf limit)
+        cg_db = improvement_factor_db(self.tables.improvement, spread / prf, (fd - mean) / prf,
+                                      array="coherent_gain_db")
         l_d = np.ones(n)
         if self._sea_reader is not None and self.high_resolution:
             d_mm = sea_clutter.median_mean_difference_db(a)
@@ -370,29 +374,45 @@ class DwellModel:
             "improvement": noise.power_ratio(i_f_db),
             "distribution_loss": l_d,
             "spread_mps": spread * self.wavelength / 2.0,
+            "doppler_mean_hz": mean,
+            "coherent_gain": noise.power_ratio(cg_db),
         }
 
     def _inside_rain(self, tpos):
-        """1 where a target's position is inside the rain volume, else 0."""
+        """1 where a target's range-azimuth cell is inside the rain region, else 0.
+
+        The weather clutter of [40] fills the cell's beam from the surface up to
+        d_h = min(h_cloud, R_c φ_b) [43] whatever the target's own height, so only the
+        horizontal position decides (seed 4.1.4: "only inside the rain region").
+        """
         rain = self.scenario.environment.rain
         if rain is None:
             return np.zeros(tpos.shape[0])
-        below = tpos[:, 2] <= rain.cloud_base_m
         if rain.region is None:
-            return below.astype(float)
+            return np.ones(tpos.shape[0])
         d = np.hypot(tpos[:, 0] - rain.region.east_m, tpos[:, 1] - rain.region.north_m)
-        return (below & (d <= rain.region.radius_m)).astype(float)
+        return (d <= rain.region.radius_m).astype(float)
 
     # ------------------------------------------------------------------ dwell
-    def signal_to_interference(self, p_r, clutter_w, jam_w, improvement, dist_loss):
-        """Per-pulse S/I [linear] and the dominant interference code [66]-[67]."""
+    def signal_to_interference(self, p_r, clutter_w, jam_w, improvement, dist_loss,
+                               coherent_gain=1.0):
+        """Per-pulse S/I [linear] and the dominant interference code [66]-[67].
+
+        Clutter dominant: [67] gives the clutter residue after the processor, S/C G_p; the
+        noise (and jamming) that passes the same filter, with its coherent gain against white
+        noise, is added to it: S/I = 1 / (1/(S/C G_p ...) + 1/(S/N CG ...)).  Without this a
+        target in clutter with I_F = 60 dB would read 60 dB above the same target in noise
+        just outside the clutter; the sum keeps S/I below the filter's noise limit.
+        """
         n = self.n0
         code = np.where(jam_w > 2.0 * (clutter_w + n), JAMMING,
                         np.where(clutter_w >= 0.5 * n, CLUTTER, NOISE)).astype(np.uint8)
         noise_like = p_r / ((n + jam_w) * self.l_x * self.l_cfar)
         # [67]: L_B is a loss (divides), as its name and Blake's 1.6 dB say
-        clutter_si = (p_r / (np.maximum(clutter_w, _DB_FLOOR) * self.l_c)
+        residue_si = (p_r / (np.maximum(clutter_w, _DB_FLOOR) * self.l_c)
                       * improvement / dist_loss / (self.l_cfar * self.l_cd * self.l_b))
+        noise_after = noise_like * coherent_gain
+        clutter_si = residue_si * noise_after / np.maximum(residue_si + noise_after, _DB_FLOOR)
         si = np.where(code == CLUTTER, clutter_si, noise_like)
         return si, code
 
@@ -422,6 +442,7 @@ class DwellModel:
         clutter_w = np.zeros(n) if clutter is None else clutter["power_w"]
         improvement = np.ones(n) if clutter is None else clutter["improvement"]
         dist_loss = np.ones(n) if clutter is None else clutter["distribution_loss"]
+        coherent_gain = np.ones(n) if clutter is None else clutter["coherent_gain"]
         jam_w = (self.jamming_power(geom.azimuth, jam_geom) if jam_power_w is None
                  else np.asarray(jam_power_w, dtype=float))
         # unresolved targets (2.2.1): one contact per range cell, beam and Doppler filter
@@ -429,7 +450,8 @@ class DwellModel:
         p_sum = np.bincount(group, weights=p_r, minlength=n_groups)
         lead = _argmax_by_group(group, p_r, n_groups)
         si, code = self.signal_to_interference(
-            p_sum, clutter_w[lead], jam_w[lead], improvement[lead], dist_loss[lead])
+            p_sum, clutter_w[lead], jam_w[lead], improvement[lead], dist_loss[lead],
+            coherent_gain[lead])
         n_e = detection.effective_pulses(
             self.n_pulses, clutter_dominated=code == CLUTTER, **self._pulse_args(clutter, lead))
         si_db = db(si)
@@ -480,7 +502,8 @@ class DwellModel:
             return np.zeros(1, dtype=np.int64), 1
         rc = np.floor(geom.slant_range / self.range_cell).astype(np.int64)
         ac = np.floor(geom.azimuth / self.theta_b).astype(np.int64)
-        fc = self._doppler_filter(geom.radial_velocity)
+        fc = self._doppler_filter(geom.radial_velocity,
+                                  0.0 if clutter is None else clutter["doppler_mean_hz"])
         # One integer per (range cell, azimuth cell, filter), ordered as the triples are
         # lexicographically (all three are >= 0), so the groups are numbered as
         # np.unique(axis=0) would number them, at a fraction of its cost.
@@ -493,14 +516,22 @@ class DwellModel:
         group = group.ravel().astype(np.int64)
         return group, int(group.max()) + 1
 
-    def _doppler_filter(self, radial_velocity):
-        """Doppler filter index of each target (0 for a radar without a filter bank)."""
+    def _doppler_filter(self, radial_velocity, clutter_mean_hz=0.0):
+        """Doppler filter index of each target (0 for a radar without a filter bank).
+
+        The bank has ``n_filters`` filters, by default as many as it has taps: N_c for a DFT
+        or FIR bank, N_c - N_pc behind an N_pc-order canceller (as the I_F table is built,
+        :func:`tables.scene.improvement_kwargs`).  The Doppler is taken relative to the
+        clutter mean, the reference of the I_F table.
+        """
         proc = self.radar.processor
         if proc.type not in ("dft_bank", "fir_bank", "mti_bank"):
             return np.zeros(radial_velocity.shape, dtype=np.int64)
-        fd = -2.0 * radial_velocity / self.wavelength
+        taps = proc.n_coherent - (proc.mti_order if proc.type == "mti_bank" else 0)
+        n_filters = proc.n_filters if proc.n_filters is not None else taps
+        fd = -2.0 * radial_velocity / self.wavelength - clutter_mean_hz
         return np.asarray(
-            doppler_filters.doppler_filter_index(fd, self.radar.prf_hz, proc.n_coherent),
+            doppler_filters.doppler_filter_index(fd, self.radar.prf_hz, n_filters),
             dtype=np.int64)
 
     def _pulse_args(self, clutter, lead):

@@ -1,0 +1,108 @@
+"""The dwell model's S/I assembly [66]-[67], Doppler separation (2.2.1) and rain region."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from sensors.dwell import CLUTTER, JAMMING, NOISE, DwellModel
+from tables.scene import SceneTables
+from tests.helpers import bare_scene, quiet_radar
+
+
+def _model(radar=None, **env):
+    s = bare_scene(radar or quiet_radar(processor={"type": "fir_bank", "n_coherent": 8}))
+    if env:
+        d = s.model_dump(mode="json")
+        d["environment"].update(env)
+        from sim.scenario import parse_scenario
+
+        s = parse_scenario(d)
+    p = s.platforms[0]
+    return DwellModel(s, p, p.radars[0], SceneTables())
+
+
+def test_dominance_rule_is_total_and_as_documented():
+    m = _model()
+    n = m.n0
+    p_r = np.full(5, 1e-12)
+    clutter = np.array([0.0, 0.49 * n, 0.5 * n, 10 * n, 0.0])
+    jam = np.array([0.0, 0.0, 0.0, 0.0, 2.01 * n])
+    si, code = m.signal_to_interference(p_r, clutter, jam, np.ones(5), np.ones(5))
+    assert code.tolist() == [NOISE, NOISE, CLUTTER, CLUTTER, JAMMING]
+    # jamming is noise-like [66]: S/(N+J) with the noise losses
+    assert si[4] == pytest.approx(1e-12 / ((n + jam[4]) * m.l_x * m.l_cfar), rel=1e-12)
+
+
+@settings(max_examples=200, deadline=None)
+@given(c_over_n_db=st.floats(-3.0, 80.0), i_f_db=st.floats(0.0, 120.0),
+       cg_db=st.floats(0.0, 24.0), l_d_db=st.floats(0.0, 10.0))
+def test_clutter_si_is_the_residue_and_the_filtered_noise_summed(c_over_n_db, i_f_db, cg_db,
+                                                                 l_d_db):
+    """Clutter dominant: 1/S/I = 1/(S/C G_p / L...) + 1/(S/N CG / L...), by hand."""
+    m = _model()
+    n = m.n0
+    c = n * 10 ** (c_over_n_db / 10)
+    p_r = 1e-13
+    i_f, cg, l_d = 10 ** (i_f_db / 10), 10 ** (cg_db / 10), 10 ** (l_d_db / 10)
+    si, code = m.signal_to_interference(np.array([p_r]), np.array([c]), np.zeros(1),
+                                        np.array([i_f]), np.array([l_d]), np.array([cg]))
+    if code[0] != CLUTTER:
+        assert c < 0.5 * n
+        return
+    residue = p_r / (c * m.l_c) * (i_f / l_d) / (m.l_cfar * m.l_cd * m.l_b)
+    noise_out = p_r / (n * m.l_x * m.l_cfar) * cg
+    assert si[0] == pytest.approx(1.0 / (1.0 / residue + 1.0 / noise_out), rel=1e-9)
+    # never better than the filter's own noise limit, nor than the clutter residue alone
+    assert si[0] <= noise_out * (1 + 1e-12)
+    assert si[0] <= residue * (1 + 1e-12)
+
+
+def test_strong_filter_cannot_lift_a_target_above_the_noise_limit():
+    """I_F = 60 dB against clutter just above the noise: S/I is the noise's, not +60 dB."""
+    m = _model()
+    n = m.n0
+    p_r = np.array([1e-13])
+    noise_si, _ = m.signal_to_interference(p_r, np.zeros(1), np.zeros(1), np.ones(1), np.ones(1))
+    si, code = m.signal_to_interference(p_r, np.array([2.0 * n]), np.zeros(1), np.array([1e6]),
+                                        np.ones(1), np.array([8.0]))
+    assert code[0] == CLUTTER
+    # a filter of coherent gain 8 (9 dB) gives at most 9 dB over the unfiltered S/N
+    assert 10 * np.log10(si[0] / noise_si[0]) == pytest.approx(10 * np.log10(8.0), abs=0.01)
+
+
+@pytest.mark.parametrize(("ptype", "extra", "n_filters"), [
+    ("dft_bank", {}, 8),
+    ("fir_bank", {"n_filters": 5}, 5),
+    ("mti_bank", {"mti_order": 1}, 7),  # N_c - N_pc taps behind a 1st-order canceller
+    ("mti_bank", {"mti_order": 2}, 6),
+])
+def test_doppler_filters_separate_targets_by_the_bank_size(ptype, extra, n_filters):
+    r = quiet_radar(processor={"type": ptype, "n_coherent": 8, **extra})
+    m = _model(r)
+    prf = r["prf_hz"]
+    # one target at the centre of every filter, relative to a clutter mean of 100 Hz
+    fd = np.arange(n_filters) * prf / n_filters + 100.0
+    v = -fd * m.wavelength / 2.0
+    idx = m._doppler_filter(v, 100.0)
+    assert idx.tolist() == list(range(n_filters))
+    # one more filter's width folds back to filter 0 (Doppler ambiguity)
+    assert m._doppler_filter(np.array([-(prf + 100.0) * m.wavelength / 2]), 100.0)[0] == 0
+
+
+def test_mti_only_radar_never_separates_by_doppler():
+    m = _model(quiet_radar(processor={"type": "mti", "mti_order": 2}))
+    assert set(m._doppler_filter(np.linspace(-300, 300, 7), 0.0)) == {0}
+
+
+def test_rain_cell_decided_by_horizontal_position_only():
+    m = _model(rain={"rate_mm_h": 4.0, "cloud_base_m": 2000.0,
+                     "region": {"east_m": 10e3, "north_m": 0.0, "radius_m": 5e3}})
+    tpos = np.array([[10e3, 0.0, 50.0],      # in the cylinder, low
+                     [12e3, 1e3, 6000.0],    # in the cylinder, above the cloud base
+                     [20e3, 0.0, 50.0]])     # outside
+    assert m._inside_rain(tpos).tolist() == [1.0, 1.0, 0.0]
+    everywhere = _model(rain={"rate_mm_h": 4.0})
+    assert everywhere._inside_rain(tpos).tolist() == [1.0, 1.0, 1.0]
