@@ -68,6 +68,9 @@ _KM = constants.kilo
 # Composite Gauss-Legendre: panel edges at R·[0, 10^-4 ... 1] (geometric), nodes per panel.
 _N_PANELS = 15
 _N_NODES = 8
+#: Segment components below this are treated as zero in the rain chord [m] (a subnormal
+#: climb would overflow 1/d_up; a micrometre changes no path length that matters).
+_SEGMENT_EPS_M = 1.0e-6
 _PANEL_EDGES = np.concatenate(([0.0], np.geomspace(1.0e-4, 1.0, _N_PANELS)))
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(_N_NODES)
 
@@ -617,19 +620,23 @@ def rain_path_length_m(
     qb = np.sum(d_en * rel, axis=-1)
     finite_r = np.isfinite(radius)
     qc = np.sum(rel * rel, axis=-1) - np.where(finite_r, radius, 0.0) ** 2
-    vertical = qa <= 0.0
-    disc = qb * qb - qa * qc
-    root = np.sqrt(np.maximum(disc, 0.0))
+    vertical = qa <= _SEGMENT_EPS_M**2  # no horizontal extent (to rounding)
     qa_safe = np.where(vertical, 1.0, qa)
-    t_in = np.where(vertical, 0.0, (-qb - root) / qa_safe)
-    t_out = np.where(vertical, 1.0, (-qb + root) / qa_safe)
-    hits = np.where(vertical, qc <= 0.0, disc > 0.0)
+    # Roots t0 ± sqrt((r² - d_min²)/A) about the closest approach t0 = -B/A, with d_min
+    # formed directly (B² - A C cancels badly for a long chord tangent to the circle).
+    t0 = -qb / qa_safe
+    closest = rel + t0[..., None] * d_en
+    margin = np.where(finite_r, radius, 0.0) ** 2 - np.sum(closest * closest, axis=-1)
+    half = np.sqrt(np.maximum(margin, 0.0) / qa_safe)
+    t_in = np.where(vertical, 0.0, t0 - half)
+    t_out = np.where(vertical, 1.0, t0 + half)
+    hits = np.where(vertical, qc <= 0.0, margin > 0.0)
     hits = hits | ~finite_r
     t_in = np.where(finite_r, t_in, 0.0)
     t_out = np.where(finite_r, t_out, 1.0)
 
     # Vertical: 0 <= a_up + t d_up <= top.
-    flat = d_up == 0.0
+    flat = np.abs(d_up) <= _SEGMENT_EPS_M  # level path: no 1/d_up overflow
     d_safe = np.where(flat, 1.0, d_up)
     t_sea = (0.0 - a_up) / d_safe
     t_top = (top - a_up) / d_safe

@@ -5,7 +5,7 @@ import time
 import itur.models.itu676 as itu676
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from sensors import atmosphere as atm
@@ -175,6 +175,11 @@ def test_rain_path_vectorized_over_targets():
     radius=st.floats(1.0, 5e4),
     top=st.floats(1.0, 1e4),
 )
+# subnormal climb or horizontal extent: 1/d overflowed before the level-segment guard
+@example(coords=[0.0] * 6, ups=[0.0, 2.225073858507203e-309], radius=1.0, top=1.0)
+@example(coords=[0.0, 0.0, 5e-324, 0.0, 0.0, 0.0], ups=[0.0, 5.0], radius=1.0, top=1.0)
+# a long chord tangent to the cell: B² - AC cancelled (0.1 mm one way, 0 the other)
+@example(coords=[0.0, 1e-5, 0.0, 8398.0, 1.0, 0.0], ups=[0.0, 0.0], radius=1.0, top=1.0)
 def test_rain_path_bounded_and_reversible(coords, ups, radius, top):
     a, b, c = np.array(coords[:2]), np.array(coords[2:4]), np.array(coords[4:])
     length = np.sqrt(np.sum((b - a) ** 2) + (ups[1] - ups[0]) ** 2)
