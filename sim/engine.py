@@ -19,6 +19,7 @@ the process code is the same in both (STYLE: SimPy's ``rt`` only overrides ``ste
 
 from __future__ import annotations
 
+import functools
 import math
 import sys
 import time
@@ -217,7 +218,8 @@ class _RadarProcess:
         return geom, active, tpos
 
     def jammer_geometry(self, t: float):
-        """Geometry from the antenna to every jammer at time ``t`` (None without jammers).
+        """Geometry from the antenna to every jammer at time ``t``, the jammers' positions
+        (M, 3) and the antenna's east/north (2,); None without jammers.
 
         Stand-off jammers move slowly against a sector's duration: one geometry per sector.
         """
@@ -226,8 +228,9 @@ class _RadarProcess:
             return None
         jpos, jvel, _ = jam.state(t)
         ppos, pvel = self.platform_state(np.full(jam.n, t))
-        return antenna_geometry(ppos, pvel, self.radar.antenna_height_m, jpos, jvel,
+        geom = antenna_geometry(ppos, pvel, self.radar.antenna_height_m, jpos, jvel,
                                 self.sim.frame)
+        return geom, jpos, ppos[0, :2]
 
     # ------------------------------------------------------------------ process
     def run(self, env: simpy.Environment):
@@ -254,6 +257,19 @@ class _RadarProcess:
                 self._end_of_scan(t_b, scan)
             k += 1
 
+    @functools.cached_property
+    def _clutter_fa_meta(self) -> dict:
+        """The radar's expected sea-clutter false alarms per scan, total and per 250 m ring
+        (seed 7.2, from its P_fac map), for a tracker's clutter density; {} without a map."""
+        pfac = self.model.tables.pfac
+        if pfac is None:
+            return {}
+        from tables.pfac import clutter_range_profile
+
+        edges, per_scan = clutter_range_profile(pfac)
+        return {"clutter_false_alarms_per_scan": float(per_scan.sum()),
+                "clutter_false_alarm_profile": {"range_edges_m": edges, "per_scan": per_scan}}
+
     def _emit_meta(self, t: float, scan: int) -> None:
         r = self.radar
         payload = {
@@ -265,6 +281,7 @@ class _RadarProcess:
             "sectors_per_scan": self.n_sectors,
             "pfa": self.model.pfa,
             "noise_false_alarms_per_scan": self.model.noise_false_alarms_per_scan,
+            **self._clutter_fa_meta,
             "target_ids": self.target_ids,
             "origin_codes": list(ORIGIN_NAMES),
             "interference_codes": list(self.model.INTERFERENCE_NAMES),
@@ -317,7 +334,7 @@ class _RadarProcess:
                 sel = scan_of == j
                 if sel.any():
                     jam_w[sel] = self.model.jamming_power(
-                        geom.azimuth[sel], self.jammer_geometry(0.5 * (t_a + t_b)))
+                        geom.azimuth[sel], *self.jammer_geometry(0.5 * (t_a + t_b)))
         res = self.model.process_targets(
             geom, rows[idx], tc[idx], tpos[idx], self.rng,
             antenna_en=ppos[idx, :2], jam_power_w=jam_w, batch=scan_of)

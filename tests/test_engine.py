@@ -143,3 +143,25 @@ def test_realtime_mode_runs_the_same_model_paced_by_the_clock():
     assert paced.frames == fast.frames
     assert 0.3 - 0.02 <= wall < 3.0  # 3 simulated s at 10x: 0.3 s, never faster
     assert summary["realtime_factor"] == pytest.approx(10.0, rel=0.5)
+
+
+def test_meta_carries_the_radar_clutter_false_alarm_profile():
+    """A tracker reads the radar's own sea-clutter rate (7.2) from the meta: the P_fac map's
+    Σ η, split in 250 m rings; a radar that draws no clutter false alarms sends no profile."""
+    from tables.scene import load_scene_tables
+    from tests.helpers import example, scenario
+
+    s = scenario(example("single_missile"), atmosphere=False, propagation="free_space")
+    s = s.model_copy(update={"duration_s": 1.0})
+    tables = load_scene_tables(s)
+    bus = CaptureBus()
+    Simulation(s, bus=bus, tables=tables).run()
+    _, meta = bus.of(protocol.TOPIC_META)[0]
+    prof = meta["clutter_false_alarm_profile"]
+    eta = tables.for_radar("giraffe").pfac.extra["expected_count"].sum()
+    assert meta["clutter_false_alarms_per_scan"] == pytest.approx(eta, rel=1e-9)
+    assert prof["per_scan"].sum() == pytest.approx(eta, rel=1e-9)
+    assert np.allclose(np.diff(prof["range_edges_m"]), 250.0)
+    quiet = CaptureBus()
+    Simulation(bare_scene(duration_s=1.0), bus=quiet, tables=SceneTables()).run()
+    assert "clutter_false_alarm_profile" not in quiet.of(protocol.TOPIC_META)[0][1]
