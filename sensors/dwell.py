@@ -254,10 +254,14 @@ class DwellModel:
         self.wave_height = scenario.wave_height
         self._two_ray = _TwoRayFallback(self.radar, self.wave_height, self.elevation_pattern)
 
-    def azimuth_pattern(self, offset_rad):
-        """Azimuth directivity factor g_az (field) at an angle from the beam axis [8]-[13]."""
+    def azimuth_pattern(self, offset_rad, envelope=False):
+        """Azimuth directivity factor g_az (field) at an angle from the beam axis [8]-[13].
+
+        ``envelope``: beyond the first null, the sidelobe peak envelope instead of the sinc.
+        """
         pa = self.radar.pattern_az
-        return antenna.directivity(offset_rad, self.theta_b, pa.type, sidelobe_db=pa.sidelobe_db)
+        return antenna.directivity(offset_rad, self.theta_b, pa.type, sidelobe_db=pa.sidelobe_db,
+                                   envelope=envelope)
 
     # ------------------------------------------------------------------ physics pieces
     def cross_section(self, rows: np.ndarray, los_enu: np.ndarray, vel_enu: np.ndarray):
@@ -316,18 +320,42 @@ class DwellModel:
             loss_db = loss_db + rain_loss_db(self.rain_gamma_db_per_km, length)
         return noise.power_ratio(loss_db)
 
-    def jamming_power(self, beam_azimuth, jam_geom):
-        """Total jamming power P_j [W] at each beam azimuth [47] (0 without jammers)."""
+    def jamming_power(self, beam_azimuth, jam_geom, jam_pos=None, antenna_en=None):
+        """Total jamming power P_j [W] at each beam azimuth [47] (0 without jammers).
+
+        One-way to each jammer: the propagation factor F_j of the scene's model (PE table,
+        two-ray or free space; it holds the elevation pattern, as for targets) at the jammer's
+        height, and the atmospheric loss [16] along the path, computed once per call for the
+        jammers (not per beam position).  The azimuth pattern toward the jammer is the
+        sidelobe envelope beyond the first null ([13]: the seed's constant sidelobe level),
+        so S/J does not swing tens of dB between beam positions in the sinc nulls.
+
+        Parameters
+        ----------
+        beam_azimuth : (N,) beam azimuths [rad, true north]
+        jam_geom : Geometry of the M jammers from the antenna, or None
+        jam_pos : (M, 3) jammer east/north/up in the origin frame [m]; None: F_j from a
+            jammer at the sea surface and no atmospheric loss (unit tests)
+        antenna_en : (2,) the antenna's east/north [m] (rain path); None: the origin
+        """
         if jam_geom is None:
             return np.zeros_like(beam_azimuth)
         off = beam_azimuth[:, None] - jam_geom.azimuth[None, :]
         off = np.mod(off + np.pi, 2.0 * np.pi) - np.pi
-        g_az = self.azimuth_pattern(off)
-        g_el = self.elevation_pattern(jam_geom.elevation)[None, :]
+        g_az = self.azimuth_pattern(off, envelope=True)
+        height = np.zeros(jam_geom.ground_range.shape) if jam_pos is None else jam_pos[:, 2]
+        f_j, _ = self.propagation_factor(jam_geom.ground_range, height, jam_geom.elevation)
+        l_atm = np.ones_like(f_j)
+        if jam_pos is not None:
+            radar_en = np.broadcast_to(np.zeros(2) if antenna_en is None else antenna_en,
+                                       (height.size, 2))
+            l_atm = self.atmospheric_loss(jam_geom.slant_range, jam_geom.elevation, radar_en,
+                                          jam_pos[:, :2], height)
         p = jamming.jammer_power_w(
-            self.jam.power_w[None, :], self.jam.gain[None, :], self.gain, g_az, g_el,
+            self.jam.power_w[None, :], self.jam.gain[None, :], self.gain, g_az, 1.0,
             self.wavelength, jam_geom.slant_range[None, :], self.bandwidth,
-            self.jam.bandwidth_hz[None, :], l_r=self.l_r)
+            self.jam.bandwidth_hz[None, :], f_j=f_j[None, :], l_r=self.l_r,
+            l_atm=l_atm[None, :])
         return p.sum(axis=1)
 
     def clutter_at(self, geom, tpos, antenna_en):

@@ -106,3 +106,81 @@ def test_rain_cell_decided_by_horizontal_position_only():
     assert m._inside_rain(tpos).tolist() == [1.0, 1.0, 0.0]
     everywhere = _model(rain={"rate_mm_h": 4.0})
     assert everywhere._inside_rain(tpos).tolist() == [1.0, 1.0, 1.0]
+
+
+def _jam_scene(propagation, rain=None):
+    from sim.scenario import parse_scenario
+
+    d = bare_scene(quiet_radar(pattern_az={"type": "sinc", "sidelobe_db": 30}),
+                   propagation=propagation).model_dump(mode="json")
+    d["jammers"] = [{"id": "j", "waypoints": [{"east_m": 0.0, "north_m": 40e3,
+                                               "altitude_m": 300.0}],
+                     "power_w": 100.0, "gain_db": 10.0, "bandwidth_hz": 1e8}]
+    if rain:
+        d["environment"]["rain"] = rain
+        d["fidelity"]["atmosphere"] = True
+    s = parse_scenario(d)
+    p = s.platforms[0]
+    if rain:
+        from tables.scene import load_scene_tables
+
+        return s, DwellModel(s, p, p.radars[0], load_scene_tables(s))
+    return s, DwellModel(s, p, p.radars[0], SceneTables())
+
+
+def _jam_geometry(s):
+    from sim.kinematics import LocalFrame, antenna_geometry
+
+    frame = LocalFrame(s.origin)
+    jpos = np.array([[0.0, 40e3, 300.0]])
+    geom = antenna_geometry(np.zeros((1, 3)), np.zeros((1, 3)), 20.0, jpos, np.zeros((1, 3)),
+                            frame)
+    return geom, jpos
+
+
+def test_jamming_is_one_way_propagated_and_attenuated(table_cache):
+    """[47] with F_j² and L_atm toward the jammer: against free space, the two-ray scene
+    scales P_j by (F_j / g_el)², and rain on the path divides it by its one-way loss."""
+    from sensors.propagation import two_ray_factor
+
+    s, free = _jam_scene("free_space")
+    geom, jpos = _jam_geometry(s)
+    beam = np.array([geom.azimuth[0]])  # main beam on the jammer
+    p_free = free.jamming_power(beam, geom, jpos)
+    # hand [47], main beam, isotropic elevation, free space, B/B_j = 1 MHz / 100 MHz
+    lam = free.wavelength
+    hand = (100.0 * 10.0 * free.gain * lam**2 * min(free.bandwidth / 1e8, 1.0)
+            / ((4 * np.pi) ** 2 * geom.slant_range[0] ** 2 * free.l_r))
+    assert p_free[0] == pytest.approx(hand, rel=1e-9)
+
+    _, two = _jam_scene("two_ray")
+    f_j = two_ray_factor(geom.ground_range, np.array([300.0]), two.radar.antenna_height_m,
+                         two.radar.frequency_hz, two.radar.polarization,
+                         wave_height_m=s.wave_height, elevation_pattern=two.elevation_pattern)
+    assert two.jamming_power(beam, geom, jpos)[0] == pytest.approx(
+        p_free[0] * float(f_j[0]) ** 2, rel=1e-6)
+
+    import itur
+
+    _, wet = _jam_scene("free_space", rain={"rate_mm_h": 25.0})
+    ratio_db = 10 * np.log10(p_free[0] / wet.jamming_power(beam, geom, jpos)[0])
+    # rain everywhere below the 3 km cloud base: the whole 40 km path, at P.838's γ_r (HP,
+    # horizontal path), plus a few tenths of a dB of gases (P.676) one way
+    gamma = itur.models.itu838.rain_specific_attenuation(25.0, 5.6, 0.4, 0.0).value
+    assert 0.0 < ratio_db - gamma * geom.slant_range[0] / 1e3 < 0.6
+
+
+def test_jammer_in_a_sinc_null_still_gets_the_sidelobe_level():
+    """Beyond the first null the seed's constant sidelobe level: no null toward the jammer."""
+    s, m = _jam_scene("free_space")
+    geom, jpos = _jam_geometry(s)
+    main = m.jamming_power(np.array([geom.azimuth[0]]), geom, jpos)[0]
+    # the first null of a sinc of 2° beamwidth is near 1.13 θ_b; look across the sidelobes
+    offsets = np.radians(np.linspace(3.0, 60.0, 400))
+    side = m.jamming_power(geom.azimuth[0] + offsets, geom, jpos)
+    rel_db = 10 * np.log10(side / main)
+    # the envelope: S_L = 30 dB down near the first sidelobe, then falling smoothly like the
+    # sinc's 1/x peaks (≈ -56 dB at 60°), never dipping into a null between beam positions
+    assert -31.0 < rel_db[0] < -29.0
+    assert np.all(np.diff(rel_db) <= 1e-9)
+    assert rel_db.min() > -60.0
