@@ -149,7 +149,10 @@ def radar_constants(scenario: Scenario, radar: Radar) -> RadarConstants:
         wavelength=wavelength,
         gain=gain,
         l_tr=l_tr,
-        k_r0=float(noise.radar_constant(radar.peak_power_w, gain, wavelength, l_tr)),
+        # pulse compression (not in the seed, which takes P_t as given): the matched filter
+        # gains τ/τ' on every echo, target or clutter cell, while B_N = 1/τ' [19] sets the noise
+        k_r0=float(noise.radar_constant(radar.peak_power_w * radar.compression_ratio, gain,
+                                        wavelength, l_tr)),
         t_a=t_a,
         t_s=t_s,
         n0=float(noise.noise_power_w(t_s, bandwidth)),

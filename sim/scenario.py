@@ -11,6 +11,7 @@ Symbols of the seed (DREV-R-9429, "list of symbols") are given in each field's d
 from __future__ import annotations
 
 import datetime as dt
+import re
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -163,6 +164,12 @@ class Radar(_Model):
     pulse_width_s: float = Field(
         ge=1.0e-8, le=1.0e-3, description="τ', compressed pulse width [s]"
     )
+    transmitted_pulse_width_s: float | None = Field(
+        None, ge=1.0e-8, le=1.0e-3,
+        description="τ, transmitted (uncompressed) pulse width [s]; None: no pulse compression "
+        "(τ = τ'). The compression gain τ/τ' multiplies the echo power of targets and clutter "
+        "(not noise or jamming); the seed takes P_t as given and has no such input",
+    )
     noise_figure_db: float = Field(ge=0.0, le=20.0, description="N_f, receiver noise figure [dB]")
     loss_tr_db: float = Field(ge=0.0, le=20.0, description="L_t/r, transmit/receive loss [dB]")
     antenna_temperature_k: float | None = Field(
@@ -212,7 +219,20 @@ class Radar(_Model):
             raise ValueError(
                 f"prf_hz * pulse_width_s must be < 0.25 so that N_rc [72] > 2, got {duty:.3g}"
             )
+        tau = self.transmitted_pulse_width_s
+        if tau is not None and tau < self.pulse_width_s:
+            raise ValueError(f"transmitted_pulse_width_s must be >= pulse_width_s "
+                             f"({self.pulse_width_s:g} s), got {tau:g}")
+        if tau is not None and prf * tau >= 0.5:
+            raise ValueError(f"prf_hz * transmitted_pulse_width_s (the duty cycle) must be "
+                             f"< 0.5, got {prf * tau:.3g}")
         return self
+
+    @property
+    def compression_ratio(self) -> float:
+        """Pulse compression ratio τ/τ' [-] (1 without compression)."""
+        tau = self.transmitted_pulse_width_s
+        return 1.0 if tau is None else tau / self.pulse_width_s
 
     @property
     def wavelength_m(self) -> float:
@@ -415,6 +435,13 @@ class Fidelity(_Model):
     )
     clutter: bool = Field(True, description="sea/weather clutter and clutter false alarms")
     atmosphere: bool = Field(True, description="atmospheric attenuation [16]")
+    clutter_fa_model: Literal["seed", "weibull_median"] = Field(
+        "seed",
+        description="sea-clutter false alarms [94]-[95]: 'seed' uses the mean σ0 for the "
+        "median on both sides (P_fac depends on a alone); 'weibull_median' sets the Rayleigh "
+        "CFAR threshold on the mean (Y = σ0 ln(1/P_fa)) and takes the Weibull median from "
+        "[30] (σ_median = σ0 (ln 2)^a / Γ(1+a)): 9-14x lower P_fac at a = 1.5-3",
+    )
 
 
 # --------------------------------------------------------------------------- scenario
@@ -432,6 +459,24 @@ class Scenario(_Model):
     jammers: list[Jammer] = Field(default_factory=list, max_length=64)
     environment: Environment = Environment()
     fidelity: Fidelity = Fidelity()
+
+    @model_validator(mode="after")
+    def _exact_pd_needs_square_law(self) -> Scenario:
+        # the exact Swerling P_d is the square-law detector's with uniform (equal-weight)
+        # non-coherent integration; other laws and integrators are Table I's corrections,
+        # which only the seed method has
+        if self.fidelity.pd_method != "exact":
+            return self
+        for i, p in enumerate(self.platforms):
+            for j, r in enumerate(p.radars):
+                for name, want in (("detector", "square"), ("integrator", "uniform")):
+                    got = getattr(r, name)
+                    if got != want:
+                        raise ValueError(
+                            f"platforms[{i}].radars[{j}].{name}: the exact P_d "
+                            f"(fidelity.pd_method: exact) is for a {want!r} {name}; use "
+                            f"fidelity.pd_method: seed for {got!r}, got {got!r}")
+        return self
 
     @model_validator(mode="after")
     def _unique_ids(self) -> Scenario:
@@ -540,9 +585,18 @@ def _message(err: dict) -> str:
     return f"{err['msg']}, got {_fmt_value(inp)}"
 
 
+#: A whole-scenario check that names its own field path starts its message with it.
+_OWN_PATH = re.compile(r"^[A-Za-z_][\w.\[\]]*: ")
+
+
 def format_validation_error(exc: ValidationError, data: Any) -> list[str]:
     """One line per problem: ``path.to.field: message, got value``."""
-    return [f"{_path(tuple(e['loc']), data)}: {_message(e)}" for e in exc.errors()]
+    lines = []
+    for e in exc.errors():
+        path, message = _path(tuple(e["loc"]), data), _message(e)
+        own = path == "(top level)" and _OWN_PATH.match(message)
+        lines.append(message if own else f"{path}: {message}")
+    return lines
 
 
 def parse_scenario(data: Any) -> Scenario:

@@ -184,3 +184,44 @@ def test_jammer_in_a_sinc_null_still_gets_the_sidelobe_level():
     assert -31.0 < rel_db[0] < -29.0
     assert np.all(np.diff(rel_db) <= 1e-9)
     assert rel_db.min() > -60.0
+
+
+def test_pulse_compression_gains_the_echo_not_the_noise():
+    """τ/τ' multiplies K_R [3] (targets and clutter alike); N0' = k T_s / τ' [19] stays."""
+    from sensors.dwell import radar_constants
+
+    plain = bare_scene(quiet_radar())
+    coded = bare_scene(quiet_radar(transmitted_pulse_width_s=50e-6))  # 50:1 on τ' = 1 µs
+    kp = radar_constants(plain, plain.platforms[0].radars[0])
+    kc = radar_constants(coded, coded.platforms[0].radars[0])
+    assert kc.k_r0 / kp.k_r0 == pytest.approx(50.0, rel=1e-12)
+    assert kc.n0 == kp.n0 and kc.range_cell == kp.range_cell and kc.bandwidth == kp.bandwidth
+
+
+@pytest.mark.parametrize(("radar", "fidelity", "line"), [
+    ({"detector": "log"}, {},
+     "platforms[0].radars[0].detector: the exact P_d (fidelity.pd_method: exact) is for a "
+     "'square' detector; use fidelity.pd_method: seed for 'log', got 'log'"),
+    ({"integrator": "single_loop"}, {},
+     "platforms[0].radars[0].integrator: the exact P_d (fidelity.pd_method: exact) is for a "
+     "'uniform' integrator; use fidelity.pd_method: seed for 'single_loop', got 'single_loop'"),
+    ({"transmitted_pulse_width_s": 5e-7}, {},
+     "platforms[0].radars[0]: transmitted_pulse_width_s must be >= pulse_width_s (1e-06 s), "
+     "got 5e-07"),
+    ({"transmitted_pulse_width_s": 3e-4}, {},
+     "platforms[0].radars[0]: prf_hz * transmitted_pulse_width_s (the duty cycle) must be "
+     "< 0.5, got 0.6"),
+])
+def test_radar_inputs_the_model_cannot_honour_are_refused(radar, fidelity, line):
+    from sim.scenario import ScenarioError
+
+    with pytest.raises(ScenarioError) as err:
+        bare_scene(quiet_radar(**radar), **fidelity)
+    assert err.value.lines == [line]
+
+
+def test_log_detector_runs_with_the_seed_method():
+    s = bare_scene(quiet_radar(detector="log", integrator="single_loop"), pd_method="seed")
+    p = s.platforms[0]
+    m = DwellModel(s, p, p.radars[0], SceneTables())
+    assert m.method == "seed"
