@@ -44,9 +44,25 @@ Sea-clutter-induced false alarms, seed 7.2, [94]-[96]
   size is drawn from the conditional tail, (x/σ0)^(1/a) = (Y/σ0)^(1/a) + E/ln 2 with
   E ~ Exp(1) (exact inverse CDF of [94] given x > Y), and the plot reports the excess over
   the mean clutter, S/I = x/σ0 - 1 (the noise plots' "excess over the mean" convention).
+* **Median-consistent variant** (``model="weibull_median"``, the scenario's
+  ``fidelity.clutter_fa_model``; the default ``"seed"`` is the seed's formula above).  The
+  seed's mean-for-median substitution makes σ0 cancel, so P_fac depends on a alone and is
+  9-14 times what a Weibull sea of mean σ0 gives against a Rayleigh CFAR at a = 1.5-3.  The
+  variant keeps [94] and [95]'s intent and corrects both sides: a cell-averaging CFAR
+  estimates the *mean*, so the threshold that gives P_fa on clutter of skewness a_min and
+  mean σ0 is Y/σ0 = ln(1/P_fa)^a_min / Γ(1+a_min) (= ln(1/P_fa) for Rayleigh, a_min = 1);
+  and [94] uses the cell's true Weibull median, [30] in linear form
+  σ_median/σ0 = (ln 2)^a / Γ(1+a) (:func:`weibull_median_ratio`).  Hence
+  P_fac = exp(-(ln(1/P_fa)^a_min Γ(1+a)/Γ(1+a_min))^(1/a)): P_fa at a = a_min as in the
+  seed, and never above σ0/Y (Markov's inequality: 1/ln(1/P_fa) for a_min = 1), so it
+  rises with a to a maximum (a ≈ 4 at P_fa = 3.6e-8, P_fac = 0.011) and then falls back to
+  0 as a → ∞, whereas the seed's form tends to 1/2.  The same median is used for the
+  spike's S/I and for the HP default P_facmax (the variant at a = 3).
 """
 
 from __future__ import annotations
+
+from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -235,6 +251,62 @@ LN2_DB = float(-10.0 * np.log10(np.log(2.0)))
 HP_DEFAULT_A = 3.0
 #: 7.2: clutter below this many N0' behaves like noise (P_fac = 0).
 NOISE_LIKE_FACTOR = 2.0
+#: The P_fac models of [94]-[95]: the seed's (mean σ0 for the median) and the
+#: median-consistent one (threshold on the mean, median from [30]).
+ClutterFaModel = Literal["seed", "weibull_median"]
+CLUTTER_FA_MODELS: tuple[str, ...] = ("seed", "weibull_median")
+DEFAULT_CLUTTER_FA_MODEL = "seed"
+
+
+def _model_checked(model: str) -> str:
+    if model not in CLUTTER_FA_MODELS:
+        raise ValueError(f"clutter false-alarm model must be one of {CLUTTER_FA_MODELS}, "
+                         f"not {model!r}")
+    return model
+
+
+def log_weibull_median_ratio(a: ArrayLike) -> NDArray[np.float64]:
+    """ln(σ_median/σ0) = a ln(ln 2) - ln Γ(1+a), seed [30] in natural-log linear form.
+
+    Parameters
+    ----------
+    a : array_like
+        Weibull parameter a [-] > 0 (inf allowed: -inf).
+
+    Returns
+    -------
+    ndarray
+        ln of the median-to-mean power ratio [-] (< 0; ln ln 2 at a = 1), finite for
+        finite a: no overflow where (ln 2)^a/Γ(1+a) itself underflows.
+    """
+    a = np.asarray(a, dtype=float)
+    if np.any(~(a > 0.0)):
+        raise ValueError("Weibull parameter a must be > 0")
+    with np.errstate(invalid="ignore"):
+        out = a * np.log(np.log(2.0)) - special.gammaln(1.0 + a)
+    return np.where(np.isinf(a), -np.inf, out)
+
+
+def weibull_median_ratio(a: ArrayLike) -> NDArray[np.float64]:
+    """Median-to-mean power ratio of Weibull clutter, σ_median/σ0 = (ln 2)^a / Γ(1+a), [30].
+
+    [30] in dB is σ0^50 = σ0 - 1.6 a - 10 log10 Γ(1+a) with 1.6 = -10 log10(ln 2); it follows
+    from [94]: if P(x > t) = exp(-ln 2 (t/σ_median)^(1/a)), then x = σ_median (E/ln 2)^a with
+    E ~ Exp(1), whose mean is σ_median Γ(1+a)/(ln 2)^a.
+
+    Parameters
+    ----------
+    a : array_like
+        Weibull parameter a [-] > 0.
+
+    Returns
+    -------
+    ndarray
+        σ_median/σ0 [-] in (0, 1) for a > 0 (ln 2 at a = 1, 0.0555 at a = 3); underflows to 0
+        quietly for very large a.
+    """
+    with np.errstate(under="ignore"):
+        return np.exp(log_weibull_median_ratio(a))
 
 
 def _pfa_checked(pfa: ArrayLike) -> NDArray[np.float64]:
@@ -266,23 +338,37 @@ def clutter_threshold_db(pfa: ArrayLike, a_min: ArrayLike = 1.0) -> NDArray[np.f
         return np.asarray(a_min, dtype=float) * (10.0 * np.log10(lnp) + LN2_DB)
 
 
-def clutter_threshold_ratio(pfa: ArrayLike, a_min: ArrayLike = 1.0) -> NDArray[np.float64]:
-    """Linear threshold ratio Y/σ0 = (ln(1/P_fa)/ln 2)^a_min, seed [95] in linear form.
+def clutter_threshold_ratio(
+    pfa: ArrayLike, a_min: ArrayLike = 1.0, model: ClutterFaModel = DEFAULT_CLUTTER_FA_MODEL
+) -> NDArray[np.float64]:
+    """Linear CFAR threshold over the mean clutter power Y/σ0, seed [95].
 
     Parameters
     ----------
     pfa : array_like
         P_fa [-], in (0, 1].
     a_min : array_like, optional
-        a_min [-].
+        a_min [-] > 0.
+    model : {"seed", "weibull_median"}, optional
+        "seed": [95] in linear form with the mean σ0 standing for the median,
+        Y/σ0 = (ln(1/P_fa)/ln 2)^a_min (10^(:func:`clutter_threshold_db`/10)).
+        "weibull_median": the threshold giving P_fa on clutter of skewness a_min and mean
+        σ0, i.e. [95] over the true median of [30],
+        Y/σ0 = (σ_median(a_min)/σ0) (ln(1/P_fa)/ln 2)^a_min = ln(1/P_fa)^a_min/Γ(1+a_min)
+        (the cell-averaging Rayleigh CFAR, Y = σ0 ln(1/P_fa), for a_min = 1).
 
     Returns
     -------
     ndarray
-        Y/σ0 [-] ≥ 0 (0 at P_fa = 1); 10^(:func:`clutter_threshold_db`/10).
+        Y/σ0 [-] ≥ 0 (0 at P_fa = 1).
     """
     p = _pfa_checked(pfa)
-    return (-np.log(p) / np.log(2.0)) ** np.asarray(a_min, dtype=float)
+    a_min = np.asarray(a_min, dtype=float)
+    if _model_checked(model) == "seed":
+        return (-np.log(p) / np.log(2.0)) ** a_min
+    if np.any(~(a_min > 0.0)):
+        raise ValueError("a_min must be > 0")
+    return (-np.log(p)) ** a_min / special.gamma(1.0 + a_min)
 
 
 def weibull_exceedance(threshold_ratio: ArrayLike, a: ArrayLike) -> NDArray[np.float64]:
@@ -308,6 +394,52 @@ def weibull_exceedance(threshold_ratio: ArrayLike, a: ArrayLike) -> NDArray[np.f
         return np.exp(-np.log(2.0) * y ** (1.0 / a))
 
 
+def weibull_median_exceedance(
+    a: ArrayLike, pfa: ArrayLike, a_min: ArrayLike = 1.0
+) -> NDArray[np.float64]:
+    """[94]-[95] with the true Weibull median: P(x > Y) for clutter of mean σ0 and parameter a.
+
+    The threshold is the one that gives P_fa on clutter of parameter a_min and mean σ0,
+    Y/σ0 = L^a_min/Γ(1+a_min) with L = ln(1/P_fa) (:func:`clutter_threshold_ratio`), and [94]
+    is taken over the cell's median σ_median = σ0 (ln 2)^a/Γ(1+a) ([30]):
+
+        P = exp(-ln 2 (Y/σ_median)^(1/a)) = exp(-(L^a_min Γ(1+a)/Γ(1+a_min))^(1/a)).
+
+    σ0 cancels again, but now from the two true statistics rather than by substitution.
+    Evaluated as exp(-exp((a_min ln L - ln Γ(1+a_min) + ln Γ(1+a))/a)) so that nothing
+    overflows for large a or a_min.
+
+    Parameters
+    ----------
+    a : array_like
+        Weibull parameter of the cell [-] > 0 (inf allowed: the limit).
+    pfa : array_like
+        P_fa [-], in (0, 1].
+    a_min : array_like, optional
+        a_min [-] > 0.
+
+    Returns
+    -------
+    ndarray
+        P in [0, 1]: P_fa at a = a_min; rising with a up to a maximum (a ≈ 4, P = 0.011 at
+        P_fa = 3.6e-8) and falling back to 0 as a → ∞ (Markov: P ≤ σ0/Y); 1 at P_fa = 1
+        (Y = 0).  No cut-off at a ≤ a_min here (:func:`clutter_fa_probability` applies it).
+    """
+    p = _pfa_checked(pfa)
+    a = np.asarray(a, dtype=float)
+    a_min = np.asarray(a_min, dtype=float)
+    if np.any(~(a > 0.0)) or np.any(~(a_min > 0.0)):
+        raise ValueError("weibull_median_exceedance: need a > 0 and a_min > 0")
+    with np.errstate(divide="ignore", over="ignore", under="ignore", invalid="ignore"):
+        ln_l = np.log(-np.log(p))  # -inf at P_fa = 1
+        log_ratio = (a_min * ln_l - special.gammaln(1.0 + a_min)
+                     + special.gammaln(1.0 + a)) / a
+        out = np.exp(-np.exp(log_ratio))
+    # Y = 0 (P_fa = 1): every return exceeds it, whatever a (also a = inf, where the
+    # formula is -inf + inf); otherwise a = inf: Γ(1+a)^(1/a) ~ a/e → ∞, so P → 0
+    return np.where(ln_l == -np.inf, 1.0, np.where(np.isinf(a), 0.0, out))
+
+
 def clutter_fa_probability(
     a: ArrayLike,
     pfa: ArrayLike,
@@ -315,12 +447,22 @@ def clutter_fa_probability(
     k_clutter: ArrayLike = 1.0,
     clutter_power_w: ArrayLike | None = None,
     noise_power_w: ArrayLike | None = None,
+    *,
+    model: ClutterFaModel = DEFAULT_CLUTTER_FA_MODEL,
 ) -> NDArray[np.float64]:
     """Sea-clutter false-alarm probability per cell for VP, seed [94]-[96].
 
     P_fac = P_Weibull(Y_R, a) / K_clutter with Y_R of [95]; 0 where a ≤ a_min or, when the
     powers are given, where P_sc < 2 N0' (seed 7.2: clutter then behaves like noise and the
     CFAR is fully efficient).
+
+    ``model="seed"`` (default): as the seed, the mean σ0 stands for the median on both sides
+    of [94]-[95], P_Weibull = exp(-ln 2 (ln(1/P_fa)/ln 2)^(a_min/a)) (:func:`weibull_exceedance`
+    of :func:`clutter_threshold_ratio`); it tends to 1/2 as a → ∞.
+    ``model="weibull_median"``: threshold on the mean and the true median of [30],
+    P_Weibull = exp(-(ln(1/P_fa)^a_min Γ(1+a)/Γ(1+a_min))^(1/a))
+    (:func:`weibull_median_exceedance`): 8.6 / 11 / 12.6 / 14.4 times less than the seed's at
+    a = 1.5 / 2 / 2.5 / 3 (P_fa = 3.6e-8, a_min = 1).  Both give P_fa at a = a_min.
 
     Parameters
     ----------
@@ -334,6 +476,8 @@ def clutter_fa_probability(
         K_clutter [-] ≥ 1 ([96]).
     clutter_power_w, noise_power_w : array_like, optional
         Mean sea-clutter power P_sc and noise power N0' [W].
+    model : {"seed", "weibull_median"}, optional
+        The [94]-[95] reading (the scenario's ``fidelity.clutter_fa_model``).
 
     Returns
     -------
@@ -347,7 +491,11 @@ def clutter_fa_probability(
     a_min = np.asarray(a_min, dtype=float)
     if np.any(~(a_min > 0.0)):
         raise ValueError("a_min must be > 0")
-    p = weibull_exceedance(clutter_threshold_ratio(pfa, a_min), np.maximum(a, a_min)) / k
+    a_eff = np.maximum(a, a_min)
+    if _model_checked(model) == "seed":
+        p = weibull_exceedance(clutter_threshold_ratio(pfa, a_min), a_eff) / k
+    else:
+        p = weibull_median_exceedance(a_eff, pfa, a_min) / k
     off = a <= a_min
     if clutter_power_w is not None or noise_power_w is not None:
         if clutter_power_w is None or noise_power_w is None:
@@ -357,8 +505,15 @@ def clutter_fa_probability(
     return np.where(off, 0.0, p)
 
 
-def default_p_fac_max(pfa: ArrayLike, a_min: ArrayLike = 1.0) -> NDArray[np.float64]:
+def default_p_fac_max(
+    pfa: ArrayLike, a_min: ArrayLike = 1.0, model: ClutterFaModel = DEFAULT_CLUTTER_FA_MODEL
+) -> NDArray[np.float64]:
     """HP P_facmax taken from VP with a = 3, seed 7.2 ([94]-[95], before K_clutter).
+
+    The seed suggests P_facmax "between 10⁻² and 10⁻³ ... or the probability corresponding
+    to a = 3.0 in VP"; the latter is [94]-[95] at a = 3 under the chosen ``model``: 0.133
+    with the seed's reading, 9.2e-3 with the median-consistent one (P_fa = 3.6e-8), the
+    latter inside the seed's suggested range.
 
     Parameters
     ----------
@@ -366,13 +521,19 @@ def default_p_fac_max(pfa: ArrayLike, a_min: ArrayLike = 1.0) -> NDArray[np.floa
         P_fa [-], in (0, 1].
     a_min : array_like, optional
         a_min [-] (< 3, else P_fac would be 0 in VP: then P_fa is returned).
+    model : {"seed", "weibull_median"}, optional
+        The [94]-[95] reading (:func:`clutter_fa_probability`).
 
     Returns
     -------
     ndarray
-        P_facmax [-] (0.133 at P_fa = 3.6e-8, a_min = 1).
+        P_facmax [-] (0.133, or 9.2e-3 for "weibull_median", at P_fa = 3.6e-8, a_min = 1).
     """
-    p = weibull_exceedance(clutter_threshold_ratio(pfa, a_min), HP_DEFAULT_A)
+    if _model_checked(model) == "seed":
+        p = weibull_exceedance(clutter_threshold_ratio(pfa, a_min), HP_DEFAULT_A)
+    else:
+        a_m = np.minimum(np.asarray(a_min, dtype=float), HP_DEFAULT_A)
+        p = weibull_median_exceedance(HP_DEFAULT_A, pfa, a_m)
     return np.where(np.asarray(a_min, dtype=float) < HP_DEFAULT_A, p, _pfa_checked(pfa))
 
 
@@ -454,12 +615,17 @@ def sector_cells(
 
 
 def spike_excess(
-    threshold_ratio: ArrayLike, a: ArrayLike, rng: np.random.Generator
+    threshold_ratio: ArrayLike,
+    a: ArrayLike,
+    rng: np.random.Generator,
+    model: ClutterFaModel = DEFAULT_CLUTTER_FA_MODEL,
 ) -> NDArray[np.float64]:
     """A clutter return x/σ0 drawn from the Weibull tail of [94] above the threshold Y/σ0.
 
-    Given x > Y, (x/σ0)^(1/a) - (Y/σ0)^(1/a) is exponential with mean 1/ln 2 (the tail of
-    [94] is exp(-ln 2 (x/σ0)^(1/a))), so x/σ0 = ((Y/σ0)^(1/a) + E/ln 2)^a, E ~ Exp(1).
+    Given x > Y, (x/σ_m)^(1/a) - (Y/σ_m)^(1/a) is exponential with mean 1/ln 2 (the tail of
+    [94] is exp(-ln 2 (x/σ_m)^(1/a))), so x/σ_m = ((Y/σ_m)^(1/a) + E/ln 2)^a, E ~ Exp(1).
+    ``model="seed"``: σ_m = σ0 (the seed's substitution).  ``model="weibull_median"``:
+    σ_m = σ0 (ln 2)^a/Γ(1+a) of [30] (:func:`weibull_median_ratio`), evaluated in logs.
 
     Parameters
     ----------
@@ -469,6 +635,8 @@ def spike_excess(
         Weibull parameter [-] > 0, one per draw (broadcast against ``threshold_ratio``).
     rng : numpy.random.Generator
         One standard exponential per draw.
+    model : {"seed", "weibull_median"}, optional
+        Which σ_m [94] is taken over (the model of the threshold ``threshold_ratio``).
 
     Returns
     -------
@@ -480,7 +648,12 @@ def spike_excess(
     if np.any(~(y >= 0.0)) or np.any(~(a > 0.0)):
         raise ValueError("spike_excess: need Y/σ0 >= 0 and a > 0")
     e = rng.standard_exponential(y.shape)
-    return (y ** (1.0 / a) + e / np.log(2.0)) ** a
+    if _model_checked(model) == "seed":
+        return (y ** (1.0 / a) + e / np.log(2.0)) ** a
+    ln_m = log_weibull_median_ratio(a)
+    with np.errstate(divide="ignore", over="ignore", under="ignore"):
+        base = np.exp((np.log(y) - ln_m) / a) + e / np.log(2.0)
+        return np.exp(ln_m + a * np.log(base))
 
 
 class ClutterFalseAlarms:
@@ -506,7 +679,7 @@ class ClutterFalseAlarms:
     weibull_a : array_like
         Weibull parameter of each sector [-] > 0 (for the spike's S/I).
     threshold_ratio : float
-        Y/σ0 of [95] [-] (:func:`clutter_threshold_ratio`).
+        Y/σ0 of [95] [-] (:func:`clutter_threshold_ratio` of the same ``clutter_fa_model``).
     n_channels : int
         N_ch (the Bernoulli limit of [92]).
     n_pulses : float
@@ -519,13 +692,16 @@ class ClutterFalseAlarms:
         Effective earth radius factor (slant range).
     h_range, h_azimuth : float, optional
         H_r, H_θ of [84]-[85].
+    clutter_fa_model : {"seed", "weibull_median"}, optional
+        The [94]-[95] reading of the map (the spike's tail, :func:`spike_excess`).
     """
 
     def __init__(self, r_min_m, r_max_m, az_min_rad, az_max_rad, p_fac, cells, weibull_a, *,
                  threshold_ratio: float, n_channels: int, n_pulses: float, range_cell_m: float,
                  beamwidth_rad: float, antenna_height_m: float,
                  k_factor: float = STANDARD_K_FACTOR,
-                 h_range: float = 4.0, h_azimuth: float = 4.0) -> None:
+                 h_range: float = 4.0, h_azimuth: float = 4.0,
+                 clutter_fa_model: ClutterFaModel = DEFAULT_CLUTTER_FA_MODEL) -> None:
         arrs = np.broadcast_arrays(*(np.asarray(v, dtype=float).ravel() for v in (
             r_min_m, r_max_m, az_min_rad, az_max_rad, p_fac, cells, weibull_a)))
         p = arrs[4]
@@ -545,6 +721,7 @@ class ClutterFalseAlarms:
         self.antenna_height_m = float(antenna_height_m)
         self.k_factor = float(k_factor)
         self.h_range, self.h_azimuth = float(h_range), float(h_azimuth)
+        self.clutter_fa_model = _model_checked(clutter_fa_model)
 
     @property
     def expected_per_scan(self) -> float:
@@ -590,7 +767,7 @@ class ClutterFalseAlarms:
         keep = t < t_end
         a = np.repeat(self.weibull_a, counts)[keep]
         ground, az, t = ground[keep], az[keep], t[keep]
-        x = spike_excess(self.threshold_ratio, a, rng)
+        x = spike_excess(self.threshold_ratio, a, rng, self.clutter_fa_model)
         si = np.maximum(x - 1.0, 1e-3)
         eps_r, eps_t = expected_errors(si, self.n_pulses, self.range_cell_m, self.beamwidth_rad,
                                        h_range=self.h_range, h_azimuth=self.h_azimuth)
@@ -609,6 +786,8 @@ class ClutterFalseAlarms:
 
 
 __all__ = [
+    "CLUTTER_FA_MODELS",
+    "DEFAULT_CLUTTER_FA_MODEL",
     "NORMAL_MIN_ETA",
     "ClutterFalseAlarms",
     "bernoulli_limit",
@@ -623,4 +802,7 @@ __all__ = [
     "spike_excess",
     "uniform_positions",
     "weibull_exceedance",
+    "weibull_median_exceedance",
+    "weibull_median_ratio",
+    "log_weibull_median_ratio",
 ]

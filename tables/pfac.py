@@ -12,6 +12,12 @@ built from the sea-clutter map (:mod:`tables.clutter`) of the same radar and env
   (``radar.p_fac_max``) or VP's at a = 3 (:func:`sensors.false_alarms.hp_clutter_fa_probability`);
 * both: P_fac = 0 wherever a ≤ a_min or P_sc < 2 N0'.
 
+``clutter_fa_model`` (the scenario's ``fidelity.clutter_fa_model``) picks the [94]-[95] reading:
+"seed" (default, the mean σ0 for the median) or "weibull_median" (threshold on the mean, the
+median of [30]; 9-14x lower P_fac at a = 1.5-3), in VP and in the HP default P_facmax
+(:func:`sensors.false_alarms.clutter_fa_probability`).  The table carries the choice to the
+on-line generator (spike S/I, :func:`clutter_false_alarm_generator`).
+
 Only for medium-to-high-resolution radars (X = θ_b[deg] τ'[µs] < 4 and τ' < 4 µs): the
 builder refuses the others and :func:`pfac_specs` asks for no table.
 
@@ -28,8 +34,10 @@ the sector (trapezoid rule), so η = P_fac × cells is the expected count of the
 Table: axes the sector centres (ground range [m], azimuth [rad]); values P_fac [-]; extras
 ``cells`` [-], ``expected_count`` (η per scan) [-] and ``weibull_a`` (sector mean) [-].  The cache
 key holds exactly what changes it: the sea-map inputs except the four that change only its
-Doppler extras, P_fa (unless HP with a user P_facmax), K_clutter, P_facmax (HP only) and the
-sector counts.
+Doppler extras, P_fa (unless HP with a user P_facmax), K_clutter, P_facmax (HP only), the
+sector counts and, only when it is not "seed", the P_fac model (so that the keys of seed-model
+tables are those of builder version 1; with a user HP P_facmax the model changes only the
+spike S/I, yet it is kept in the key, as the table carries it to the generator).
 """
 
 from __future__ import annotations
@@ -61,6 +69,7 @@ def pfac_map_inputs(
     p_fac_max: float | None = None,
     range_sector_m: float | None = None,
     azimuth_sector_rad: float | None = None,
+    clutter_fa_model: str = fa.DEFAULT_CLUTTER_FA_MODEL,
 ) -> dict[str, Any]:
     """The hashable inputs of a P_fac map (see :func:`build_pfac_map`)."""
     sea = {k: v for k, v in sea_map_inputs.items() if k not in DOPPLER_ONLY_INPUTS}
@@ -81,9 +90,11 @@ def pfac_map_inputs(
         raise ValueError("pfa must be in (0, 1]")
     if not k_clutter >= 1.0:
         raise ValueError("k_clutter must be >= 1")
+    if clutter_fa_model not in fa.CLUTTER_FA_MODELS:
+        raise ValueError(f"clutter_fa_model must be one of {fa.CLUTTER_FA_MODELS}")
     hp = sea["polarization"] == "H"
     user_max = hp and p_fac_max is not None
-    return {
+    inputs = {
         "sea_map": sea,
         # P_fa sets [95] (VP) and the default P_facmax (HP); not a user P_facmax
         "pfa": None if user_max else float(pfa),
@@ -92,6 +103,10 @@ def pfac_map_inputs(
         "n_range_sectors": n_r,
         "n_azimuth_sectors": n_az,
     }
+    if clutter_fa_model != fa.DEFAULT_CLUTTER_FA_MODEL:
+        # only then: the seed-model keys stay those of the tables already cached
+        inputs["clutter_fa_model"] = clutter_fa_model
+    return inputs
 
 
 def _bin_mean(x: np.ndarray, f: np.ndarray, edges: np.ndarray, axis: int) -> np.ndarray:
@@ -121,7 +136,8 @@ def sector_edges(table: Table) -> tuple[np.ndarray, np.ndarray]:
 
 
 def node_pfac(sea_map: Table, *, pfa: float | None, k_clutter: float = 1.0,
-              p_fac_max: float | None = None) -> np.ndarray:
+              p_fac_max: float | None = None,
+              clutter_fa_model: str = fa.DEFAULT_CLUTTER_FA_MODEL) -> np.ndarray:
     """P_fac at the nodes of a sea-clutter map (before the sector average) [-].
 
     Parameters
@@ -134,6 +150,8 @@ def node_pfac(sea_map: Table, *, pfa: float | None, k_clutter: float = 1.0,
         K_clutter ≥ 1 [96].
     p_fac_max : float, optional
         HP P_facmax [-]; None: VP's at a = 3.
+    clutter_fa_model : {"seed", "weibull_median"}, optional
+        The [94]-[95] reading (VP, and the HP default P_facmax).
     """
     si = sea_map.inputs
     ranges = sea_map.axes[0]
@@ -141,7 +159,8 @@ def node_pfac(sea_map: Table, *, pfa: float | None, k_clutter: float = 1.0,
     power = sea_map.values
     a_min, n0 = float(si["a_min"]), float(si["noise_power_w"])
     if si["polarization"] == "V":
-        return fa.clutter_fa_probability(a, pfa, a_min, k_clutter, power, n0)
+        return fa.clutter_fa_probability(a, pfa, a_min, k_clutter, power, n0,
+                                         model=clutter_fa_model)
     off = (a <= a_min) | (power < fa.NOISE_LIKE_FACTOR * n0)
     r_ref = float(sc.ground_range_at_grazing_m(sc.REFERENCE_GRAZING_RAD,
                                                si["antenna_height_m"], si["k_factor"]))
@@ -150,7 +169,8 @@ def node_pfac(sea_map: Table, *, pfa: float | None, k_clutter: float = 1.0,
     beyond = off & (ranges[:, None] > r_ref)
     first = np.argmax(beyond, axis=0)
     r_end = np.where(beyond.any(axis=0), ranges[first], ranges[-1])
-    p_max = float(fa.default_p_fac_max(pfa, a_min)) if p_fac_max is None else float(p_fac_max)
+    p_max = (float(fa.default_p_fac_max(pfa, a_min, clutter_fa_model)) if p_fac_max is None
+             else float(p_fac_max))
     p = fa.hp_clutter_fa_probability(ranges[:, None], r_ref, r_end[None, :], p_max, k_clutter)
     return np.where(off, 0.0, p)
 
@@ -163,6 +183,7 @@ def build_pfac_map(
     p_fac_max: float | None = None,
     range_sector_m: float | None = None,
     azimuth_sector_rad: float | None = None,
+    clutter_fa_model: str = fa.DEFAULT_CLUTTER_FA_MODEL,
 ) -> Table:
     """Build the P_fac map of one radar from its sea-clutter map, seed 7.2 [94]-[96].
 
@@ -178,6 +199,8 @@ def build_pfac_map(
         HP only: P_facmax [-]; None: [94]-[95] at a = 3.
     range_sector_m, azimuth_sector_rad : float, optional
         Sector size [m], [rad]; None: the clutter map's steps.
+    clutter_fa_model : {"seed", "weibull_median"}, optional
+        The [94]-[95] reading (:func:`sensors.false_alarms.clutter_fa_probability`).
 
     Returns
     -------
@@ -190,14 +213,16 @@ def build_pfac_map(
         If the radar is not of medium-to-high resolution (no clutter false alarms then).
     """
     inputs = pfac_map_inputs(sea_map.inputs, pfa=pfa, k_clutter=k_clutter, p_fac_max=p_fac_max,
-                             range_sector_m=range_sector_m, azimuth_sector_rad=azimuth_sector_rad)
+                             range_sector_m=range_sector_m, azimuth_sector_rad=azimuth_sector_rad,
+                             clutter_fa_model=clutter_fa_model)
     si = sea_map.inputs
     theta_b, tau = float(si["beamwidth_az_rad"]), float(si["pulse_width_s"])
     if not bool(sc.is_medium_high_resolution(theta_b, tau)):
         raise ValueError("P_fac map: the radar is not of medium-to-high resolution "
                          "(X >= 4 deg-us or tau' >= 4 us): no sea-clutter false alarms")
     ranges, azimuths = sea_map.axes
-    p_node = node_pfac(sea_map, pfa=pfa, k_clutter=k_clutter, p_fac_max=p_fac_max)
+    p_node = node_pfac(sea_map, pfa=pfa, k_clutter=k_clutter, p_fac_max=p_fac_max,
+                       clutter_fa_model=clutter_fa_model)
     r_edges = np.linspace(0.0, float(si["max_range_m"]), inputs["n_range_sectors"] + 1)
     az_edges = np.linspace(0.0, 2.0 * np.pi, inputs["n_azimuth_sectors"] + 1)
 
@@ -287,7 +312,8 @@ def clutter_false_alarm_generator(
     table : Table
         A P_fac map of :func:`build_pfac_map`.
     pfa : float
-        The model's P_fa [-] (the threshold [95] of the spike S/I).
+        The model's P_fa [-] (the threshold [95] of the spike S/I, under the map's
+        ``clutter_fa_model``, read from its inputs).
     n_channels : int
         N_ch.
     n_pulses : float
@@ -303,21 +329,23 @@ def clutter_false_alarm_generator(
     a0 = np.broadcast_to(az_edges[None, :-1], shape)
     a1 = np.broadcast_to(az_edges[None, 1:], shape)
     tau = float(si["pulse_width_s"])
+    model = table.inputs.get("clutter_fa_model", fa.DEFAULT_CLUTTER_FA_MODEL)
     return fa.ClutterFalseAlarms(
         r0, r1, a0, a1, table.values, table.extra["cells"], table.extra["weibull_a"],
-        threshold_ratio=float(fa.clutter_threshold_ratio(pfa, float(si["a_min"]))),
+        threshold_ratio=float(fa.clutter_threshold_ratio(pfa, float(si["a_min"]), model)),
         n_channels=n_channels, n_pulses=n_pulses,
         range_cell_m=SPEED_OF_LIGHT_MPS * tau / 2.0,
         beamwidth_rad=float(si["beamwidth_az_rad"]),
         antenna_height_m=float(si["antenna_height_m"]), k_factor=float(si["k_factor"]),
-        h_range=h_range, h_azimuth=h_azimuth)
+        h_range=h_range, h_azimuth=h_azimuth, clutter_fa_model=model)
 
 
 def pfac_specs(scenario, platform, radar) -> list:
     """Table-spec provider: the P_fac map, only with clutter on and a medium/high-resolution radar.
 
     The sea-clutter map comes from the scene's own clutter spec (same inputs, so a cache hit
-    after :func:`tables.scene._clutter_specs` has built it).
+    after :func:`tables.scene._clutter_specs` has built it); the [94]-[95] reading from
+    ``scenario.fidelity.clutter_fa_model``.
     """
     if not scenario.fidelity.clutter:
         return []
@@ -334,7 +362,8 @@ def pfac_specs(scenario, platform, radar) -> list:
 
     def make() -> Table:
         return pfac_map(sea_spec.make(), pfa=pfa, k_clutter=radar.k_clutter,
-                        p_fac_max=radar.p_fac_max)[0]
+                        p_fac_max=radar.p_fac_max,
+                        clutter_fa_model=scenario.fidelity.clutter_fa_model)[0]
 
     return [TableSpec(radar.id, "pfac", "sea-clutter false-alarm probability P_fac per sector",
                       make)]

@@ -21,7 +21,7 @@ import pytest
 from sim.scenario import load_scenario
 from tables.scene import table_specs
 
-from .helpers import ROOT
+from .helpers import ROOT, example
 
 C0 = 299_792_458.0
 LN2 = math.log(2.0)
@@ -34,6 +34,10 @@ A_E = 4.0 / 3.0 * 6_371_000.0
 LAM = C0 / F_HZ
 C_R = C0 * TAU_S / 2.0
 TH = math.radians(BW_DEG)
+# pulse compression τ/τ' (1 without): a gain on the clutter echo [21], not on the noise;
+# read from the file so that this check follows the demo radar's choice
+COMPRESSION = example("single_missile")["platforms"][0]["radars"][0].get(
+    "transmitted_pulse_width_s", TAU_S) / TAU_S
 
 
 def hand_pfa():
@@ -90,6 +94,7 @@ def hand_state(d, az_rad, n0_w):
     s_ref = git_vv_db(math.radians(3.0), 9.8e9, 0.0)                 # [31]-[32] reference
     a = np.maximum(1.0, max(1.0, 3 * math.log10(WIND_MPS)) + 0.066 * (s0 - s_ref))
     k_r = P_T_W * 10 ** (2 * GAIN_DB / 10) * LAM**2 / ((4 * math.pi) ** 3 * 10 ** (L_TR_DB / 10))
+    k_r *= COMPRESSION
     u = 1.3916 * 2 * (-depression(d) - math.radians(TILT_DEG)) / math.radians(EL_BW_DEG)
     g = np.sin(u) / u                                                # main lobe of the sinc
     r = slant(d)
@@ -120,7 +125,7 @@ def test_scene_is_what_this_file_assumes(demo_tables):
     assert si["beamwidth_az_rad"] == pytest.approx(TH, rel=1e-12)
     # X = θ_b τ' = 0.45 °·µs < 4 and τ' = 0.25 µs < 4 µs: medium/high resolution
     assert BW_DEG * TAU_S * 1e6 == pytest.approx(0.45)
-    k_r = P_T_W * 10 ** 5.6 * LAM**2 / ((4 * math.pi) ** 3 * 10**0.4)
+    k_r = P_T_W * 10 ** 5.6 * LAM**2 / ((4 * math.pi) ** 3 * 10**0.4) * COMPRESSION
     assert si["radar_constant_w_m2"] == pytest.approx(k_r, rel=1e-9)
 
 
@@ -187,6 +192,31 @@ def test_clutter_false_alarms_per_scan_by_hand(demo_tables):
     # the noise false alarms of the same radar: N_cells P_fa = 0.0115 per scan [90]
     n_cells = 2 * math.pi * 60_000.0 / (TH * C_R)
     assert n_cells * hand_pfa() == pytest.approx(0.0115, rel=0.01)
+
+
+def test_weibull_median_model_per_scan_by_hand(demo_tables):
+    """The median-consistent option (``fidelity.clutter_fa_model: weibull_median``) on the
+    same map: threshold on the mean, Y = σ0 ln(1/P_fa), exceeded by Weibull clutter of mean
+    σ0 (scipy's weibull_min with [94]'s shape 1/a, scaled to mean 1).  By hand 33.7 per scan
+    for K_clutter = 1 (11.5 times less than the seed's 388.6)."""
+    from scipy import stats
+
+    from tables.pfac import build_pfac_map
+
+    sea, tab = demo_tables
+    n0 = sea.inputs["noise_power_w"]
+    d, az = sea.axes[0], sea.axes[1]
+    _, a, p_sc, p_seed = hand_state(d[:, None], az[None, :], n0)
+    w = stats.weibull_min(c=1.0 / a, scale=LN2**-a)
+    p = w.sf(math.log(1.0 / hand_pfa()) * w.mean())
+    p = np.where((a <= 1.0) | (p_sc < 2 * n0), 0.0, p)
+    eta = np.trapezoid(np.trapezoid(p, az, axis=1), d) / (C_R * TH)
+    eta_seed = np.trapezoid(np.trapezoid(p_seed, az, axis=1), d) / (C_R * TH)
+    assert eta == pytest.approx(33.7, rel=0.01)
+    assert eta_seed / eta == pytest.approx(11.5, rel=0.01)
+    med = build_pfac_map(sea, pfa=tab.inputs["pfa"], k_clutter=1.0,
+                         clutter_fa_model="weibull_median")
+    assert med.extra["expected_count"].sum() == pytest.approx(eta, rel=0.01)
 
 
 @pytest.mark.parametrize("bw_deg,tau_us,high", [
