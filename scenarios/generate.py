@@ -5,7 +5,8 @@
 The radar parameters are public-domain figures rounded to typical values, approximate:
 an L-band long-range radar like the AN/SPS-49 (851-942 MHz, ~360 kW peak, 28.5 dB gain,
 3.3° x 11° beam, 6/12 rpm, 125 µs pulse compressed to ~2 µs) and a C-band radar like the
-Sea Giraffe (5.4-5.9 GHz, 1.8° x 20° cosec² beam, 60 rpm, compressed pulse ~0.25 µs).
+Sea Giraffe (5.4-5.9 GHz, 1.8° x 20° cosec² beam, 60 rpm, ~10 µs pulse compressed to
+~0.25 µs).  Neither radar's short blanking-range pulse is modelled (no eclipsing).
 """
 
 from __future__ import annotations
@@ -33,6 +34,7 @@ SPS49 = {
     "prf_hz": 1000,
     "stagger_prf_hz": [950, 1050],
     "pulse_width_s": 2.0e-6,
+    "transmitted_pulse_width_s": 125.0e-6,
     "noise_figure_db": 3,
     "loss_tr_db": 3,
     "false_alarm_time_s": 120,
@@ -54,6 +56,7 @@ GIRAFFE = {
     "rotation_rpm": 60,
     "prf_hz": 5000,
     "pulse_width_s": 0.25e-6,
+    "transmitted_pulse_width_s": 10.0e-6,
     "noise_figure_db": 4,
     "loss_tr_db": 4,
     "false_alarm_time_s": 60,

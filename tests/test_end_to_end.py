@@ -135,13 +135,22 @@ def test_record_refuses_to_overwrite(tmp_path, env):
     assert rec.read_bytes() == b"precious"
 
 
-@pytest.mark.parametrize("name", ["single_missile", "raid", "stress"])
+@pytest.mark.parametrize("name", sorted(p.stem for p in (ROOT / "scenarios").glob("*.yaml")))
 def test_every_example_runs(name, env, tmp_path):
     proc = _cli("run", f"scenarios/{name}.yaml", "--duration", "20", "--quiet",
                 "--record", str(tmp_path / "x.rec"), env=env)
     assert proc.returncode == 0, proc.stderr
     summary = json.loads(proc.stdout.strip().splitlines()[-1])
     assert summary["scans"] >= 1
+
+
+def test_jammed_squall_sees_each_interference(env):
+    """The jamming-and-rain example: contacts are limited by noise, by clutter (sea and the
+    squall's weather clutter) and by the escort jammer, each at least once."""
+    proc = _cli("run", "scenarios/jammed_squall.yaml", "--quiet", env=env)
+    assert proc.returncode == 0, proc.stderr
+    dom = json.loads(proc.stdout.strip().splitlines()[-1])["dominant_interference"]
+    assert min(dom.values()) > 0, dom
 
 
 def test_progress_bar_only_on_a_terminal(tmp_path, env):
