@@ -99,7 +99,7 @@ class Table:
         for arr_name, arr in self.extra.items():
             if arr.shape != shape:
                 raise ValueError(f"extra[{arr_name!r}] shape {arr.shape} does not match {shape}")
-        for n, a in zip(self.axis_names, self.axes):
+        for n, a in zip(self.axis_names, self.axes, strict=True):
             if a.ndim != 1 or len(a) < 2 or not np.all(np.diff(a) > 0):
                 raise ValueError(f"axis {n!r} must be 1-D, of length >= 2, strictly increasing")
 
@@ -183,7 +183,7 @@ class Table:
         """Boolean mask of the broadcast coordinates that lie inside the grid."""
         pts = np.broadcast_arrays(*[np.asarray(c, dtype=float) for c in coords])
         ok = np.ones(pts[0].shape, dtype=bool)
-        for ax, p in zip(self.axes, pts):
+        for ax, p in zip(self.axes, pts, strict=True):
             ok &= (p >= ax[0]) & (p <= ax[-1])
         return ok
 
@@ -203,7 +203,7 @@ def interp_grid(axes: Sequence[np.ndarray], data: np.ndarray, *coords: np.ndarra
     outside = np.zeros(n, dtype=bool)
     idx = []
     frac = []
-    for ax, p in zip(axes, flat):
+    for ax, p in zip(axes, flat, strict=True):
         bad = ~((p >= ax[0]) & (p <= ax[-1]))
         outside |= bad
         pc = np.where(bad, ax[0], p)
