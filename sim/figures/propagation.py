@@ -78,18 +78,8 @@ def plot_factor_vs_range(
         f2 = prop.two_ray_factor(r, antenna_height_m, target_height_m, freq_hz, polarization,
                                  wave_height_m=wave_height_m)
         ax.plot(r / 1e3, _db(f2), "k--", lw=0.8, label="two-ray, 4/3 earth")
-    ax.set_xlabel("terrestrial range [km]")
-    ax.set_ylabel("propagation factor F [dB]")
-    ax.set_ylim(FLOOR_DB, 12)
-    ax.grid(alpha=0.3)
-    ax.set_title(f"{freq_hz / 1e9:g} GHz {polarization}P, antenna {antenna_height_m:g} m, "
-                 f"target {target_height_m:g} m")
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path)
-    plt.close(fig)
-    return path
+    return _save_factor_vs_range(fig, ax, path, freq_hz, polarization, antenna_height_m,
+                                 target_height_m)
 
 
 def plot_table_factor_vs_range(
@@ -141,18 +131,8 @@ def plot_table_factor_vs_range(
                 label="two-ray fallback (outside the table)")
     ax.plot(r / 1e3, _db(f_two_ray), "k--", lw=0.7, alpha=0.7,
             label="two-ray, standard atmosphere")
-    ax.set_xlabel("terrestrial range [km]")
-    ax.set_ylabel("propagation factor F [dB]")
-    ax.set_ylim(FLOOR_DB, 12)
-    ax.grid(alpha=0.3)
-    ax.set_title(f"{inputs['freq_hz'] / 1e9:g} GHz {inputs['polarization']}P, antenna "
-                 f"{inputs['antenna_height_m']:g} m, target {height_m:g} m")
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path)
-    plt.close(fig)
-    return path
+    return _save_factor_vs_range(fig, ax, path, inputs["freq_hz"], inputs["polarization"],
+                                 inputs["antenna_height_m"], height_m)
 
 
 def plot_coverage(
@@ -213,3 +193,20 @@ def _profile_label(profile: dict) -> str:
     if kind == "standard":
         return "standard atmosphere"
     return f"{kind} M profile"
+
+
+def _save_factor_vs_range(fig, ax, path: Path, freq_hz: float, polarization: str,
+                          antenna_height_m: float, target_height_m: float) -> Path:
+    """Axes, title and legend of an F-vs-range figure; write it as PNG and close it."""
+    ax.set_xlabel("terrestrial range [km]")
+    ax.set_ylabel("propagation factor F [dB]")
+    ax.set_ylim(FLOOR_DB, 12)
+    ax.grid(alpha=0.3)
+    ax.set_title(f"{freq_hz / 1e9:g} GHz {polarization}P, antenna {antenna_height_m:g} m, "
+                 f"target {target_height_m:g} m")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path)
+    plt.close(fig)
+    return path
