@@ -7,7 +7,8 @@ step, uniform over the 120 km square around the ship, rate matched to the radar'
 false alarms per scan), stepped by ``PlatformDetectionSimulator`` every dwell (the time the
 beam takes to sweep its own width, 5 ms: a rotating sensor only sees what is inside its
 field of view at each step).  A second Stone Soup run sets the clutter rate to shipradar's
-total false-alarm rate (noise + the ~390 sea-clutter false alarms per scan of the P_fac map),
+total false-alarm rate (noise + the sea-clutter false alarms per scan of the P_fac map, ~39
+in the demo),
 uniform in a ±3.5 km square (where shipradar's sea-clutter false alarms lie), so both produce
 the same number of plots; Stone Soup draws that many clutter points over the square at every
 5 ms step and keeps those in the beam, so this run is timed over ``--matched-seconds`` only

@@ -24,9 +24,10 @@ alarms are not in that figure; a floor of ``min_false_alarms_per_scan`` keeps th
 non-zero for a radar with a very long false-alarm time.
 
 Sea clutter: the radar's sea-clutter false alarms crowd the first kilometres around the
-ship (hundreds per scan). When the meta carries the radar's expected sea-clutter false alarms
-per range ring (``clutter_false_alarm_profile``, from its P_fac map), the tracker's clutter map
-starts from it (as if 10 scans had been seen); in any case it learns from the stream itself
+ship (tens to hundreds per scan). When the meta carries the radar's expected sea-clutter
+false alarms per range ring (``clutter_false_alarm_profile``, from its P_fac map), the
+tracker's clutter map starts from it (as if 10 scans had been seen); in any case it learns from the
+stream itself
 (it never reads the truth): the mean number of plots per scan in each range ring. It uses
 the map twice: (1) the PDA clutter density at a track's predicted position is
 the larger of the meta rate's and the ring's, λ_ring / (2π Δr); (2) no track is initiated

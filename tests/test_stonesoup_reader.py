@@ -281,9 +281,10 @@ def test_end_to_end_single_missile_live_and_recorded(tmp_path):
     of the missile in at least 90 % of the scans, and OSPA (p=1, c=2 km) must average under
     50 m over those held scans and have a median under 50 m over all visible scans (plot
     errors are metres in range and tens of metres across at 10 km; a scan without the track
-    costs the full 2 km). The scene has ~400 sea-clutter plots per scan within 3 km of the
-    ship, so the tracker's clutter map and initiation gate are exercised. One track only is
-    confirmed over the run: it coasts across the multipath null near 4.7 km (P_d ≈ 0 for
+    costs the full 2 km). The scene has ~39 sea-clutter plots per scan within 3 km of the
+    ship (K_clutter = 10; ~390 with 1), so the tracker's clutter map and initiation gate are
+    exercised. One track is held over the run (re-initiated at most once): it coasts across
+    the multipath null near 4.7 km (P_d ≈ 0 for
     5-6 scans) and stays within 200 m of the missile in 90 % of the scans from the first
     visible one to the last. Tracking the recording of the same run gives the same result,
     so nothing was lost on the live stream.
