@@ -23,13 +23,12 @@ in the bearing-range measurement space that is λ / (2π R) [1/(rad m)]. Sea-clu
 alarms are not in that figure; a floor of ``min_false_alarms_per_scan`` keeps the density
 non-zero for a radar with a very long false-alarm time.
 
-Sea clutter: the radar's sea-clutter false alarms crowd the first kilometres around the
-ship (tens to hundreds per scan). When the meta carries the radar's expected sea-clutter
-false alarms per range ring (``clutter_false_alarm_profile``, from its P_fac map), the
-tracker's clutter map starts from it (as if 10 scans had been seen); in any case it learns from the
-stream itself
-(it never reads the truth): the mean number of plots per scan in each range ring. It uses
-the map twice: (1) the PDA clutter density at a track's predicted position is
+Sea clutter: the radar's sea-clutter false alarms crowd the first kilometres around the ship
+(tens to hundreds per scan). When the meta carries the radar's expected sea-clutter false
+alarms per range ring (``clutter_false_alarm_profile``, from its P_fac map), the tracker's
+clutter map starts from it (as if 10 scans had been seen); in any case it learns from the
+stream itself (it never reads the truth): the mean number of plots per scan in each range
+ring. It uses the map twice: (1) the PDA clutter density at a track's predicted position is
 the larger of the meta rate's and the ring's, λ_ring / (2π Δr); (2) no track is initiated
 from a plot in a ring whose plot density exceeds ``max_initiation_clutter_per_km2`` (a
 clutter-map initiation gate, as operational trackers do), so hundreds of tentative tracks

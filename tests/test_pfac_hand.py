@@ -2,14 +2,14 @@
 
 The demo scene (``scenarios/single_missile.yaml``: C band, 1.8° × 0.25 µs VP, 25 m antenna,
 sea state 3, wind 7 m/s from 45°, 10 m duct, t_fa = 60 s) produces about 390 sea-clutter
-false alarms per 1 s scan with K_clutter = 1 (the file sets 10: about 39).  This file
-recomputes that figure without the project's physics code: P_fa from [68]-[72], σ0* from
-the GIT formulas (Horst, Dyer & Tuley 1978, VV 3-10 GHz form) on the 4/3-earth grazing angle with
-the ducting extension [22]-[29], a from [31]-[32]
-(SPEC §4 item 2), the clutter power [21] against 2 N0', P_fac from [94]-[95] with the mean
-for the median, and the cells ΔR/C_R × Δθ/θ_b.  Only the noise power N0' and the elevation
-pattern (other modules' business) are read from the table inputs / approximated by the
-main-lobe sinc.  Agreement: η per scan within 1 %, sector P_fac within 1 %.
+false alarms per 1 s scan with K_clutter = 1 (the file sets 10: about 39). This file
+recomputes that figure without the project's physics code: P_fa from [68]-[72], σ0* from the
+GIT formulas (Horst, Dyer & Tuley 1978, VV 3-10 GHz form) on the 4/3-earth grazing angle
+with the ducting extension [22]-[29], a from [31]-[32] (SPEC §4 item 2), the clutter power
+[21] against 2 N0', P_fac from [94]-[95] with the mean for the median, and the cells ΔR/C_R
+× Δθ/θ_b. Only the noise power N0' and the elevation pattern (other modules' business) are
+read from the table inputs / approximated by the main-lobe sinc. Agreement: η per scan
+within 1 %, sector P_fac within 1 %.
 """
 
 from __future__ import annotations
