@@ -97,55 +97,6 @@ def lookup_clutter(
     return table.lookup(ground_range_m, wrap_azimuth(azimuth_rad), array=array)
 
 
-class ClutterMapReader:
-    """Fast on-line reader of a clutter map for one beam azimuth at a time (one dwell).
-
-    A dwell has a single azimuth: only the two azimuth columns around it are read, and every
-    requested range is interpolated for all arrays together.  Same
-    numbers as :meth:`tables.store.Table.lookup` (bilinear), NaN beyond the range axis.
-
-    Parameters
-    ----------
-    table : Table
-        A clutter map (values plus extras on the (ground range, azimuth) grid).
-    """
-
-    def __init__(self, table: Table) -> None:
-        self.table = table
-        self.names: tuple[str | None, ...] = (None, *sorted(table.extra))
-        self._ranges, self._azimuths = table.axes
-        # (n_azimuth, n_range, n_arrays), C-contiguous: one beam azimuth is one block
-        self._stack = np.ascontiguousarray(
-            np.stack([table.values, *[table.extra[k] for k in self.names[1:]]], axis=-1).transpose(
-                1, 0, 2
-            )
-        )
-
-    def read(
-        self, ground_range_m: ArrayLike, azimuth_rad: float
-    ) -> dict[str | None, NDArray[np.float64]]:
-        """All arrays at the given ranges [m] for one beam azimuth [rad] (any real value).
-
-        Returns a dict keyed like :attr:`Table.extra`, with ``None`` for the values (power).
-        """
-        az_axis, r_axis = self._azimuths, self._ranges
-        az = float(np.mod(azimuth_rad, 2.0 * np.pi))
-        j = int(np.clip(np.searchsorted(az_axis, az, side="right") - 1, 0, len(az_axis) - 2))
-        w = (az - az_axis[j]) / (az_axis[j + 1] - az_axis[j])
-        r = np.asarray(ground_range_m, dtype=float)
-        flat = r.ravel()
-        outside = ~((flat >= r_axis[0]) & (flat <= r_axis[-1]))
-        rc = np.where(outside, r_axis[0], flat)
-        i = np.clip(np.searchsorted(r_axis, rc, side="right") - 1, 0, len(r_axis) - 2)
-        t = ((rc - r_axis[i]) / (r_axis[i + 1] - r_axis[i]))[:, None]
-        c0, c1 = self._stack[j], self._stack[j + 1]
-        out = (1.0 - w) * ((1.0 - t) * c0[i] + t * c0[i + 1]) + w * (
-            (1.0 - t) * c1[i] + t * c1[i + 1]
-        )
-        out[outside] = np.nan
-        return {name: out[:, k].reshape(r.shape) for k, name in enumerate(self.names)}
-
-
 def _noise_limit_range(ranges: np.ndarray, power: np.ndarray, limit_w: float) -> np.ndarray:
     """Per azimuth, the last ground range where the power is above ``limit_w`` (0 if nowhere).
 

@@ -231,16 +231,3 @@ def test_figures_written(tmp_path, vp_map):
         plot_clutter_ppi(tmp_path / "ppi.png", vp_map),
     ):
         assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-
-
-def test_reader_matches_table_lookup(vp_map):
-    reader = tc.ClutterMapReader(vp_map)
-    rng = np.random.default_rng(7)
-    r = np.concatenate([rng.uniform(0.0, 60e3, 200), [0.0, 60e3, 61e3, -1.0]])
-    for az in (0.0, 1.234, -2.0, 2 * math.pi, 7.5):
-        got = reader.read(r, az)
-        for name in (None, *vp_map.extra):
-            ref = tc.lookup_clutter(vp_map, r, az, name)
-            assert np.array_equal(np.isnan(got[name]), np.isnan(ref))
-            ok = ~np.isnan(ref)
-            assert got[name][ok] == pytest.approx(ref[ok], rel=1e-9, abs=1e-300)
