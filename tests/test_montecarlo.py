@@ -196,7 +196,8 @@ def test_cli_local_cluster_is_closed(tmp_path, capsys):
 
 def test_sea_clutter_false_alarms_per_scan_agree_with_pfac_map(studies):
     """Sea-clutter false alarms per scan: the study's exact Poisson interval (99.9 %) covers
-    the P_fac map's expected count Σ P_fac × cells (≈388 per scan for this scene; the count
+    the P_fac map's expected count Σ P_fac × cells (≈388 per scan for this scene at K_clutter
+    = 1, ≈39 with the file's 10; the count
     of a scan is a sum of per-sector normal/Poisson/Bernoulli draws, variance ≤ mean, so the
     Poisson interval is, if anything, conservative)."""
     from tables.scene import load_scene_tables
