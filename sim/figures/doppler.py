@@ -111,16 +111,10 @@ def plot_improvement_vs_doppler(
         ax.set_xlim(0.0, 1.0)
         ax.set_ylim(max(curves.min(), -60.0), curves.max() + 5.0)
         ax.set_xlabel("normalized Doppler f_d / f_r")
-        ax.set_ylabel("improvement factor I_F [dB]")
         ax.set_title(f"I_F vs Doppler: {title} (pick: {pick})")
-        ax.grid(True, lw=0.3)
-        ax.legend(loc="lower right", fontsize=8)
-        out = Path(path)
-        out.parent.mkdir(parents=True, exist_ok=True)
-        fig.savefig(out)
+        return _save_improvement_figure(fig, ax, path)
     finally:
         plt.close(fig)
-    return out
 
 
 #: Clutter spreads σ_s/f_r drawn from an I_F table [1].
@@ -185,13 +179,18 @@ def plot_improvement_table(
         ax.set_xlim(0.0, period)
         ax.set_ylim(max(lowest, -60.0) - 2.0, float(np.max(table.values)) + 5.0)
         ax.set_xlabel("normalized Doppler (f_d - μ_c) / f_r")
-        ax.set_ylabel("improvement factor I_F [dB]")
         ax.set_title(f"{title + ': ' if title else ''}{desc}", fontsize=9)
-        ax.grid(True, lw=0.3)
-        ax.legend(loc="lower right", fontsize=8)
-        out = Path(path)
-        out.parent.mkdir(parents=True, exist_ok=True)
-        fig.savefig(out)
+        return _save_improvement_figure(fig, ax, path)
     finally:
         plt.close(fig)
+
+
+def _save_improvement_figure(fig, ax, path) -> Path:
+    """Common axis, grid and legend of an I_F-vs-Doppler figure; write it as PNG."""
+    ax.set_ylabel("improvement factor I_F [dB]")
+    ax.grid(True, lw=0.3)
+    ax.legend(loc="lower right", fontsize=8)
+    out = Path(path)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out)
     return out
