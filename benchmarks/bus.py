@@ -23,9 +23,9 @@ from pathlib import Path
 
 import numpy as np
 
-from sim.bus import Publisher
-from sim.protocol import TOPIC_EOS, TOPIC_PLOTS, decode, encode
-from sim.recording import Recorder, read_recording
+from shipradar.sim.bus import Publisher
+from shipradar.sim.protocol import TOPIC_EOS, TOPIC_PLOTS, decode, encode
+from shipradar.sim.recording import Recorder, read_recording
 
 COLUMNS = ("time_s", "range_m", "azimuth_rad", "snr_db", "sigma_range_m", "sigma_azimuth_rad")
 

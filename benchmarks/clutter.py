@@ -53,11 +53,11 @@ def _fresh_cache():
 
 
 def main() -> None:
-    from sensors.dwell import DwellModel, radar_constants
-    from sim.scenario import load_scenario
-    from tables import scene as ts
-    from tables.clutter import build_sea_clutter_map
-    from tables.store import StackedLookup2D
+    from shipradar.sensors.dwell import DwellModel, radar_constants
+    from shipradar.sim.scenario import load_scenario
+    from shipradar.tables import scene as ts
+    from shipradar.tables.clutter import build_sea_clutter_map
+    from shipradar.tables.store import StackedLookup2D
 
     scenario = load_scenario(RAID)
     print(f"scenario {scenario.name}: wind {scenario.environment.wind_speed_mps} m/s, "
@@ -98,7 +98,7 @@ def main() -> None:
         rt.sea_clutter = table
         kw_if = ts.improvement_kwargs(scenario, radar)
         if kw_if is not None:
-            from tables.improvement import improvement_table
+            from shipradar.tables.improvement import improvement_table
 
             rt.improvement = improvement_table(radar.processor.type, **kw_if)[0]
         model = DwellModel(scenario, platform, radar, tables)

@@ -25,11 +25,11 @@ from pathlib import Path
 
 import numpy as np
 
-from sensors.dwell import DwellModel
-from sim.engine import Simulation
-from sim.scenario import load_scenario
-from tables.pfac import clutter_false_alarm_generator
-from tables.scene import load_scene_tables
+from shipradar.sensors.dwell import DwellModel
+from shipradar.sim.engine import Simulation
+from shipradar.sim.scenario import load_scenario
+from shipradar.tables.pfac import clutter_false_alarm_generator
+from shipradar.tables.scene import load_scene_tables
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -83,7 +83,7 @@ class _EncodeBus:
     """Encodes every message as a publisher would (msgpack frames), then drops it."""
 
     def emit(self, topic, t, payload):
-        from sim import protocol
+        from shipradar.sim import protocol
 
         protocol.encode(topic, t, payload)
 

@@ -14,8 +14,8 @@ import time
 
 import numpy as np
 
-from sensors import doppler_filters as df
-from tables import improvement as imp
+from shipradar.sensors import doppler_filters as df
+from shipradar.tables import improvement as imp
 
 PROCESSORS = {
     "mti 3-pulse": dict(processor="mti", mti_pulses=3),

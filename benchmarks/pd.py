@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sensors.detection import probability_of_detection, required_snr_db
+from shipradar.sensors.detection import probability_of_detection, required_snr_db
 
 ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / "docs" / "accuracy.md"

@@ -32,7 +32,7 @@ import tracemalloc
 
 import numpy as np
 
-from tables import propagation as tp
+from shipradar.tables import propagation as tp
 
 FREQ_HZ = 10e9
 ANTENNA_M = 20.0
@@ -118,7 +118,7 @@ def fallback_errors(freq_hz: float, pol: str):
     isotropic, 0-70 km, 0-200 m), by region, where the PE's F > -60 dB:
     ``{region: |dF| [dB]}`` for the interference region (grazing angle above 0.7 Fock
     angles), the intermediate region (interpolated in dB) and the diffraction region."""
-    from sensors import propagation as prop
+    from shipradar.sensors import propagation as prop
 
     r, h, f = tp.solve_pe(freq_hz, ANTENNA_M, polarization=pol, elevation_pattern=None,
                           profile={"kind": "standard"}, max_range_m=70e3, max_height_m=200.0,

@@ -22,11 +22,11 @@ import tempfile
 import time
 from pathlib import Path
 
-from sim.bus import Bus
-from sim.engine import Simulation
-from sim.recording import Recorder
-from sim.scenario import load_scenario
-from tables.scene import load_scene_tables
+from shipradar.sim.bus import Bus
+from shipradar.sim.engine import Simulation
+from shipradar.sim.recording import Recorder
+from shipradar.sim.scenario import load_scenario
+from shipradar.tables.scene import load_scene_tables
 
 ROOT = Path(__file__).resolve().parents[1]
 #: Required real-time factor of the raid with a recording (issue 2).

@@ -118,7 +118,7 @@ class _EncodeBus:
         self.frames = 0
 
     def emit(self, topic, t, payload):
-        from sim import protocol
+        from shipradar.sim import protocol
 
         protocol.encode(topic, t, payload)
         self.frames += 1
@@ -128,9 +128,9 @@ class _EncodeBus:
 
 
 def shipradar_run(seconds: float, repeats: int = 3) -> dict:
-    from sim.engine import Simulation
-    from sim.scenario import load_scenario
-    from tables.scene import load_scene_tables
+    from shipradar.sim.engine import Simulation
+    from shipradar.sim.scenario import load_scenario
+    from shipradar.tables.scene import load_scene_tables
 
     sc = load_scenario(ROOT / "scenarios" / "single_missile.yaml")
     tables = load_scene_tables(sc)
@@ -155,8 +155,8 @@ def main(argv=None) -> int:
                          "the whole scan's clutter at every 5 ms step: slow)")
     a = ap.parse_args(argv)
     sr = shipradar_run(a.seconds)
-    from sim.engine import Simulation
-    from sim.scenario import load_scenario
+    from shipradar.sim.engine import Simulation
+    from shipradar.sim.scenario import load_scenario
 
     sc = load_scenario(ROOT / "scenarios" / "single_missile.yaml")
     model = Simulation(sc).radars[0].model

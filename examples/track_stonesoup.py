@@ -53,7 +53,7 @@ from typing import Any
 import numpy as np
 
 try:  # run as a script from the repository, without installing it
-    import sim  # noqa: F401
+    import shipradar  # noqa: F401
 except ImportError:  # pragma: no cover
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
@@ -72,7 +72,7 @@ from stonesoup.types.array import CovarianceMatrix, StateVector
 from stonesoup.types.state import GaussianState, State
 from stonesoup.updater.kalman import ExtendedKalmanUpdater
 
-from sim.stonesoup_reader import ShipradarDetectionReader
+from shipradar.sim.stonesoup_reader import ShipradarDetectionReader
 
 __all__ = ["ClutterMap", "clutter_density", "main", "radar_clutter_profile", "track"]
 

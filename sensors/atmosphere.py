@@ -39,7 +39,7 @@ from itur.models import itu676, itu838, itu840
 from numpy.typing import ArrayLike, NDArray
 from scipy import constants
 
-from tables.store import Table, get_or_build
+from shipradar.tables.store import Table, get_or_build
 
 #: Mean Earth radius [m] (IUGG; the value ITU-R uses).
 EARTH_RADIUS_M = 6_371_000.0

@@ -35,7 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import constants
 
-from sensors import (
+from shipradar.sensors import (
     antenna,
     detection,
     doppler_filters,
@@ -46,8 +46,8 @@ from sensors import (
     rcs,
     sea_clutter,
 )
-from sim.scenario import Platform, Radar, Scenario
-from tables.store import StackedLookup2D
+from shipradar.sim.scenario import Platform, Radar, Scenario
+from shipradar.tables.store import StackedLookup2D
 
 INTERFERENCE_NAMES = ("noise", "clutter", "jamming")
 NOISE, CLUTTER, JAMMING = 0, 1, 2
@@ -212,7 +212,7 @@ class DwellModel:
             self.tables.weather_clutter, spectrum, periodic1=True))
         self.rain_gamma_db_per_km = 0.0
         if env.rain is not None and fid.atmosphere:
-            from sensors.atmosphere import rain_specific_attenuation_db_per_km
+            from shipradar.sensors.atmosphere import rain_specific_attenuation_db_per_km
 
             self.rain_gamma_db_per_km = float(rain_specific_attenuation_db_per_km(
                 radar.frequency_hz, _rain_equivalent_rate(env.rain), radar.polarization))
@@ -295,7 +295,7 @@ class DwellModel:
         two_ray = self._two_ray
         if mode == "two_ray" or self.tables.propagation is None:
             return two_ray(ground_range, target_height), 0
-        from tables.propagation import propagation_factor as pe_lookup
+        from shipradar.tables.propagation import propagation_factor as pe_lookup
 
         f = pe_lookup(self.tables.propagation, ground_range, target_height)
         bad = ~np.isfinite(f)
@@ -308,12 +308,12 @@ class DwellModel:
         """One-way atmospheric loss L_atm [16] (power ratio >= 1)."""
         if self.tables.atmosphere is None:
             return np.ones_like(slant_range)
-        from sensors.atmosphere import lookup_gas_fog_loss_db
+        from shipradar.sensors.atmosphere import lookup_gas_fog_loss_db
 
         loss_db = lookup_gas_fog_loss_db(self.tables.atmosphere, slant_range, elevation)
         rain = self.scenario.environment.rain
         if rain is not None and self.rain_gamma_db_per_km > 0.0:
-            from sensors.atmosphere import rain_loss_db, rain_path_length_m
+            from shipradar.sensors.atmosphere import rain_loss_db, rain_path_length_m
 
             region = rain.region
             centre = np.zeros(2) if region is None else np.array([region.east_m, region.north_m])
@@ -387,7 +387,7 @@ class DwellModel:
         mean = np.where(sea_dom, mean_sc, mean_wc)
         spread = np.where(sea_dom, spread_sc, spread_wc)
         fd = -2.0 * geom.radial_velocity / self.wavelength
-        from tables.improvement import improvement_factor_db
+        from shipradar.tables.improvement import improvement_factor_db
 
         prf = self.radar.prf_hz
         i_f_db = improvement_factor_db(self.tables.improvement, spread / prf, (fd - mean) / prf)
@@ -629,7 +629,7 @@ class DwellModel:
             return None
         gen = self.__dict__.get("_clutter_fa_generator")
         if gen is None:
-            from tables.pfac import clutter_false_alarm_generator
+            from shipradar.tables.pfac import clutter_false_alarm_generator
 
             gen = self._clutter_fa_generator = clutter_false_alarm_generator(
                 self.tables.pfac, pfa=self.pfa, n_channels=self.radar.n_channels,
@@ -655,7 +655,7 @@ class _TwoRayFallback:
     MAX_HEIGHTS = 4096
 
     def __init__(self, radar: Radar, wave_height_m: float, elevation_pattern):
-        from sensors import propagation as prop
+        from shipradar.sensors import propagation as prop
 
         self._prop = prop
         self.h1 = float(radar.antenna_height_m)

@@ -68,9 +68,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import special, stats
 
-from sensors.detection import LN2_SEED, N_CHANNELS
-from sensors.measurement import expected_errors
-from sensors.sea_clutter import STANDARD_K_FACTOR, slant_range_m
+from shipradar.sensors.detection import LN2_SEED, N_CHANNELS
+from shipradar.sensors.measurement import expected_errors
+from shipradar.sensors.sea_clutter import STANDARD_K_FACTOR, slant_range_m
 
 #: [91]: the normal approximation is used for η ≥ 9.
 NORMAL_MIN_ETA = 9.0

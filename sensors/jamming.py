@@ -25,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from sensors.noise import L_J_DB, MIN_RANGE_M, power_ratio
+from shipradar.sensors.noise import L_J_DB, MIN_RANGE_M, power_ratio
 
 
 def bandwidth_ratio(

@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import constants
 
-from sensors import atmosphere
+from shipradar.sensors import atmosphere
 
 #: Reference temperature T0 of noise figures and of [17]-[18] [K].
 T0_K = 290.0

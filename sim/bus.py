@@ -19,8 +19,8 @@ from typing import Any, TextIO
 
 import zmq
 
-from sim.protocol import MAX_BODY_BYTES, ProtocolError, decode, encode, to_jsonable
-from sim.recording import Recorder, read_recording
+from shipradar.sim.protocol import MAX_BODY_BYTES, ProtocolError, decode, encode, to_jsonable
+from shipradar.sim.recording import Recorder, read_recording
 
 __all__ = [
     "DEFAULT_LINGER_MS",

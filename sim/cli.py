@@ -1,4 +1,4 @@
-"""Command line: ``shipradar validate | tables build | run | replay | tail | plot``.
+"""Command line: ``shipradar examples | validate | tables build | run | replay | tail | plot``.
 
 Exit codes: 0 success, 2 bad input (scenario, arguments, files), 1 runtime failure.
 Every bad-input message names the field or option, the value and what is allowed.
@@ -18,8 +18,27 @@ class BadInput(Exception):
     """Bad command-line input: one message line per problem."""
 
 
+def _scenario_path(args) -> str:
+    """The scenario file of a command: its path, or the shipped example ``--example NAME``."""
+    example = getattr(args, "example", None)
+    if example is not None:
+        if args.scenario is not None:
+            raise BadInput(f"give a scenario path or --example, not both "
+                           f"({args.scenario!r} and --example {example!r})")
+        from shipradar.scenarios import example_path
+
+        try:
+            args.scenario = str(example_path(example))
+        except KeyError as exc:
+            raise BadInput(exc.args[0]) from None
+    elif args.scenario is None:
+        raise BadInput("a scenario is needed: SCENARIO.yaml or --example NAME "
+                       "(shipradar examples lists them)")
+    return args.scenario
+
+
 def _load(path: str):
-    from sim.scenario import ScenarioError, load_scenario
+    from shipradar.sim.scenario import ScenarioError, load_scenario
 
     try:
         return load_scenario(path)
@@ -54,8 +73,19 @@ def _count(name: str):
 
 
 # --------------------------------------------------------------------------- commands
+def cmd_examples(args) -> int:
+    from shipradar.scenarios import example_names, example_path
+    from shipradar.sim.scenario import load_scenario
+
+    for name in example_names():
+        s = load_scenario(example_path(name))
+        print(f"{name:16s} {s.name}: {len(s.targets)} targets, "
+              f"radars {', '.join(r.id for _, r in s.radars())}, {s.duration_s:g} s")
+    return EXIT_OK
+
+
 def cmd_validate(args) -> int:
-    s = _load(args.scenario)
+    s = _load(_scenario_path(args))
     radars = ", ".join(r.id for _, r in s.radars())
     print(f"{args.scenario}: valid ({len(s.targets)} targets, radars: {radars}, "
           f"{s.duration_s:g} s)")
@@ -63,23 +93,23 @@ def cmd_validate(args) -> int:
 
 
 def cmd_tables_build(args) -> int:
-    from tables.scene import build_scene_tables
+    from shipradar.tables.scene import build_scene_tables
 
-    s = _load(args.scenario)
+    s = _load(_scenario_path(args))
     report = build_scene_tables(s, progress=sys.stderr.isatty(), log=sys.stderr)
     print(json.dumps(report, sort_keys=False))
     return EXIT_OK
 
 
 def cmd_run(args) -> int:
-    from sim.bus import Bus, Publisher
-    from sim.engine import Simulation
-    from sim.recording import Recorder
+    from shipradar.sim.bus import Bus, Publisher
+    from shipradar.sim.engine import Simulation
+    from shipradar.sim.recording import Recorder
 
-    s = _load(args.scenario)
+    s = _load(_scenario_path(args))
     if args.record and Path(args.record).exists() and not args.overwrite:
         raise BadInput(f"--record: {args.record} exists; pass --overwrite to replace it")
-    from tables.scene import load_scene_tables
+    from shipradar.tables.scene import load_scene_tables
 
     # the tables the scene reads: from the cache, built now if missing (shown on stderr)
     tables = load_scene_tables(s, progress=sys.stderr.isatty(), log=sys.stderr)
@@ -118,7 +148,7 @@ def cmd_run(args) -> int:
 
 
 def cmd_replay(args) -> int:
-    from sim.bus import replay
+    from shipradar.sim.bus import replay
 
     if not Path(args.recording).exists():
         raise BadInput(f"replay: recording {args.recording} does not exist")
@@ -139,7 +169,7 @@ def cmd_replay(args) -> int:
 
 
 def cmd_tail(args) -> int:
-    from sim.bus import tail
+    from shipradar.sim.bus import tail
 
     topics = [t.encode() for t in args.topic] if args.topic else None
     tail(args.endpoint, topics=topics, max_messages=args.count, timeout_s=args.timeout)
@@ -147,7 +177,7 @@ def cmd_tail(args) -> int:
 
 
 def cmd_plot(args) -> int:
-    from sim.figures.scene import render
+    from shipradar.sim.figures.scene import render
 
     s = _load(args.scenario)
     written = render(s, args.what, Path(args.out), radar_id=args.radar, height_m=args.height)
@@ -157,34 +187,46 @@ def cmd_plot(args) -> int:
 
 
 def cmd_montecarlo(args) -> int:
-    from sim.montecarlo import cli_main
+    from shipradar.sim.montecarlo import cli_main
 
     return cli_main(args.rest)
 
 
 def cmd_report(args) -> int:
-    from sim.report import cli_main
+    from shipradar.sim.report import cli_main
 
     return cli_main(args.rest)
 
 
 # --------------------------------------------------------------------------- parser
+def _scenario_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("scenario", nargs="?", default=None, help="scenario YAML file")
+    p.add_argument("--example", default=None, metavar="NAME",
+                   help="a shipped example scenario instead of a file (shipradar examples)")
+
+
 def build_parser() -> argparse.ArgumentParser:
+    from shipradar import __version__
+
     p = argparse.ArgumentParser(prog="shipradar", description=__doc__.splitlines()[0])
+    p.add_argument("--version", action="version", version=f"shipradar {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
 
+    ex = sub.add_parser("examples", help="list the shipped example scenarios")
+    ex.set_defaults(func=cmd_examples)
+
     v = sub.add_parser("validate", help="check a scenario file")
-    v.add_argument("scenario")
+    _scenario_arguments(v)
     v.set_defaults(func=cmd_validate)
 
     t = sub.add_parser("tables", help="off-line level: precompute a scenario's tables")
     tsub = t.add_subparsers(dest="tables_command", required=True)
     tb = tsub.add_parser("build", help="build the tables a scenario needs (cached)")
-    tb.add_argument("scenario")
+    _scenario_arguments(tb)
     tb.set_defaults(func=cmd_tables_build)
 
     r = sub.add_parser("run", help="run a scenario headless")
-    r.add_argument("scenario")
+    _scenario_arguments(r)
     r.add_argument("--seed", type=_count("--seed"), default=None, help="override the seed")
     r.add_argument("--duration", type=_positive("--duration"), default=None,
                    help="override the duration [s]")
@@ -256,8 +298,8 @@ def main(argv: list[str] | None = None) -> int:
                                                        "report": cmd_report}[argv[0]])
     else:
         args = build_parser().parse_args(argv)  # argparse exits with 2 on bad options
-    from sim.bus import EndpointError, PublisherStalledError, SubscriberTimeoutError
-    from sim.recording import RecordingError, RecordingExistsError
+    from shipradar.sim.bus import EndpointError, PublisherStalledError, SubscriberTimeoutError
+    from shipradar.sim.recording import RecordingError, RecordingExistsError
 
     try:
         return args.func(args)

@@ -23,6 +23,8 @@ import functools
 import math
 import sys
 import time
+from collections import deque
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -30,8 +32,8 @@ import numpy as np
 import simpy
 import simpy.rt
 
-from sim import protocol
-from sim.kinematics import (
+from shipradar.sim import protocol
+from shipradar.sim.kinematics import (
     TWO_PI,
     LocalFrame,
     Trajectories,
@@ -40,7 +42,7 @@ from sim.kinematics import (
     beam_crossing_times,
     waypoint_enu,
 )
-from sim.scenario import Platform, Radar, Scenario
+from shipradar.sim.scenario import Platform, Radar, Scenario
 
 #: Plot origin codes on the truth topic.
 ORIGIN_TARGET, ORIGIN_NOISE, ORIGIN_SEA_CLUTTER = 0, 1, 2
@@ -62,6 +64,30 @@ class RunStats:
     by_interference: dict[str, int] = field(default_factory=lambda: {
         "noise": 0, "clutter": 0, "jamming": 0})
     propagation_fallbacks: int = 0
+
+
+class CallbackSink:
+    """A bus for in-process use: hands each message to ``callback(topic, t_sim, payload)``.
+
+    ``topic`` is the topic as text (``"meta"``, ``"plots"``, ``"eos"``, ``"truth"``), ``t_sim``
+    the simulated time [s] and ``payload`` the message's keys exactly as the stream carries
+    them (numpy columns for plots); nothing is encoded, no socket is opened.
+    """
+
+    def __init__(self, callback: Callable[[str, float, dict], None]):
+        self.callback = callback
+        self.messages = 0
+
+    def emit(self, topic: bytes, t_sim: float, payload: dict) -> None:
+        self.messages += 1
+        self.callback(topic.decode(), t_sim, payload)
+
+    def flush(self, fsync: bool = False) -> None:
+        """Nothing is buffered."""
+
+    @property
+    def stats(self) -> dict[str, Any]:
+        return {"messages": self.messages}
 
 
 class Simulation:
@@ -89,8 +115,8 @@ class Simulation:
         tables=None,
         progress: bool = False,
     ):
-        from sensors.dwell import DwellModel  # the on-line radar model
-        from tables.scene import load_scene_tables
+        from shipradar.sensors.dwell import DwellModel  # the on-line radar model
+        from shipradar.tables.scene import load_scene_tables
 
         self.scenario = scenario
         self.bus = bus
@@ -117,13 +143,18 @@ class Simulation:
             self.radars.append(_RadarProcess(self, p_index, platform, radar, model, rng))
 
     # ------------------------------------------------------------------ running
-    def run(self) -> dict[str, Any]:
+    def _environment(self):
         if self.realtime:
             env = simpy.rt.RealtimeEnvironment(factor=1.0 / self.realtime, strict=False)
         else:
             env = simpy.Environment()
         for r in self.radars:
             env.process(r.run(env))
+        return env
+
+    def run(self) -> dict[str, Any]:
+        """Run to the end; returns the summary (the JSON line ``shipradar run`` prints)."""
+        env = self._environment()
         bar = None
         if self.progress:
             from tqdm import tqdm
@@ -138,6 +169,33 @@ class Simulation:
         if self.bus is not None:
             self.bus.flush()
         return self.summary(wall)
+
+    def messages(self, step_s: float | None = None) -> Iterator[tuple[str, float, dict]]:
+        """Run in process and yield every message as ``(topic, t_sim, payload)``, in the
+        stream's order, with no sockets and no recording.
+
+        The clock advances ``step_s`` simulated seconds at a time (default: the shortest
+        scan period) and the messages of each step are yielded before the next is computed,
+        so a consumer that stops early stops the run. Any ``bus`` given at construction is
+        bypassed. ``summary(wall_s)`` gives the counts once the iterator is exhausted.
+
+        Parameters
+        ----------
+        step_s : float, optional
+            Simulated time per step [s], > 0.
+        """
+        step = step_s or min(r.radar.scan_period_s for r in self.radars)
+        if not step > 0:
+            raise ValueError(f"step_s must be > 0, got {step_s}")
+        pending: deque[tuple[str, float, dict]] = deque()
+        self.bus = CallbackSink(lambda topic, t, payload: pending.append((topic, t, payload)))
+        env = self._environment()
+        t = 0.0
+        while t < self.duration:
+            t = min(t + step, self.duration)
+            env.run(until=t + 1e-9 if t >= self.duration else t)
+            while pending:
+                yield pending.popleft()
 
     def _progress(self, env, bar):
         step = max(self.duration / 200.0, 0.5)
@@ -264,7 +322,7 @@ class _RadarProcess:
         pfac = self.model.tables.pfac
         if pfac is None:
             return {}
-        from tables.pfac import clutter_range_profile
+        from shipradar.tables.pfac import clutter_range_profile
 
         edges, per_scan = clutter_range_profile(pfac)
         return {"clutter_false_alarms_per_scan": float(per_scan.sum()),

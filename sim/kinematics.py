@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 import pymap3d
 
-from sim.scenario import Origin, Waypoint
+from shipradar.sim.scenario import Origin, Waypoint
 
 #: Mean earth radius [m] (IUGG).
 EARTH_RADIUS_M = 6_371_008.8

@@ -237,8 +237,8 @@ _WORKER_LOCK = threading.Lock()
 
 
 def _tables_from_files(files: tuple[tuple[str, str, str], ...]):
-    from tables.scene import SceneTables
-    from tables.store import Table
+    from shipradar.tables.scene import SceneTables
+    from shipradar.tables.store import Table
 
     with _WORKER_LOCK:
         scene = _WORKER_TABLES.get(files)
@@ -254,7 +254,7 @@ def _table_files(scene, radar_ids: Sequence[str]) -> tuple[tuple[str, str, str],
     """(radar, kind, cache file) of every table of the scene; None if one has no file."""
     from dataclasses import fields
 
-    from tables.store import cache_path
+    from shipradar.tables.store import cache_path
 
     out = []
     for rid in radar_ids:
@@ -272,7 +272,7 @@ def _table_files(scene, radar_ids: Sequence[str]) -> tuple[tuple[str, str, str],
 
 def _one_run(scenario, run: int, seed: int, duration_s, tables_ref) -> dict:
     """A Dask task: one replication, reduced to rows in the worker."""
-    from sim.engine import Simulation
+    from shipradar.sim.engine import Simulation
 
     if isinstance(tables_ref, tuple):
         tables = _tables_from_files(tables_ref)
@@ -394,8 +394,8 @@ def run_study(
     """
     from distributed import Client, LocalCluster, as_completed
 
-    from sim.scenario import Scenario, load_scenario
-    from tables.scene import load_scene_tables
+    from shipradar.sim.scenario import Scenario, load_scenario
+    from shipradar.tables.scene import load_scene_tables
 
     if runs < 1:
         raise ValueError(f"runs must be >= 1, got {runs}")
@@ -506,8 +506,8 @@ def model_pd_looks(scenario, *, tables=None, duration_s: float | None = None, bu
     merged into one contact (2.2.1) share their group's P_d and are skipped (rare: same range
     cell, beam and Doppler filter).
     """
-    import sensors.dwell as dwell_mod
-    from sim.engine import Simulation
+    import shipradar.sensors.dwell as dwell_mod
+    from shipradar.sim.engine import Simulation
 
     sim = Simulation(scenario, tables=tables, duration_s=duration_s, bus=bus, seed=seed)
     kinds = [t.kind for t in scenario.targets]

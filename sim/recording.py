@@ -23,7 +23,7 @@ from pathlib import Path
 from types import TracebackType
 from typing import BinaryIO
 
-from sim.protocol import MAX_BODY_BYTES, SCHEMA_VERSION
+from shipradar.sim.protocol import MAX_BODY_BYTES, SCHEMA_VERSION
 
 __all__ = [
     "FORMAT_VERSION",

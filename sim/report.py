@@ -8,24 +8,24 @@ Figures (each skipped with a note in the index when its inputs or module are mis
   beam crossing along the target's track (:func:`sim.montecarlo.model_pd_looks`), and, when a
   Monte Carlo study is given or found, its empirical P_d per target kind with 95 % Wilson
   intervals (``*_pd_range.csv`` of :mod:`sim.montecarlo`).
-- the propagation figures of :mod:`sim.figures.propagation` (F against range, coverage
+- the propagation figures of :mod:`shipradar.sim.figures.propagation` (F against range, coverage
   diagram), whatever ``plot_*`` functions that module has whose arguments the scene
   provides;
 - ``sigma0_range.png``: σ0* against range with and without the scene's duct
-  (:func:`sim.figures.clutter.plot_ducting_reflectivity`), and the scene's clutter map when
-  it has one (:func:`sim.figures.clutter.plot_clutter_ppi`);
+  (:func:`shipradar.sim.figures.clutter.plot_ducting_reflectivity`), and the scene's clutter map when
+  it has one (:func:`shipradar.sim.figures.clutter.plot_clutter_ppi`);
 - ``improvement_doppler.png``: I_F against Doppler for the radar's processor
-  (:func:`sim.figures.doppler.plot_improvement_vs_doppler`);
+  (:func:`shipradar.sim.figures.doppler.plot_improvement_vs_doppler`);
 - ``false_alarms_range.png``: the seed's Fig. 8, histograms of false-alarm range, noise-induced
   (flat) beside sea-clutter-induced (falling with range), from the dwell model's own per-scan
-  draws (:func:`sim.figures.false_alarms.generated_false_alarms`) over ``fa_scans`` scans —
+  draws (:func:`shipradar.sim.figures.false_alarms.generated_false_alarms`) over ``fa_scans`` scans —
   the code the engine runs every scan, repeated to get a visible histogram (noise panel from
   500 draws' worth of scans);
 - ``pfac_map.png``: the radar's P_fac map (7.2) as a PPI, and against range the expected
   false alarms per scan with P_fac upwind, crosswind and downwind (when it has one);
 - ``ppi.png``: one scan of a run (the scan with the most plots, one with a target plot if
   any), plots coloured by origin, full range and zoomed on the sea-clutter false alarms, with
-  the targets' tracks (:func:`sim.figures.false_alarms.plot_ppi_by_origin`).
+  the targets' tracks (:func:`shipradar.sim.figures.false_alarms.plot_ppi_by_origin`).
 
 Only the first radar of the scene is drawn. matplotlib runs with the Agg backend.
 """
@@ -163,7 +163,7 @@ def _fig_false_alarms(path: Path, scenario, tables, radar_id: str, scans: int,
                       seed: int) -> tuple[str, dict]:
     """The seed's Fig. 8 for the scene: noise-induced (flat) beside sea-clutter-induced
     (falling with range), from the dwell model's own per-scan generators."""
-    from sim.figures.false_alarms import generated_false_alarms, plot_false_alarm_histograms
+    from shipradar.sim.figures.false_alarms import generated_false_alarms, plot_false_alarm_histograms
 
     fa = generated_false_alarms(scenario, radar_id, scans=scans, seed=seed, min_noise=500,
                                 tables=tables)
@@ -181,7 +181,7 @@ def _fig_false_alarms(path: Path, scenario, tables, radar_id: str, scans: int,
 
 def _fig_ppi(path: Path, messages: list, sensor: str, r_max_m: float,
              wind_from_rad: float) -> str:
-    from sim.figures.false_alarms import clutter_extent_m, plot_ppi_by_origin
+    from shipradar.sim.figures.false_alarms import clutter_extent_m, plot_ppi_by_origin
 
     plots, truth_plots, targets, eos = {}, {}, [], {}
     for topic, _t, p in messages:
@@ -286,9 +286,9 @@ def build_report(scenario, out_dir: str | os.PathLike = "report", *,
         ``index`` (path), ``figures``: list of ``{"file", "caption"}``, ``notes``: list of
         str (figures skipped and why).
     """
-    from sim.montecarlo import model_pd_looks, study_paths
-    from sim.scenario import Scenario, load_scenario
-    from tables.scene import load_scene_tables
+    from shipradar.sim.montecarlo import model_pd_looks, study_paths
+    from shipradar.sim.scenario import Scenario, load_scenario
+    from shipradar.tables.scene import load_scene_tables
 
     scenario_path = None
     if not isinstance(scenario, Scenario):
@@ -330,7 +330,7 @@ def build_report(scenario, out_dir: str | os.PathLike = "report", *,
     pool = _pool(scenario, tables)
     # propagation figures (another module; whatever it offers)
     try:
-        from sim.figures import propagation as prop_fig
+        from shipradar.sim.figures import propagation as prop_fig
     except ImportError as exc:
         notes.append(f"F against range and coverage diagram: sim.figures.propagation is not "
                      f"available ({exc})")
@@ -338,20 +338,20 @@ def build_report(scenario, out_dir: str | os.PathLike = "report", *,
         fns = [(n, f) for n, f in inspect.getmembers(prop_fig, inspect.isfunction)
                if n.startswith("plot_") and f.__module__ == prop_fig.__name__]
         if not fns:
-            notes.append("sim.figures.propagation has no plot_* function")
+            notes.append("shipradar.sim.figures.propagation has no plot_* function")
         for name, fn in fns:
             fname = f"propagation_{name[5:]}.png"
             try:
                 ok, why = _call_with_pool(fn, out / fname, pool)
             except Exception as exc:  # another module's figure must not sink the report
-                ok, why = False, f"sim.figures.propagation.{name} failed: {exc!r}"
+                ok, why = False, f"shipradar.sim.figures.propagation.{name} failed: {exc!r}"
             if ok:
                 add(fname, _first_line(fn.__doc__) or name)
             else:
                 notes.append(why)
     # clutter figures
     try:
-        from sim.figures import clutter as clutter_fig
+        from shipradar.sim.figures import clutter as clutter_fig
     except ImportError as exc:
         notes.append(f"σ0* against range: sim.figures.clutter is not available ({exc})")
     else:
@@ -381,7 +381,7 @@ def build_report(scenario, out_dir: str | os.PathLike = "report", *,
                      "filter bank")
     else:
         try:
-            from sim.figures.doppler import plot_improvement_vs_doppler
+            from shipradar.sim.figures.doppler import plot_improvement_vs_doppler
 
             plot_improvement_vs_doppler(out / "improvement_doppler.png", **kw)
             add("improvement_doppler.png",
@@ -397,7 +397,7 @@ def build_report(scenario, out_dir: str | os.PathLike = "report", *,
         notes.append("P_fac map: the radar has none (sea clutter off, or not of "
                      "medium-to-high resolution: X = θ_b τ' ≥ 4 °·µs or τ' ≥ 4 µs)")
     else:
-        from sim.figures.false_alarms import plot_pfac_map
+        from shipradar.sim.figures.false_alarms import plot_pfac_map
 
         plot_pfac_map(out / "pfac_map.png", pfac,
                       wind_from_rad=math.radians(scenario.environment.wind_direction_deg),

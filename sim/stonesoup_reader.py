@@ -63,7 +63,7 @@ from stonesoup.types.angle import Bearing
 from stonesoup.types.array import CovarianceMatrix, StateVector
 from stonesoup.types.detection import Detection
 
-from sim import protocol
+from shipradar.sim import protocol
 
 __all__ = [
     "ShipradarDetectionReader",
@@ -131,7 +131,7 @@ def iter_messages(source, topics: Iterable[bytes], *, idle_timeout_s: float | No
         yield from _iter_endpoint(source, wanted, idle_timeout_s, context)
         return
     if isinstance(source, (str, os.PathLike)):
-        from sim.recording import read_recording
+        from shipradar.sim.recording import read_recording
 
         with read_recording(Path(source)) as reader:
             for _t, frames in reader:

@@ -38,9 +38,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.constants import c as SPEED_OF_LIGHT_MPS
 
-from sensors import sea_clutter as sc
-from sensors import weather_clutter as wc
-from tables.store import Table, get_or_build
+from shipradar.sensors import sea_clutter as sc
+from shipradar.sensors import weather_clutter as wc
+from shipradar.tables.store import Table, get_or_build
 
 SEA_MAP_NAME = "sea_clutter_map"
 WEATHER_MAP_NAME = "weather_clutter_map"

@@ -51,8 +51,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from sensors import doppler_filters as df
-from tables.store import Table, get_or_build
+from shipradar.sensors import doppler_filters as df
+from shipradar.tables.store import Table, get_or_build
 
 BUILDER_NAME = "improvement_factor"
 BUILDER_VERSION = 3

@@ -49,9 +49,9 @@ from typing import Any
 import numpy as np
 from scipy.constants import c as SPEED_OF_LIGHT_MPS
 
-from sensors import false_alarms as fa
-from sensors import sea_clutter as sc
-from tables.store import Table, get_or_build
+from shipradar.sensors import false_alarms as fa
+from shipradar.sensors import sea_clutter as sc
+from shipradar.tables.store import Table, get_or_build
 
 PFAC_MAP_NAME = "pfac_map"
 #: Builder version (part of the cache key): bump when the model changes.
@@ -352,8 +352,8 @@ def pfac_specs(scenario, platform, radar) -> list:
     theta_b = math.radians(radar.beamwidth_az_deg)
     if not bool(sc.is_medium_high_resolution(theta_b, radar.pulse_width_s)):
         return []
-    from sensors.detection import pfa_from_false_alarm_time
-    from tables.scene import TableSpec, _clutter_specs
+    from shipradar.sensors.detection import pfa_from_false_alarm_time
+    from shipradar.tables.scene import TableSpec, _clutter_specs
 
     sea_spec = next(s for s in _clutter_specs(scenario, platform, radar) if s.kind == "sea_clutter")
     pfa = float(pfa_from_false_alarm_time(

@@ -44,8 +44,8 @@ import scipy.constants as sc
 import scipy.fft as sfft
 from scipy.signal import lfilter
 
-from sensors import propagation as prop
-from tables.store import Table, get_or_build
+from shipradar.sensors import propagation as prop
+from shipradar.tables.store import Table, get_or_build
 
 #: Builder name and version (part of the cache key; bump on any change of results).
 TABLE_NAME = "propagation_factor"

@@ -19,8 +19,8 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from sim.scenario import Platform, Radar, Scenario
-from tables.store import Table
+from shipradar.sim.scenario import Platform, Radar, Scenario
+from shipradar.tables.store import Table
 
 
 @dataclass
@@ -81,7 +81,7 @@ def table_specs(scenario: Scenario) -> list[TableSpec]:
 
 
 def _atmosphere_spec(scenario: Scenario, platform: Platform, radar: Radar) -> TableSpec:
-    from sensors.atmosphere import atmospheric_loss_grid
+    from shipradar.sensors.atmosphere import atmospheric_loss_grid
 
     env = scenario.environment
     ranges, elev = atmosphere_axes(radar)
@@ -167,7 +167,7 @@ def load_scene_tables(scenario: Scenario, *, progress: bool = False,
 def build_scene_tables(scenario: Scenario, *, progress: bool = False,
                        log: TextIO | None = sys.stderr) -> dict[str, Any]:
     """Build (or find in the cache) every table of the scene; a JSON-able report."""
-    from tables.store import cache_path
+    from shipradar.tables.store import cache_path
 
     rows = []
     for spec, table, dt in _made(scenario, progress):
@@ -212,7 +212,7 @@ def _improvement_specs(scenario: Scenario, platform: Platform, radar: Radar) -> 
     kw = improvement_kwargs(scenario, radar)
     if kw is None or not scenario.fidelity.clutter:
         return []
-    from tables.improvement import improvement_table
+    from shipradar.tables.improvement import improvement_table
 
     def make() -> Table:
         return improvement_table(radar.processor.type, **kw)[0]
@@ -245,8 +245,8 @@ def _clutter_specs(scenario: Scenario, platform: Platform, radar: Radar) -> list
     """Sea-clutter map [21]-[38] (and weather map [39]-[45] only when it rains)."""
     if not scenario.fidelity.clutter:
         return []
-    from sensors.dwell import radar_constants
-    from tables.clutter import sea_clutter_map, weather_clutter_map
+    from shipradar.sensors.dwell import radar_constants
+    from shipradar.tables.clutter import sea_clutter_map, weather_clutter_map
 
     env = scenario.environment
     k = radar_constants(scenario, radar)
@@ -313,7 +313,7 @@ def _duct_height(scenario: Scenario) -> float:
         return duct.height_m
     if duct.type == "profile":
         return surface_duct_height(duct.heights_m, duct.m_units)
-    from sensors.propagation import evaporation_duct_height
+    from shipradar.sensors.propagation import evaporation_duct_height
 
     env = scenario.environment
     return float(evaporation_duct_height(
@@ -335,7 +335,7 @@ def surface_duct_height(heights_m, m_units) -> float:
 @provider
 def _pfac_specs(scenario: Scenario, platform: Platform, radar: Radar) -> list[TableSpec]:
     """P_fac map (seed 7.2): clutter on and a medium/high-resolution radar only (tables.pfac)."""
-    from tables.pfac import pfac_specs
+    from shipradar.tables.pfac import pfac_specs
 
     return pfac_specs(scenario, platform, radar)
 
@@ -362,8 +362,8 @@ def _propagation_specs(scenario: Scenario, platform: Platform, radar: Radar) -> 
     """F(R_t, h) by the split-step PE [5]-[7], only when the scene asks for it."""
     if scenario.fidelity.propagation != "pe":
         return []
-    from sensors.dwell import radar_constants
-    from tables.propagation import get_propagation_table
+    from shipradar.sensors.dwell import radar_constants
+    from shipradar.tables.propagation import get_propagation_table
 
     k = radar_constants(scenario, radar)
     movers = [*scenario.targets, *scenario.jammers]

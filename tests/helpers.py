@@ -8,8 +8,8 @@ from pathlib import Path
 
 import yaml
 
-from sim import protocol
-from sim.scenario import parse_scenario
+from shipradar.sim import protocol
+from shipradar.sim.scenario import parse_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -6,7 +6,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.optimize import brentq, minimize_scalar
 
-from sensors import antenna
+from shipradar.sensors import antenna
 
 BEAMWIDTHS_RAD = np.deg2rad([0.5, 1.5, 2.0, 5.0, 10.0])
 

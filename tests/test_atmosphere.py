@@ -8,8 +8,8 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from sensors import atmosphere as atm
-from tables.store import Table
+from shipradar.sensors import atmosphere as atm
+from shipradar.tables.store import Table
 
 F_HZ = 10e9
 T_K, P_HPA, RHO = 288.15, 1013.25, 7.5

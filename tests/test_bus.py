@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 import zmq
 
-from sim.bus import (
+from shipradar.sim.bus import (
     Bus,
     EndpointError,
     Publisher,
@@ -21,8 +21,8 @@ from sim.bus import (
     replay,
     tail,
 )
-from sim.protocol import TOPIC_EOS, TOPIC_META, TOPIC_PLOTS, TOPIC_TRUTH, encode
-from sim.recording import Recorder, RecordingError, read_recording
+from shipradar.sim.protocol import TOPIC_EOS, TOPIC_META, TOPIC_PLOTS, TOPIC_TRUTH, encode
+from shipradar.sim.recording import Recorder, RecordingError, read_recording
 
 LOOPBACK = "tcp://127.0.0.1:*"
 

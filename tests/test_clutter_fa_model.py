@@ -16,15 +16,15 @@ import numpy as np
 import pytest
 from scipy import integrate, optimize, stats
 
-from sensors import false_alarms as fa
-from sim.scenario import ScenarioError
-from tables.pfac import (
+from shipradar.sensors import false_alarms as fa
+from shipradar.sim.scenario import ScenarioError
+from shipradar.tables.pfac import (
     PFAC_MAP_NAME,
     PFAC_MAP_VERSION,
     clutter_false_alarm_generator,
     pfac_map_inputs,
 )
-from tables.store import inputs_hash
+from shipradar.tables.store import inputs_hash
 
 from .test_clutter_false_alarms import clutter_scene, model_of, specs_of
 

@@ -10,13 +10,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import stats
 
-from sensors import false_alarms as fa
-from sensors import sea_clutter as sc
-from sensors.dwell import DwellModel
-from sim import protocol
-from sim.engine import ORIGIN_SEA_CLUTTER, Simulation
-from sim.scenario import parse_scenario
-from tables.pfac import (
+from shipradar.sensors import false_alarms as fa
+from shipradar.sensors import sea_clutter as sc
+from shipradar.sensors.dwell import DwellModel
+from shipradar.sim import protocol
+from shipradar.sim.engine import ORIGIN_SEA_CLUTTER, Simulation
+from shipradar.sim.scenario import parse_scenario
+from shipradar.tables.pfac import (
     PFAC_MAP_NAME,
     build_pfac_map,
     clutter_false_alarm_generator,
@@ -24,7 +24,7 @@ from tables.pfac import (
     pfac_map_inputs,
     sector_edges,
 )
-from tables.scene import load_scene_tables, table_specs
+from shipradar.tables.scene import load_scene_tables, table_specs
 
 from .helpers import CaptureBus, quiet_radar
 
@@ -466,7 +466,7 @@ def test_engine_run_emits_sea_clutter_plots(table_cache):
 
 
 def test_figures_write_png(tmp_path, table_cache):
-    from sim.figures.false_alarms import (
+    from shipradar.sim.figures.false_alarms import (
         clutter_extent_m,
         generated_false_alarms,
         plot_false_alarm_histograms,

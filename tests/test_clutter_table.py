@@ -5,10 +5,10 @@ import math
 import numpy as np
 import pytest
 
-from sensors import sea_clutter as sc
-from sensors import weather_clutter as wc
-from tables import clutter as tc
-from tables.store import Table
+from shipradar.sensors import sea_clutter as sc
+from shipradar.sensors import weather_clutter as wc
+from shipradar.tables import clutter as tc
+from shipradar.tables.store import Table
 
 BW_EL = math.radians(4.0)
 TILT = 0.0
@@ -224,7 +224,7 @@ def test_weather_map_needs_precipitation():
 
 
 def test_figures_written(tmp_path, vp_map):
-    from sim.figures.clutter import plot_clutter_ppi, plot_ducting_reflectivity
+    from shipradar.sim.figures.clutter import plot_clutter_ppi, plot_ducting_reflectivity
 
     for p in (
         plot_ducting_reflectivity(tmp_path / "fig6.png"),

@@ -10,8 +10,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import integrate, special, stats
 
-from sensors import detection
-from sensors.detection import (
+from shipradar.sensors import detection
+from shipradar.sensors.detection import (
     effective_pulses,
     pfa_from_false_alarm_time,
     probability_of_detection,

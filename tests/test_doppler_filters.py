@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.linalg import toeplitz
 
-from sensors import doppler_filters as df
+from shipradar.sensors import doppler_filters as df
 
 #: A stability limit high enough that the residue does not disturb the closed forms [dB].
 NO_RESIDUE_DB = 150.0
@@ -403,7 +403,7 @@ def test_fig7_five_hann_filters_peak_at_centres_and_dip_between():
 
 
 def test_fig7_png(tmp_path):
-    from sim.figures.doppler import plot_improvement_vs_doppler
+    from shipradar.sim.figures.doppler import plot_improvement_vs_doppler
 
     out = plot_improvement_vs_doppler(tmp_path / "fig7.png", n_points=401)
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -7,8 +7,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sensors.dwell import CLUTTER, JAMMING, NOISE, DwellModel
-from tables.scene import SceneTables
+from shipradar.sensors.dwell import CLUTTER, JAMMING, NOISE, DwellModel
+from shipradar.tables.scene import SceneTables
 from tests.helpers import bare_scene, quiet_radar
 
 
@@ -17,7 +17,7 @@ def _model(radar=None, **env):
     if env:
         d = s.model_dump(mode="json")
         d["environment"].update(env)
-        from sim.scenario import parse_scenario
+        from shipradar.sim.scenario import parse_scenario
 
         s = parse_scenario(d)
     p = s.platforms[0]
@@ -109,7 +109,7 @@ def test_rain_cell_decided_by_horizontal_position_only():
 
 
 def _jam_scene(propagation, rain=None):
-    from sim.scenario import parse_scenario
+    from shipradar.sim.scenario import parse_scenario
 
     d = bare_scene(quiet_radar(pattern_az={"type": "sinc", "sidelobe_db": 30}),
                    propagation=propagation).model_dump(mode="json")
@@ -122,14 +122,14 @@ def _jam_scene(propagation, rain=None):
     s = parse_scenario(d)
     p = s.platforms[0]
     if rain:
-        from tables.scene import load_scene_tables
+        from shipradar.tables.scene import load_scene_tables
 
         return s, DwellModel(s, p, p.radars[0], load_scene_tables(s))
     return s, DwellModel(s, p, p.radars[0], SceneTables())
 
 
 def _jam_geometry(s):
-    from sim.kinematics import LocalFrame, antenna_geometry
+    from shipradar.sim.kinematics import LocalFrame, antenna_geometry
 
     frame = LocalFrame(s.origin)
     jpos = np.array([[0.0, 40e3, 300.0]])
@@ -141,7 +141,7 @@ def _jam_geometry(s):
 def test_jamming_is_one_way_propagated_and_attenuated(table_cache):
     """[47] with F_j² and L_atm toward the jammer: against free space, the two-ray scene
     scales P_j by (F_j / g_el)², and rain on the path divides it by its one-way loss."""
-    from sensors.propagation import two_ray_factor
+    from shipradar.sensors.propagation import two_ray_factor
 
     s, free = _jam_scene("free_space")
     geom, jpos = _jam_geometry(s)
@@ -188,7 +188,7 @@ def test_jammer_in_a_sinc_null_still_gets_the_sidelobe_level():
 
 def test_pulse_compression_gains_the_echo_not_the_noise():
     """τ/τ' multiplies K_R [3] (targets and clutter alike); N0' = k T_s / τ' [19] stays."""
-    from sensors.dwell import radar_constants
+    from shipradar.sensors.dwell import radar_constants
 
     plain = bare_scene(quiet_radar())
     coded = bare_scene(quiet_radar(transmitted_pulse_width_s=50e-6))  # 50:1 on τ' = 1 µs
@@ -213,7 +213,7 @@ def test_pulse_compression_gains_the_echo_not_the_noise():
      "< 0.5, got 0.6"),
 ])
 def test_radar_inputs_the_model_cannot_honour_are_refused(radar, fidelity, line):
-    from sim.scenario import ScenarioError
+    from shipradar.sim.scenario import ScenarioError
 
     with pytest.raises(ScenarioError) as err:
         bare_scene(quiet_radar(**radar), **fidelity)

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from sensors.dwell import DwellModel, _TwoRayFallback
-from sensors.propagation import horizon_range, interference_region_limit, two_ray_factor
-from tables.scene import SceneTables
+from shipradar.sensors.dwell import DwellModel, _TwoRayFallback
+from shipradar.sensors.propagation import horizon_range, interference_region_limit, two_ray_factor
+from shipradar.tables.scene import SceneTables
 
 from .helpers import bare_scene, quiet_radar
 

@@ -9,7 +9,7 @@ import threading
 import pytest
 import zmq
 
-from sim.recording import read_recording
+from shipradar.sim.recording import read_recording
 
 from .helpers import ROOT, free_port
 
@@ -17,7 +17,7 @@ FAST = ["--duration", "12"]
 
 
 def _cli(*argv, env=None, timeout=300):
-    return subprocess.run([sys.executable, "-m", "sim.cli", *argv], capture_output=True,
+    return subprocess.run([sys.executable, "-m", "shipradar.sim.cli", *argv], capture_output=True,
                           text=True, cwd=ROOT, timeout=timeout, env=env)
 
 
@@ -165,7 +165,7 @@ def test_progress_bar_only_on_a_terminal(tmp_path, env):
     chunks = []
     try:
         proc = subprocess.Popen(
-            [sys.executable, "-m", "sim.cli", "run", "scenarios/single_missile.yaml",
+            [sys.executable, "-m", "shipradar.sim.cli", "run", "scenarios/single_missile.yaml",
              "--duration", "30"], stdout=subprocess.PIPE, stderr=slave, cwd=ROOT, env=env)
         os.close(slave)
         while True:  # read while it runs: Linux drops a pty's data once its child side closes

@@ -8,11 +8,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import constants, stats
 
-from sensors.dwell import DwellModel
-from sim import protocol
-from sim.engine import ORIGIN_NOISE, Simulation
-from sim.kinematics import LocalFrame, antenna_geometry
-from tables.scene import SceneTables
+from shipradar.sensors.dwell import DwellModel
+from shipradar.sim import protocol
+from shipradar.sim.engine import ORIGIN_NOISE, Simulation
+from shipradar.sim.kinematics import LocalFrame, antenna_geometry
+from shipradar.tables.scene import SceneTables
 
 from .helpers import CaptureBus, bare_scene, quiet_radar
 
@@ -148,7 +148,7 @@ def test_realtime_mode_runs_the_same_model_paced_by_the_clock():
 def test_meta_carries_the_radar_clutter_false_alarm_profile():
     """A tracker reads the radar's own sea-clutter rate (7.2) from the meta: the P_fac map's
     Σ η, split in 250 m rings; a radar that draws no clutter false alarms sends no profile."""
-    from tables.scene import load_scene_tables
+    from shipradar.tables.scene import load_scene_tables
     from tests.helpers import example, scenario
 
     s = scenario(example("single_missile"), atmosphere=False, propagation="free_space")

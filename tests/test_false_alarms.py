@@ -8,8 +8,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import stats
 
-from sensors import false_alarms
-from sensors.false_alarms import false_alarm_count, resolution_cells, uniform_positions
+from shipradar.sensors import false_alarms
+from shipradar.sensors.false_alarms import false_alarm_count, resolution_cells, uniform_positions
 
 DRAWS = 200_000
 

@@ -5,8 +5,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sim.figures import scene as figs
-from sim.scenario import load_scenario
+from shipradar.sim.figures import scene as figs
+from shipradar.sim.scenario import load_scenario
 
 SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
 PNG = b"\x89PNG\r\n\x1a\n"
@@ -44,8 +44,8 @@ def test_render_refuses_unknown_radar_and_kind(tmp_path, single_missile):
 
 
 def test_improvement_table_picture_reads_the_table(tmp_path):
-    from sim.figures.doppler import plot_improvement_table
-    from tables.improvement import build_improvement_table, improvement_factor_db
+    from shipradar.sim.figures.doppler import plot_improvement_table
+    from shipradar.tables.improvement import build_improvement_table, improvement_factor_db
 
     table = build_improvement_table("mti", mti_pulses=3, resolution="coarse")
     out = plot_improvement_table(tmp_path / "t.png", table, n_points=201)

@@ -7,9 +7,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sensors import doppler_filters as df
-from tables import improvement as imp
-from tables.store import Table, inputs_hash
+from shipradar.sensors import doppler_filters as df
+from shipradar.tables import improvement as imp
+from shipradar.tables.store import Table, inputs_hash
 
 PROCESSORS = {
     "mti3": dict(processor="mti", mti_pulses=3),

@@ -5,8 +5,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sensors import antenna, jamming
-from sensors.noise import power_ratio
+from shipradar.sensors import antenna, jamming
+from shipradar.sensors.noise import power_ratio
 
 LAM = 0.03
 

@@ -9,8 +9,8 @@ import pytest
 
 pytest.importorskip("distributed")
 
-from sim import montecarlo as mc  # noqa: E402
-from sim.scenario import load_scenario  # noqa: E402
+from shipradar.sim import montecarlo as mc  # noqa: E402
+from shipradar.sim.scenario import load_scenario  # noqa: E402
 
 from .helpers import ROOT  # noqa: E402
 
@@ -164,7 +164,7 @@ def test_empirical_pd_agrees_with_model(studies):
 def test_false_alarms_per_scan_agree_with_meta_rate(studies):
     """Noise false alarms per scan: the exact Poisson interval of the study covers the
     radar's stated rate (meta: noise_false_alarms_per_scan), widened to 99.9 %."""
-    from sim.engine import Simulation
+    from shipradar.sim.engine import Simulation
 
     sc, out = studies
     rate = Simulation(sc).radars[0].model.noise_false_alarms_per_scan
@@ -200,7 +200,7 @@ def test_sea_clutter_false_alarms_per_scan_agree_with_pfac_map(studies):
     = 1, ≈39 with the file's 10; the count
     of a scan is a sum of per-sector normal/Poisson/Bernoulli draws, variance ≤ mean, so the
     Poisson interval is, if anything, conservative)."""
-    from tables.scene import load_scene_tables
+    from shipradar.tables.scene import load_scene_tables
 
     sc, out = studies
     tab = load_scene_tables(sc).for_radar(sc.platforms[0].radars[0].id).pfac

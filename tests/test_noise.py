@@ -5,8 +5,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sensors import atmosphere as atm
-from sensors import noise
+from shipradar.sensors import atmosphere as atm
+from shipradar.sensors import noise
 
 
 def test_named_constants_are_the_seeds():

@@ -5,9 +5,9 @@ import pytest
 import scipy.constants as sc
 from scipy.signal import argrelmin
 
-from sensors import propagation as p
-from tables import propagation as tp
-from tables.store import Table
+from shipradar.sensors import propagation as p
+from shipradar.tables import propagation as tp
+from shipradar.tables.store import Table
 
 BEAMWIDTH = np.radians(3.0)
 

@@ -19,8 +19,8 @@ import math
 import numpy as np
 import pytest
 
-from sim.scenario import load_scenario
-from tables.scene import table_specs
+from shipradar.sim.scenario import load_scenario
+from shipradar.tables.scene import table_specs
 
 from .helpers import ROOT, example
 
@@ -202,7 +202,7 @@ def test_weibull_median_model_per_scan_by_hand(demo_tables):
     for K_clutter = 1 (11.5 times less than the seed's 388.3)."""
     from scipy import stats
 
-    from tables.pfac import build_pfac_map
+    from shipradar.tables.pfac import build_pfac_map
 
     sea, tab = demo_tables
     n0 = sea.inputs["noise_power_w"]
@@ -227,8 +227,8 @@ def test_weibull_median_model_per_scan_by_hand(demo_tables):
 def test_resolution_condition_edges(bw_deg, tau_us, high):
     """7.2: spikes only for X = θ_b τ' < 4 °·µs and τ' < 4 µs; the scene asks for a P_fac map
     exactly then."""
-    from sensors.sea_clutter import is_medium_high_resolution
-    from sim.scenario import parse_scenario
+    from shipradar.sensors.sea_clutter import is_medium_high_resolution
+    from shipradar.sim.scenario import parse_scenario
 
     from .helpers import quiet_radar
 

@@ -7,7 +7,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.optimize import minimize_scalar
 
-from sensors import propagation as p
+from shipradar.sensors import propagation as p
 
 Z0 = p.ROUGHNESS_LENGTH_M
 

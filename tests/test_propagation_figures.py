@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 import yaml
 
-from sim import cli
-from sim.figures import propagation as fig
-from tables import propagation as tp
+from shipradar.sim import cli
+from shipradar.sim.figures import propagation as fig
+from shipradar.tables import propagation as tp
 
 matplotlib.use("Agg")
 

@@ -13,8 +13,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
-from sim import protocol
-from sim.protocol import (
+from shipradar.sim import protocol
+from shipradar.sim.protocol import (
     EXT_NDARRAY,
     MAX_BODY_BYTES,
     SCHEMA_VERSION,

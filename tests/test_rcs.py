@@ -5,7 +5,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sensors import rcs
+from shipradar.sensors import rcs
 
 SIGMA_N, LENGTH, DIAMETER = 0.1, 5.0, 0.35
 BROADSIDE = SIGMA_N * 4 * LENGTH / (np.pi * DIAMETER)

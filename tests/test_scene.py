@@ -7,10 +7,10 @@ import copy
 import numpy as np
 import pytest
 
-from sim.scenario import parse_scenario
-from tables import scene as scene_mod
-from tables.scene import build_scene_tables, load_scene_tables, table_specs
-from tables.store import inputs_hash
+from shipradar.sim.scenario import parse_scenario
+from shipradar.tables import scene as scene_mod
+from shipradar.tables.scene import build_scene_tables, load_scene_tables, table_specs
+from shipradar.tables.store import inputs_hash
 from tests.helpers import bare_scene, example, quiet_radar
 
 
@@ -73,7 +73,7 @@ def test_pe_table_reaches_the_highest_target_or_jammer(monkeypatch):
     class _Stop(Exception):
         pass
 
-    import tables.propagation as tp
+    import shipradar.tables.propagation as tp
     monkeypatch.setattr(tp, "get_propagation_table", fake_table)
 
     def target(alt):
@@ -163,7 +163,7 @@ def test_profile_duct_reaches_the_pe_table_and_the_clutter_horizon():
      "environment.duct.m_units[1]: must be >= 0, got -1"),
 ])
 def test_bad_profile_gets_one_clear_line(duct, line):
-    from sim.scenario import ScenarioError
+    from shipradar.sim.scenario import ScenarioError
 
     with pytest.raises(ScenarioError) as err:
         parse_scenario(_with(example("single_missile"), duct=duct))
@@ -172,7 +172,7 @@ def test_bad_profile_gets_one_clear_line(duct, line):
 
 def test_surface_duct_profile_traps_beyond_the_horizon(table_cache):
     """Through the scene to the PE table: a 150 m surface duct lifts F far past the horizon."""
-    from tables.propagation import propagation_factor
+    from shipradar.tables.propagation import propagation_factor
 
     data = _with(example("single_missile"), duct=SURFACE_DUCT)
     data["fidelity"] = {"pe_grid": "coarse", "clutter": False, "atmosphere": False}

@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sensors import sea_clutter as sc
+from shipradar.sensors import sea_clutter as sc
 
 C = 299_792_458.0
 A_E = 4.0 / 3.0 * 6_371_000.0

@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sensors import weather_clutter as wc
+from shipradar.sensors import weather_clutter as wc
 
 C = 299_792_458.0
 

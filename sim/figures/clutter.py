@@ -12,8 +12,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from sensors import sea_clutter as sc  # noqa: E402
-from tables.store import Table  # noqa: E402
+from shipradar.sensors import sea_clutter as sc  # noqa: E402
+from shipradar.tables.store import Table  # noqa: E402
 
 #: Lowest clutter-to-noise ratio drawn by :func:`plot_clutter_ppi` [dB].
 PPI_CNR_FLOOR_DB = -10.0

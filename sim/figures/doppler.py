@@ -18,7 +18,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from sensors import doppler_filters as df  # noqa: E402
+from shipradar.sensors import doppler_filters as df  # noqa: E402
 
 #: Spreads drawn by default, σ_s/f_r [1].
 FIG7_SPREADS_NORM = (0.001, 0.01, 0.03)
@@ -153,7 +153,7 @@ def plot_improvement_table(
     Path
         The written file.
     """
-    from tables.improvement import improvement_factor_db
+    from shipradar.tables.improvement import improvement_factor_db
 
     period = float(table.axes[1][-1])
     doppler = np.linspace(0.0, period, int(n_points))

@@ -4,7 +4,7 @@ the P_fac map of 7.2.
 
 Both take plain arrays (from a run's truth and plot topics, or from the generators of
 :mod:`sensors.false_alarms`); :func:`generated_false_alarms` draws them for a scenario without
-running the engine.  ``python -m sim.figures.false_alarms SCENARIO.yaml OUTDIR`` writes all three.
+running the engine.  ``python -m shipradar.sim.figures.false_alarms SCENARIO.yaml OUTDIR`` writes all three.
 """
 
 from __future__ import annotations
@@ -185,7 +185,7 @@ def plot_pfac_map(
     """
     from matplotlib.colors import LogNorm
 
-    from tables.pfac import sector_edges
+    from shipradar.tables.pfac import sector_edges
 
     path = Path(path)
     p = np.asarray(table.values, dtype=float)
@@ -267,8 +267,8 @@ def generated_false_alarms(scenario, radar_id: str | None = None, scans: int = 2
         the extra noise draw) arrays; ``radar_id``, ``max_range_m``, ``scans``,
         ``noise_scans`` (revolutions the noise false alarms stand for) and ``wind_from_rad``.
     """
-    from sensors.dwell import DwellModel
-    from tables.scene import load_scene_tables
+    from shipradar.sensors.dwell import DwellModel
+    from shipradar.tables.scene import load_scene_tables
 
     if tables is None:
         tables = load_scene_tables(scenario)
@@ -296,7 +296,7 @@ def generated_false_alarms(scenario, radar_id: str | None = None, scans: int = 2
             out["scan"].append(np.full(r.size, k, dtype=np.int64))
     eta = model.noise_false_alarms_per_scan
     if min_noise > 0 and eta > 0:
-        from sensors import false_alarms as fa
+        from shipradar.sensors import false_alarms as fa
 
         n_more = int(fa.false_alarm_count(min_noise, radar.n_channels, rng))
         r, az = fa.uniform_positions(n_more, 0.0, radar.instrumented_range_m, 0.0,
@@ -326,8 +326,8 @@ def clutter_extent_m(fa: dict, quantile: float = 0.999) -> float | None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m sim.figures.false_alarms SCENARIO.yaml OUTDIR [SCANS]``."""
-    from sim.scenario import load_scenario
+    """``python -m shipradar.sim.figures.false_alarms SCENARIO.yaml OUTDIR [SCANS]``."""
+    from shipradar.sim.scenario import load_scenario
 
     args = sys.argv[1:] if argv is None else argv
     if len(args) < 2:
@@ -351,7 +351,7 @@ def main(argv: list[str] | None = None) -> int:
         wind_from_rad=fa["wind_from_rad"])
     print(p1)
     print(p2)
-    from tables.scene import load_scene_tables
+    from shipradar.tables.scene import load_scene_tables
 
     pfac = load_scene_tables(scenario).for_radar(fa["radar_id"]).pfac
     if pfac is not None:

@@ -13,9 +13,9 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from sensors import propagation as prop  # noqa: E402
-from tables import propagation as tp  # noqa: E402
-from tables.store import Table  # noqa: E402
+from shipradar.sensors import propagation as prop  # noqa: E402
+from shipradar.tables import propagation as tp  # noqa: E402
+from shipradar.tables.store import Table  # noqa: E402
 
 #: Lowest F shown [dB] (nulls go to -inf).
 FLOOR_DB = -60.0

@@ -23,14 +23,14 @@ from __future__ import annotations
 from collections.abc import Iterable
 from pathlib import Path
 
-from sim.scenario import Scenario
+from shipradar.sim.scenario import Scenario
 
 WHATS = ("propagation", "coverage", "clutter", "improvement")
 
 
 def _scene_tables(scenario: Scenario, kinds: Iterable[str], radar_id: str | None):
     """``{(radar_id, kind): table}`` for the requested kinds, from the cache or built."""
-    from tables.scene import table_specs
+    from shipradar.tables.scene import table_specs
 
     kinds = set(kinds)
     out = {}
@@ -49,9 +49,9 @@ def _radars(scenario: Scenario, radar_id: str | None):
 
 
 def _clutter(scenario: Scenario, out: Path, radar_id: str | None) -> list[Path]:
-    from sensors import sea_clutter as sc
-    from sim.figures.clutter import plot_clutter_ppi, plot_ducting_reflectivity
-    from tables.scene import _duct_height
+    from shipradar.sensors import sea_clutter as sc
+    from shipradar.sim.figures.clutter import plot_clutter_ppi, plot_ducting_reflectivity
+    from shipradar.tables.scene import _duct_height
 
     written = [plot_ducting_reflectivity(out / "fig6_seed_ducting_reflectivity.png")]
     env = scenario.environment
@@ -81,11 +81,11 @@ def _clutter(scenario: Scenario, out: Path, radar_id: str | None) -> list[Path]:
 
 
 def _improvement(scenario: Scenario, out: Path, radar_id: str | None) -> list[Path]:
-    from sim.figures.doppler import plot_improvement_table, plot_improvement_vs_doppler
-    from tables.scene import improvement_kwargs
+    from shipradar.sim.figures.doppler import plot_improvement_table, plot_improvement_vs_doppler
+    from shipradar.tables.scene import improvement_kwargs
 
     written = [plot_improvement_vs_doppler(out / "fig7_seed_improvement_vs_doppler.png")]
-    from tables.improvement import improvement_table
+    from shipradar.tables.improvement import improvement_table
 
     for radar in _radars(scenario, radar_id):
         kw = improvement_kwargs(scenario, radar)
@@ -99,8 +99,8 @@ def _improvement(scenario: Scenario, out: Path, radar_id: str | None) -> list[Pa
 
 def _propagation(scenario: Scenario, out: Path, radar_id: str | None,
                  height_m: float) -> list[Path]:
-    from sim.figures.propagation import plot_factor_vs_range
-    from tables.scene import _duct_height
+    from shipradar.sim.figures.propagation import plot_factor_vs_range
+    from shipradar.tables.scene import _duct_height
 
     duct = _duct_height(scenario)
     ducts = (0.0,) if duct < 1.0 else (0.0, duct)
@@ -120,7 +120,7 @@ def _propagation(scenario: Scenario, out: Path, radar_id: str | None,
 
 
 def _coverage(scenario: Scenario, out: Path, radar_id: str | None) -> list[Path]:
-    from sim.figures.propagation import plot_coverage
+    from shipradar.sim.figures.propagation import plot_coverage
 
     tables = _scene_tables(scenario, ("propagation",), radar_id)
     return [plot_coverage(out / f"{rid}_coverage.png", table)

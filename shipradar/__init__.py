@@ -1,0 +1,63 @@
+"""shipradar: a shipborne surveillance radar simulator (DREV-R-9429) for data fusion studies.
+
+The public API, everything a library user needs::
+
+    import shipradar
+
+    scenario = shipradar.load_scenario("scene.yaml")       # or shipradar.example("raid")
+    tables = shipradar.build_tables(scenario)               # off-line level, cached
+    for topic, t, msg in shipradar.messages(scenario, tables=tables, duration_s=60):
+        if topic == "plots":
+            print(t, msg["range_m"], msg["azimuth_rad"])
+
+``run(scenario, on_message=...)`` runs to the end with a callback and returns the summary;
+``probability_of_detection`` and ``required_snr_db`` are the detection functions;
+``read_recording`` iterates a recording. The subpackages ``shipradar.sim``,
+``shipradar.sensors`` and ``shipradar.tables`` are importable, but only the names listed in
+``__all__`` are promised to stay.
+"""
+
+from __future__ import annotations
+
+from importlib import import_module
+from importlib.metadata import PackageNotFoundError, version
+
+try:
+    __version__ = version("shipradar")
+except PackageNotFoundError:  # pragma: no cover - running from an uninstalled checkout
+    __version__ = "0+unknown"
+
+# name -> module that defines it; imported on first use so `import shipradar` stays cheap
+_EXPORTS = {
+    "Scenario": "shipradar.sim.scenario",
+    "ScenarioError": "shipradar.sim.scenario",
+    "load_scenario": "shipradar.sim.scenario",
+    "parse_scenario": "shipradar.sim.scenario",
+    "Simulation": "shipradar.sim.engine",
+    "probability_of_detection": "shipradar.sensors.detection",
+    "required_snr_db": "shipradar.sensors.detection",
+    "read_recording": "shipradar.sim.recording",
+    "RecordingError": "shipradar.sim.recording",
+    "decode": "shipradar.sim.protocol",
+    "example_names": "shipradar.scenarios",
+    "example_path": "shipradar.scenarios",
+    "build_tables": "shipradar.api",
+    "example": "shipradar.api",
+    "messages": "shipradar.api",
+    "run": "shipradar.api",
+}
+
+__all__ = ["__version__", *sorted(_EXPORTS)]
+
+
+def __getattr__(name: str):
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'shipradar' has no attribute {name!r}")
+    value = getattr(import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -1,0 +1,84 @@
+"""The library entry points promised by :mod:`shipradar` (everything else may change).
+
+Each function takes a scenario already loaded (:func:`shipradar.load_scenario`), a path, or
+the name of a shipped example.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+from shipradar.scenarios import example_path
+from shipradar.sim.engine import CallbackSink, Simulation
+from shipradar.sim.scenario import Scenario, load_scenario
+
+__all__ = ["build_tables", "example", "messages", "run"]
+
+ScenarioLike = Scenario | str | Path
+
+
+def example(name: str) -> Scenario:
+    """The shipped example scenario ``name`` (see :func:`shipradar.example_names`), validated."""
+    return load_scenario(example_path(name))
+
+
+def _scenario(scenario: ScenarioLike) -> Scenario:
+    return scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
+
+
+def build_tables(scenario: ScenarioLike, *, progress: bool = False):
+    """Build (or load from the cache) the off-line tables the scenario reads.
+
+    Returns
+    -------
+    shipradar.tables.scene.SceneTables
+        Pass it to :func:`run` or :func:`messages` to skip the cache look-up.
+    """
+    from shipradar.tables.scene import load_scene_tables
+
+    return load_scene_tables(_scenario(scenario), progress=progress)
+
+
+def _simulation(scenario, tables, seed, duration_s, bus=None) -> Simulation:
+    s = _scenario(scenario)
+    return Simulation(s, bus=bus, seed=seed, duration_s=duration_s,
+                      tables=tables if tables is not None else build_tables(s))
+
+
+def run(scenario: ScenarioLike, *, on_message: Callable[[str, float, dict], Any] | None = None,
+        seed: int | None = None, duration_s: float | None = None, tables=None) -> dict[str, Any]:
+    """Run a scenario in process, as fast as possible, with no sockets.
+
+    Parameters
+    ----------
+    scenario : Scenario, path or str
+        The scene.
+    on_message : callable, optional
+        Called as ``on_message(topic, t_sim, payload)`` for every message of the stream
+        (topics ``meta``, ``plots``, ``eos``, ``truth``; payload keys as in docs/protocol.md).
+    seed : int, optional
+        Overrides the scenario's seed.
+    duration_s : float, optional
+        Overrides the scenario's duration [s].
+    tables : SceneTables, optional
+        From :func:`build_tables`; built or loaded from the cache when omitted.
+
+    Returns
+    -------
+    dict
+        The run's summary (the JSON line that ``shipradar run`` prints).
+    """
+    sink = CallbackSink(on_message) if on_message is not None else None
+    return _simulation(scenario, tables, seed, duration_s, sink).run()
+
+
+def messages(scenario: ScenarioLike, *, seed: int | None = None,
+             duration_s: float | None = None, tables=None) -> Iterator[tuple[str, float, dict]]:
+    """Iterate the messages of an in-process run as ``(topic, t_sim, payload)``.
+
+    Same messages, in the same order, as :func:`run` gives its callback; the simulation
+    advances one scan at a time as the iterator is consumed, so breaking out early stops it.
+    """
+    yield from _simulation(scenario, tables, seed, duration_s).messages()
