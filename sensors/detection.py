@@ -56,8 +56,14 @@ Choices where the seed is silent or wrong
   D_0 L_f (D_0 plus L_f in dB), equivalently L_f subtracted from the available S/I;
   subtracting it from D_0 would make a fluctuating target easier to detect than a steady
   one.
-* **[74] units.**  θ_b / f_rot is read as the time on target: θ_b in radians and the
-  rotation rate in rad/s.
+* **[74] units (erratum).**  The seed prints N_n' = [1 + 5 σ_s' θ_b / (6 λ f_rot)] with θ_b
+  in degrees and f_rot in rpm: the "6" converts rpm to degrees per second, so that
+  θ_b / (6 f_rot) is the time on target t_ot in seconds.  With SI units the coefficient is
+  5 alone: N_n' = ⌊1 + 5 σ_s' t_ot / λ⌋, t_ot = θ_b / ω_rot.  This is Nathanson's
+  N = 1 + 2√(2π) σ_v t_ot / λ (2√(2π) ≈ 5), and only with 5 do the seed's two branches meet
+  at its own switch σ_s'/(λ f_r) = 0.2 ≈ 1/(2√(2π)), where 1 + 5 σ_s' t_ot/λ = 1 + N_n.
+  [ ] is the integer part in both branches ("a number between 1 and N_n"), so the
+  correlated branch is capped at ⌊N_n⌋ and N_n' is continuous at the switch.
 * **N_rc ≤ 0 or P_fa ∉ (0, 1) in [68]-[72] (SPEC §4 item 14)** raise ``ValueError``.
 * **N_e < 1 (SPEC §4 item 16)**: :func:`effective_pulses` never returns less than 1.
 """
@@ -78,8 +84,9 @@ LN2_SEED = 0.69
 RANGE_CELLS_LOST = 2.0
 #: [74]: the clutter spectrum decorrelates every pulse when σ_s'/(λ f_r) ≥ 0.2.
 DECORRELATED_SPREAD_RATIO = 0.2
-#: [74]: N_n' = 1 + (5/6) σ_s' θ_b / (λ f_rot).
-CLUTTER_SAMPLES_FACTOR = 5.0 / 6.0
+#: [74]: N_n' = 1 + 5 σ_s' t_ot / λ with t_ot = θ_b/ω_rot in seconds (the seed's "6" turns its
+#: θ_b [deg] / f_rot [rpm] into seconds; it is not part of the coefficient).
+CLUTTER_SAMPLES_FACTOR = 5.0
 #: [76]: N_e = N_e' / (1 + 0.53 N_pc) (fit of Trunk's results, seed Ref. 25).
 MTI_PULSE_FACTOR = 0.53
 
@@ -305,8 +312,9 @@ def effective_pulses(
     Noise or jamming dominated (``clutter_dominated`` False): N_e = N_n [73] (the seed
     assumes the clutter filters are switched off).  Clutter dominated:
 
-    * N_n' = ⌊N_n⌋ if σ_s'/(λ f_r) ≥ 0.2, else ⌊1 + 5 σ_s' θ_b / (6 λ ω_rot)⌋ [74],
-      capped at N_n;
+    * N_n' = ⌊N_n⌋ if σ_s'/(λ f_r) ≥ 0.2, else ⌊1 + 5 σ_s' t_ot / λ⌋ with the time on
+      target t_ot = θ_b/ω_rot [s] [74] (the seed's "6" is its rpm-to-degrees/s conversion,
+      see the module notes), capped at ⌊N_n⌋;
     * N_e' = max(N_n / N_fc, N_n') with frequency agility [75];
     * with a filter bank or coherent integrator (``n_coherent`` > 1): N_e = N_n / N_c [77];
       otherwise with an N_pc-pulse MTI: N_e = N_e' / (1 + 0.53 N_pc) [76]; otherwise N_e'.
@@ -372,7 +380,7 @@ def effective_pulses(
         np.floor(n_n),
         np.floor(1.0 + CLUTTER_SAMPLES_FACTOR * sigma * theta / (lam * omega)),
     )
-    n_clutter = np.minimum(n_clutter, n_n)  # "a number between 1 and N_n"
+    n_clutter = np.minimum(n_clutter, np.floor(n_n))  # "a number between 1 and N_n"
     n_e_prime = np.maximum(n_n / n_fc, n_clutter)  # [75]
     n_e_clutter = np.where(
         n_c > 1.0, n_n / n_c, n_e_prime / (1.0 + MTI_PULSE_FACTOR * n_pc)

@@ -205,6 +205,7 @@ class DwellModel:
         self._prepare_targets(scenario)
         self._prepare_jammers(scenario)
         self._prepare_propagation(scenario)
+        self._prepare_compensation(platform, radar)
         spectrum = (None, "doppler_mean_hz", "doppler_spread_hz")
         self._sea_reader = (None if self.tables.sea_clutter is None else StackedLookup2D(
             self.tables.sea_clutter, (*spectrum, "weibull_a"), periodic1=True))
@@ -251,6 +252,22 @@ class DwellModel:
             gain=noise.power_ratio(np.array([j.gain_db for j in js])),
             bandwidth_hz=np.array([j.bandwidth_hz for j in js]),
         )
+        # L_sl of [47]: the constant azimuth sidelobe level a jammer outside the main beam
+        # sees; a floor under the pattern (a real antenna's far sidelobes and backlobe), so a
+        # jammer behind the antenna or off a Gaussian beam does not vanish
+        pa = self.radar.pattern_az
+        self.jam_sidelobe_floor = float(noise.power_ratio(-(
+            pa.sidelobe_db if pa.jamming_sidelobe_db is None else pa.jamming_sidelobe_db)))
+
+    def _prepare_compensation(self, platform: Platform, radar: Radar) -> None:
+        # The platform motion the processor removes ([35], motion_compensated): the same
+        # ship speed and course as the clutter tables' f1 [34] (tables.scene.ship_motion), so
+        # the target Doppler relative to the clutter is the same with and without it.
+        from shipradar.tables.scene import ship_motion
+
+        speed, course = ship_motion(platform)
+        self._compensation = (speed, course) if (
+            radar.processor.motion_compensated and speed > 0.0) else None
 
     def _prepare_propagation(self, scenario: Scenario) -> None:
         self.propagation_mode = scenario.fidelity.propagation
@@ -330,8 +347,9 @@ class DwellModel:
         two-ray or free space; it holds the elevation pattern, as for targets) at the jammer's
         height, and the atmospheric loss [16] along the path, computed once per call for the
         jammers (not per beam position).  The azimuth pattern toward the jammer is the
-        sidelobe envelope beyond the first null ([13]: the seed's constant sidelobe level),
-        so S/J does not swing tens of dB between beam positions in the sinc nulls.
+        sidelobe envelope beyond the first null ([13]), so S/J does not swing tens of dB
+        between beam positions in the sinc nulls, floored at the seed's constant sidelobe
+        level L_sl (``pattern_az.jamming_sidelobe_db``, default S_L): g_az² ≥ L_sl.
 
         Parameters
         ----------
@@ -358,8 +376,33 @@ class DwellModel:
             self.jam.power_w[None, :], self.jam.gain[None, :], self.gain, g_az, 1.0,
             self.wavelength, jam_geom.slant_range[None, :], self.bandwidth,
             self.jam.bandwidth_hz[None, :], f_j=f_j[None, :], l_r=self.l_r,
-            l_atm=l_atm[None, :])
+            l_atm=l_atm[None, :], sidelobe_floor=self.jam_sidelobe_floor)
         return p.sum(axis=1)
+
+    def target_doppler_hz(self, geom):
+        """Target Doppler after the processor [Hz]: f_d = -2 v_r/λ, minus f1 when compensated.
+
+        A motion-compensated processor ([35]: μ_c = 0) shifts everything it receives in the
+        beam by the platform Doppler f1 [34] of the clutter patch at that range and azimuth,
+        so the target is shifted too: f_d' = -2 v_r/λ - f1 (v_r the range rate relative to
+        the ship, positive receding).  f_d' - μ_c is then the same with and without
+        compensation, up to the wave-drift term of [35].  f1 uses the clutter tables' ship
+        speed and course and the sea patch's depression angle at the target's ground range.
+
+        Parameters
+        ----------
+        geom : Geometry
+            Targets seen from the antenna (``radial_velocity`` [m/s], ``azimuth`` [rad],
+            ``ground_range`` [m]).
+        """
+        fd = -2.0 * geom.radial_velocity / self.wavelength
+        if self._compensation is None:
+            return fd
+        speed, course = self._compensation
+        depression = sea_clutter.depression_angle_rad(geom.ground_range,
+                                                      self.radar.antenna_height_m)
+        return fd - sea_clutter.platform_doppler_hz(speed, geom.azimuth - course, depression,
+                                                    self.wavelength)
 
     def clutter_at(self, geom, tpos, antenna_en):
         """Clutter at each target's cell and what the processor does to it.
@@ -368,7 +411,9 @@ class DwellModel:
         ``power_w`` P_sc + P_wc at the RF input [21], [39]; ``improvement`` I_F [57] of the
         Doppler processor at the target's Doppler relative to the clutter mean; its
         ``distribution_loss`` L_d [63]-[64] (sea clutter dominant and medium/high resolution);
-        ``spread_mps`` the clutter velocity spread σ_s' for [74].
+        ``spread_mps`` the clutter velocity spread σ_s' for [74]; ``doppler_relative_hz``
+        the target's Doppler relative to the clutter mean, f_d' - μ_c
+        (:meth:`target_doppler_hz`), which indexes I_F and picks the filter.
         """
         if self._sea_reader is None and self._wx_reader is None:
             return None
@@ -386,14 +431,14 @@ class DwellModel:
         sea_dom = p_sc >= p_wc
         mean = np.where(sea_dom, mean_sc, mean_wc)
         spread = np.where(sea_dom, spread_sc, spread_wc)
-        fd = -2.0 * geom.radial_velocity / self.wavelength
+        relative = self.target_doppler_hz(geom) - mean
         from shipradar.tables.improvement import improvement_factor_db
 
         prf = self.radar.prf_hz
-        i_f_db = improvement_factor_db(self.tables.improvement, spread / prf, (fd - mean) / prf)
+        i_f_db = improvement_factor_db(self.tables.improvement, spread / prf, relative / prf)
         # the same filter's gain against white noise: what thermal noise gets through the
         # processor while the clutter filters are on (the I_F table's sigma -> inf limit)
-        cg_db = improvement_factor_db(self.tables.improvement, spread / prf, (fd - mean) / prf,
+        cg_db = improvement_factor_db(self.tables.improvement, spread / prf, relative / prf,
                                       array="coherent_gain_db")
         l_d = np.ones(n)
         if self._sea_reader is not None and self.high_resolution:
@@ -406,6 +451,7 @@ class DwellModel:
             "distribution_loss": l_d,
             "spread_mps": spread * self.wavelength / 2.0,
             "doppler_mean_hz": mean,
+            "doppler_relative_hz": relative,
             "coherent_gain": noise.power_ratio(cg_db),
         }
 
@@ -533,8 +579,8 @@ class DwellModel:
             return np.zeros(1, dtype=np.int64), 1
         rc = np.floor(geom.slant_range / self.range_cell).astype(np.int64)
         ac = np.floor(geom.azimuth / self.theta_b).astype(np.int64)
-        fc = self._doppler_filter(geom.radial_velocity,
-                                  0.0 if clutter is None else clutter["doppler_mean_hz"])
+        fc = self._doppler_filter(self.target_doppler_hz(geom) if clutter is None
+                                  else clutter["doppler_relative_hz"])
         # One integer per (range cell, azimuth cell, filter), ordered as the triples are
         # lexicographically (all three are >= 0), so the groups are numbered as
         # np.unique(axis=0) would number them, at a fraction of its cost.
@@ -547,22 +593,22 @@ class DwellModel:
         group = group.ravel().astype(np.int64)
         return group, int(group.max()) + 1
 
-    def _doppler_filter(self, radial_velocity, clutter_mean_hz=0.0):
+    def _doppler_filter(self, doppler_hz):
         """Doppler filter index of each target (0 for a radar without a filter bank).
 
         The bank has ``n_filters`` filters, by default as many as it has taps: N_c for a DFT
         or FIR bank, N_c - N_pc behind an N_pc-order canceller (as the I_F table is built,
-        :func:`tables.scene.improvement_kwargs`).  The Doppler is taken relative to the
-        clutter mean, the reference of the I_F table.
+        :func:`tables.scene.improvement_kwargs`).  ``doppler_hz`` is the target's Doppler
+        after motion compensation relative to the clutter mean [Hz], the reference of the
+        I_F table (:meth:`target_doppler_hz`, ``clutter_at(...)["doppler_relative_hz"]``).
         """
         proc = self.radar.processor
         if proc.type not in ("dft_bank", "fir_bank", "mti_bank"):
-            return np.zeros(radial_velocity.shape, dtype=np.int64)
+            return np.zeros(np.shape(doppler_hz), dtype=np.int64)
         taps = proc.n_coherent - (proc.mti_order if proc.type == "mti_bank" else 0)
         n_filters = proc.n_filters if proc.n_filters is not None else taps
-        fd = -2.0 * radial_velocity / self.wavelength - clutter_mean_hz
         return np.asarray(
-            doppler_filters.doppler_filter_index(fd, self.radar.prf_hz, n_filters),
+            doppler_filters.doppler_filter_index(doppler_hz, self.radar.prf_hz, n_filters),
             dtype=np.int64)
 
     def _pulse_args(self, clutter, lead):

@@ -89,6 +89,12 @@ class AzimuthPattern(_Model):
     sidelobe_db: float = Field(
         25.0, ge=13.26, le=60.0, description="S_L, sidelobe level below the main beam [dB] (sinc)"
     )
+    jamming_sidelobe_db: float | None = Field(
+        None, ge=3.0, le=90.0,
+        description="L_sl of [47]: the azimuth sidelobe level below the main beam that a jammer "
+        "outside the main beam sees, a floor under the pattern (far sidelobes, backlobe) [dB]; "
+        "default S_L (sidelobe_db), the pattern's first sidelobe level, as the seed intends",
+    )
 
 
 class ElevationPattern(_Model):
@@ -201,6 +207,15 @@ class Radar(_Model):
     losses: Losses = Losses()
     start_azimuth_deg: float = Field(
         0.0, ge=0.0, lt=360.0, description="beam azimuth (true north) at t = 0 [deg]"
+    )
+    sac: int | None = Field(
+        None, ge=0, le=255,
+        description="ASTERIX System Area Code of this radar (I048/010, I034/010); default 0",
+    )
+    sic: int | None = Field(
+        None, ge=0, le=255,
+        description="ASTERIX System Identification Code (I048/010, I034/010); default: the "
+        "smallest code >= 1 that no other radar of the same SAC uses, in scenario order",
     )
 
     @field_validator("stagger_prf_hz")
@@ -489,6 +504,52 @@ class Scenario(_Model):
                                  f"jammers: {i!r} repeats")
             seen.add(i)
         return self
+
+    @model_validator(mode="after")
+    def _unique_sac_sic(self) -> Scenario:
+        # a receiver tells radars apart by SAC/SIC alone (I048/010): two radars with one
+        # code would merge into one sensor in every tracker
+        self.asterix_sources()
+        return self
+
+    def asterix_sources(self) -> dict[str, tuple[int, int]]:
+        """ASTERIX data source (SAC, SIC) of every radar, defaults resolved.
+
+        Returns
+        -------
+        dict[str, tuple[int, int]]
+            Radar id -> (SAC, SIC). A radar without ``sac`` gets 0; one without ``sic`` the
+            smallest code >= 1 not given explicitly to, nor already taken by, another radar of
+            the same SAC (in scenario order), so the defaults are unique.
+
+        Raises
+        ------
+        ValueError
+            If two radars have the same (SAC, SIC), or no code is left.
+        """
+        radars = [(i, j, r) for i, p in enumerate(self.platforms) for j, r in enumerate(p.radars)]
+        taken: dict[tuple[int, int], str] = {}
+        for i, j, r in radars:
+            if r.sic is None:
+                continue
+            key = (0 if r.sac is None else r.sac, r.sic)
+            if key in taken:
+                raise ValueError(f"platforms[{i}].radars[{j}].sic: SAC/SIC {key[0]}/{key[1]} "
+                                 f"is already radar {taken[key]!r}'s; each radar needs its "
+                                 f"own (SAC, SIC), got {r.sic}")
+            taken[key] = r.id
+        out: dict[str, tuple[int, int]] = {}
+        for i, j, r in radars:
+            sac = 0 if r.sac is None else r.sac
+            sic = r.sic
+            if sic is None:
+                sic = next((c for c in range(1, 256) if (sac, c) not in taken), None)
+                if sic is None:
+                    raise ValueError(f"platforms[{i}].radars[{j}].sic: every SIC of SAC "
+                                     f"{sac} is taken; give this radar another sac")
+                taken[(sac, sic)] = r.id
+            out[r.id] = (sac, sic)
+        return out
 
     def radars(self) -> list[tuple[Platform, Radar]]:
         return [(p, r) for p in self.platforms for r in p.radars]

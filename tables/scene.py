@@ -220,7 +220,7 @@ def _improvement_specs(scenario: Scenario, platform: Platform, radar: Radar) -> 
     return [TableSpec(radar.id, "improvement", "improvement factor vs spread and Doppler", make)]
 
 
-def _ship_motion(platform: Platform) -> tuple[float, float]:
+def ship_motion(platform: Platform) -> tuple[float, float]:
     """Speed [m/s] and course [rad] of the platform's first leg (0, heading if stationary)."""
     w = platform.waypoints
     if len(w) < 2 or w[0].east_m is None or w[1].east_m is None:
@@ -250,7 +250,7 @@ def _clutter_specs(scenario: Scenario, platform: Platform, radar: Radar) -> list
 
     env = scenario.environment
     k = radar_constants(scenario, radar)
-    speed, course = _ship_motion(platform)
+    speed, course = ship_motion(platform)
     n_range, n_az = clutter_grid_size(radar)
     duct = 0.0
     if env.duct is not None:

@@ -124,8 +124,8 @@ def test_effective_pulses_clutter_branches():
         beamwidth_rad=0.02,
         rotation_rate_rad_s=np.pi,
     )
-    # correlated clutter: N_n' = floor(1 + 5/6 σ θ_b/(λ ω)) = floor(1 + 5/6*2*0.02/(0.05π)) = 1
-    assert float(effective_pulses(20.0, clutter_velocity_spread_mps=2.0, **common)) == 1.0
+    # correlated clutter: N_n' = floor(1 + 5 σ θ_b/(λ ω)) = floor(1 + 5*2*0.02/(0.05π)) = 2
+    assert float(effective_pulses(20.0, clutter_velocity_spread_mps=2.0, **common)) == 2.0
     # σ/(λ f_r) = 20/50 = 0.4 ≥ 0.2: decorrelated, N_n' = floor(N_n)
     assert float(effective_pulses(20.5, clutter_velocity_spread_mps=20.0, **common)) == 20.0
     # frequency agility every 4 pulses [75]
@@ -138,9 +138,42 @@ def test_effective_pulses_clutter_branches():
     ) == pytest.approx(20.0 / 2.06)
     # filter bank of 8 [77]
     assert float(effective_pulses(20.0, n_coherent=8, **common)) == pytest.approx(2.5)
-    # long time on target: 1 + 5/6*1*0.02/(0.05*0.01) = 34.3 → capped at N_n = 30
+    # long time on target: 1 + 5*1*0.02/(0.05*0.01) = 201 → capped at N_n = 30
     slow = dict(common, rotation_rate_rad_s=0.01)
     assert float(effective_pulses(30.0, clutter_velocity_spread_mps=1.0, **slow)) == 30.0
+
+
+X_BAND = dict(clutter_dominated=True, wavelength_m=0.03, prf_hz=1000.0,
+              beamwidth_rad=np.radians(1.5), rotation_rate_rad_s=2 * np.pi * 30 / 60)
+
+
+def test_effective_pulses_74_hand_values_in_the_seeds_own_units():
+    """[74] as printed, θ_b = 1.5° and f_rot = 30 rpm: 5 σ θ_b / (6 λ f_rot) with σ = 2 m/s,
+    λ = 3 cm is 5*2*1.5/(6*0.03*30) = 2.78, so N_n' = [3.78] = 3 (the code's SI time on
+    target θ_b/ω = 8.33 ms must give the same); σ = 8 m/s is decorrelated (8/(0.03*1000) =
+    0.27 ≥ 0.2), N_n' = [N_n] = [1000 * 8.33 ms] = 8."""
+    n_n = 1000.0 * (1.5 / (6 * 30))
+    assert n_n == pytest.approx(8.333, abs=1e-3)
+    seed_units = 1 + 5 * 2.0 * 1.5 / (6 * 0.03 * 30)
+    assert float(effective_pulses(n_n, clutter_velocity_spread_mps=2.0, **X_BAND)) == \
+        np.floor(seed_units) == 3.0
+    assert float(effective_pulses(n_n, clutter_velocity_spread_mps=8.0, **X_BAND)) == 8.0
+
+
+@settings(max_examples=200, deadline=None)
+@given(lam=st.floats(0.008, 0.7), prf=st.floats(200.0, 20000.0),
+       theta_deg=st.floats(0.3, 10.0), rpm=st.floats(1.0, 120.0))
+def test_effective_pulses_74_continuous_at_the_switch(lam, prf, theta_deg, rpm):
+    """Both branches of [74] meet at σ_s'/(λ f_r) = 0.2 (only the coefficient 5 does this:
+    1 + 5 (0.2 λ f_r) t_ot / λ = 1 + N_n, capped to ⌊N_n⌋)."""
+    theta, omega = np.radians(theta_deg), 2 * np.pi * rpm / 60
+    n_n = prf * theta / omega
+    args = dict(X_BAND, wavelength_m=lam, prf_hz=prf, beamwidth_rad=theta,
+                rotation_rate_rad_s=omega)
+    switch = 0.2 * lam * prf
+    below = effective_pulses(n_n, clutter_velocity_spread_mps=switch * (1 - 1e-9), **args)
+    above = effective_pulses(n_n, clutter_velocity_spread_mps=switch * (1 + 1e-9), **args)
+    assert float(below) == float(above) == max(np.floor(n_n), 1.0)
 
 
 def test_effective_pulses_never_below_one_vectorized():
