@@ -53,7 +53,8 @@ def _fresh_cache():
 
 
 def main() -> None:
-    from shipradar.sensors.dwell import DwellModel, radar_constants
+    from shipradar.sensors.dwell import DwellModel
+    from shipradar.sensors.radar import radar_constants
     from shipradar.sim.scenario import load_scenario
     from shipradar.tables import scene as ts
     from shipradar.tables.clutter import build_sea_clutter_map

@@ -19,7 +19,7 @@ median of [30]; 9-14x lower P_fac at a = 1.5-3), in VP and in the HP default P_f
 on-line generator (spike S/I, :func:`clutter_false_alarm_generator`).
 
 Only for medium-to-high-resolution radars (X = θ_b[deg] τ'[µs] < 4 and τ' < 4 µs): the
-builder refuses the others and :func:`pfac_specs` asks for no table.
+builder refuses the others and the scene (:mod:`tables.scene`) asks for no table.
 
 Sectors
 -------
@@ -338,32 +338,3 @@ def clutter_false_alarm_generator(
         beamwidth_rad=float(si["beamwidth_az_rad"]),
         antenna_height_m=float(si["antenna_height_m"]), k_factor=float(si["k_factor"]),
         h_range=h_range, h_azimuth=h_azimuth, clutter_fa_model=model)
-
-
-def pfac_specs(scenario, platform, radar) -> list:
-    """Table-spec provider: the P_fac map, only with clutter on and a medium/high-resolution radar.
-
-    The sea-clutter map comes from the scene's own clutter spec (same inputs, so a cache hit
-    after :func:`tables.scene._clutter_specs` has built it); the [94]-[95] reading from
-    ``scenario.fidelity.clutter_fa_model``.
-    """
-    if not scenario.fidelity.clutter:
-        return []
-    theta_b = math.radians(radar.beamwidth_az_deg)
-    if not bool(sc.is_medium_high_resolution(theta_b, radar.pulse_width_s)):
-        return []
-    from shipradar.sensors.detection import pfa_from_false_alarm_time
-    from shipradar.tables.scene import TableSpec, _clutter_specs
-
-    sea_spec = next(s for s in _clutter_specs(scenario, platform, radar) if s.kind == "sea_clutter")
-    pfa = float(pfa_from_false_alarm_time(
-        radar.false_alarm_time_s, theta_b, radar.scan_period_s, radar.prf_hz,
-        radar.pulse_width_s, n_channels=radar.n_channels))
-
-    def make() -> Table:
-        return pfac_map(sea_spec.make(), pfa=pfa, k_clutter=radar.k_clutter,
-                        p_fac_max=radar.p_fac_max,
-                        clutter_fa_model=scenario.fidelity.clutter_fa_model)[0]
-
-    return [TableSpec(radar.id, "pfac", "sea-clutter false-alarm probability P_fac per sector",
-                      make)]

@@ -81,7 +81,7 @@ def table_specs(scenario: Scenario) -> list[TableSpec]:
 
 
 def _atmosphere_spec(scenario: Scenario, platform: Platform, radar: Radar) -> TableSpec:
-    from shipradar.sensors.atmosphere import atmospheric_loss_grid
+    from shipradar.tables.atmosphere import atmospheric_loss_grid
 
     env = scenario.environment
     ranges, elev = atmosphere_axes(radar)
@@ -245,7 +245,7 @@ def _clutter_specs(scenario: Scenario, platform: Platform, radar: Radar) -> list
     """Sea-clutter map [21]-[38] (and weather map [39]-[45] only when it rains)."""
     if not scenario.fidelity.clutter:
         return []
-    from shipradar.sensors.dwell import radar_constants
+    from shipradar.sensors.radar import radar_constants
     from shipradar.tables.clutter import sea_clutter_map, weather_clutter_map
 
     env = scenario.environment
@@ -334,10 +334,33 @@ def surface_duct_height(heights_m, m_units) -> float:
 
 @provider
 def _pfac_specs(scenario: Scenario, platform: Platform, radar: Radar) -> list[TableSpec]:
-    """P_fac map (seed 7.2): clutter on and a medium/high-resolution radar only (tables.pfac)."""
-    from shipradar.tables.pfac import pfac_specs
+    """P_fac map (seed 7.2): clutter on and a medium/high-resolution radar only (tables.pfac).
 
-    return pfac_specs(scenario, platform, radar)
+    The sea-clutter map comes from the scene's own clutter spec (same inputs, so a cache hit
+    after :func:`_clutter_specs` has built it); the [94]-[95] reading from
+    ``scenario.fidelity.clutter_fa_model``.
+    """
+    if not scenario.fidelity.clutter:
+        return []
+    from shipradar.sensors.detection import pfa_from_false_alarm_time
+    from shipradar.sensors.sea_clutter import is_medium_high_resolution
+    from shipradar.tables.pfac import pfac_map
+
+    theta_b = math.radians(radar.beamwidth_az_deg)
+    if not bool(is_medium_high_resolution(theta_b, radar.pulse_width_s)):
+        return []
+    sea_spec = next(s for s in _clutter_specs(scenario, platform, radar) if s.kind == "sea_clutter")
+    pfa = float(pfa_from_false_alarm_time(
+        radar.false_alarm_time_s, theta_b, radar.scan_period_s, radar.prf_hz,
+        radar.pulse_width_s, n_channels=radar.n_channels))
+
+    def make() -> Table:
+        return pfac_map(sea_spec.make(), pfa=pfa, k_clutter=radar.k_clutter,
+                        p_fac_max=radar.p_fac_max,
+                        clutter_fa_model=scenario.fidelity.clutter_fa_model)[0]
+
+    return [TableSpec(radar.id, "pfac", "sea-clutter false-alarm probability P_fac per sector",
+                      make)]
 
 
 #: Highest height of a PE table [m]: above it targets are at elevations where ducts and the
@@ -362,7 +385,7 @@ def _propagation_specs(scenario: Scenario, platform: Platform, radar: Radar) -> 
     """F(R_t, h) by the split-step PE [5]-[7], only when the scene asks for it."""
     if scenario.fidelity.propagation != "pe":
         return []
-    from shipradar.sensors.dwell import radar_constants
+    from shipradar.sensors.radar import radar_constants
     from shipradar.tables.propagation import get_propagation_table
 
     k = radar_constants(scenario, radar)

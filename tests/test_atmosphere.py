@@ -9,6 +9,7 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from shipradar.sensors import atmosphere as atm
+from shipradar.tables import atmosphere as atm_table
 from shipradar.tables.store import Table
 
 F_HZ = 10e9
@@ -194,7 +195,7 @@ def test_grid_table_build_cache_and_lookup(table_cache, gas10):
     ranges = np.linspace(0.0, 200e3, 201)
     els = np.deg2rad(np.linspace(-1.0, 30.0, 63))
     t0 = time.perf_counter()
-    table = atm.atmospheric_loss_grid(
+    table = atm_table.atmospheric_loss_grid(
         F_HZ, ranges, els, fog_lwc_g_m3=0.2, fog_top_m=150.0, antenna_height_m=20.0
     )
     build_s = time.perf_counter() - t0
@@ -216,7 +217,7 @@ def test_grid_table_build_cache_and_lookup(table_cache, gas10):
     )
     assert table.extra["fog_db"][:, j] == pytest.approx(fog, rel=1e-12)
     # Cached: a second call reads the file and gives the same table.
-    again = atm.atmospheric_loss_grid(
+    again = atm_table.atmospheric_loss_grid(
         F_HZ, ranges, els, fog_lwc_g_m3=0.2, fog_top_m=150.0, antenna_height_m=20.0
     )
     assert again.key == table.key
@@ -225,10 +226,10 @@ def test_grid_table_build_cache_and_lookup(table_cache, gas10):
     # Lookup: exact at nodes, clamps elevation, extrapolates beyond the last range.
     r_q = np.array([ranges[50], ranges[-1] + 10e3, 100e3])
     e_q = np.array([els[j], els[j], np.deg2rad(80.0)])
-    got = atm.lookup_gas_fog_loss_db(table, r_q, e_q)
+    got = atm_table.lookup_gas_fog_loss_db(table, r_q, e_q)
     assert got[0] == pytest.approx(table.values[50, j], rel=1e-12)
     assert got[1] > table.values[-1, j]
-    assert got[2] == pytest.approx(atm.lookup_gas_fog_loss_db(table, 100e3, els[-1]), rel=1e-12)
+    assert got[2] == pytest.approx(atm_table.lookup_gas_fog_loss_db(table, 100e3, els[-1]), rel=1e-12)
 
 
 @settings(max_examples=100, deadline=None)
@@ -257,7 +258,7 @@ def test_per_plot_path_never_calls_itur(table_cache, monkeypatch):
 
     ranges = np.linspace(0.0, 100e3, 21)
     els = np.deg2rad(np.linspace(-1.0, 10.0, 12))
-    table = atm.atmospheric_loss_grid(F_HZ, ranges, els, fog_lwc_g_m3=0.1, fog_top_m=100.0)
+    table = atm_table.atmospheric_loss_grid(F_HZ, ranges, els, fog_lwc_g_m3=0.1, fog_top_m=100.0)
     gamma_r = atm.rain_specific_attenuation_db_per_km(F_HZ, 10.0, "H")
 
     def forbidden(*args, **kwargs):
@@ -270,7 +271,7 @@ def test_per_plot_path_never_calls_itur(table_cache, monkeypatch):
     rng = np.random.default_rng(3)
     r = rng.uniform(1e3, 120e3, 1000)
     el = rng.uniform(-0.01, 0.2, 1000)
-    loss = atm.lookup_gas_fog_loss_db(table, r, el)
+    loss = atm_table.lookup_gas_fog_loss_db(table, r, el)
     targets = np.column_stack([r, np.zeros_like(r)])
     chord = atm.rain_path_length_m(
         np.zeros(2), targets, 20.0, 100.0, np.array([30e3, 0.0]), 10e3, 3e3

@@ -217,7 +217,7 @@ def test_jammer_outside_the_main_beam_against_47_by_hand(pattern, offset_deg, l_
 
 def test_pulse_compression_gains_the_echo_not_the_noise():
     """τ/τ' multiplies K_R [3] (targets and clutter alike); N0' = k T_s / τ' [19] stays."""
-    from shipradar.sensors.dwell import radar_constants
+    from shipradar.sensors.radar import radar_constants
 
     plain = bare_scene(quiet_radar())
     coded = bare_scene(quiet_radar(transmitted_pulse_width_s=50e-6))  # 50:1 on τ' = 1 µs

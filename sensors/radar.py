@@ -1,0 +1,110 @@
+"""Per-radar constants of a scene: the quantities of [3], [17]-[20], [46] and [66]-[67] that
+do not change during a run, shared by the on-line dwell model and the table builders.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from scipy import constants
+
+from shipradar.sensors import antenna, noise
+from shipradar.sim.scenario import Radar, Scenario
+
+__all__ = ["RadarConstants", "radar_constants"]
+
+
+@dataclass(frozen=True)
+class RadarConstants:
+    """Per-radar quantities that do not change during a run (shared with the table builders).
+
+    Attributes: wavelength λ [m]; gain G and L_t/r (power ratios); K_r of [3] without the
+    atmospheric loss [W m²]; T_a, T_s [K] ([17]-[18]); N0' [W] ([19]); B_N [Hz]; range cell
+    C_R [m]; θ_b, φ_b and the elevation tilt [rad]; the losses L_x, L_c, L_CFAR, L_cd, L_B, L_r
+    (power ratios).
+    """
+
+    wavelength: float
+    gain: float
+    l_tr: float
+    k_r0: float
+    t_a: float
+    t_s: float
+    n0: float
+    bandwidth: float
+    range_cell: float
+    theta_b: float
+    phi_b: float
+    tilt: float
+    l_x: float
+    l_c: float
+    l_cfar: float
+    l_cd: float
+    l_b: float
+    l_r: float
+
+    def elevation_pattern(self, radar: Radar):
+        """The radar's elevation directivity g_el(elevation [rad]) (field) [8]-[14]."""
+        pe = radar.pattern_el
+        phi_b, tilt = self.phi_b, self.tilt
+
+        def g(elevation_rad):
+            return antenna.elevation_directivity(elevation_rad, phi_b, pe.type,
+                                                 sidelobe_db=pe.sidelobe_db, tilt_rad=tilt)
+
+        return g
+
+    def pattern_key(self, radar: Radar) -> tuple:
+        """Hashable description of :meth:`elevation_pattern` for table cache keys."""
+        return (radar.pattern_el.type, self.phi_b, radar.pattern_el.sidelobe_db, self.tilt)
+
+
+def radar_constants(scenario: Scenario, radar: Radar) -> RadarConstants:
+    """The :class:`RadarConstants` of a radar in a scene ([3], [17]-[20], [46], [66]-[67])."""
+    env = scenario.environment
+    wavelength = constants.c / radar.frequency_hz
+    gain = float(noise.power_ratio(radar.gain_db))
+    l_tr = float(noise.power_ratio(radar.loss_tr_db))
+    los = radar.losses
+    l_x = float(noise.processing_loss(los.range_gate_db, los.limiter_db, los.matching_db))
+    phi_b = math.radians(radar.beamwidth_el_deg)
+    pe = radar.pattern_el
+    tilt = math.radians(pe.tilt_deg) if pe.tilt_deg is not None else 0.5 * phi_b
+    l_r = float(noise.receive_loss(l_tr))
+    bandwidth = float(noise.noise_bandwidth_hz(radar.pulse_width_s))
+    if radar.antenna_temperature_k is not None:
+        t_a = float(radar.antenna_temperature_k)
+    else:
+        # Blake's T'_a is for the beam axis: the sky model at the beam maximum, at least 0°
+        t_sky = noise.sky_temperature_k(
+            radar.frequency_hz, max(tilt, 0.0),
+            surface_temperature_k=env.temperature_c + 273.15, pressure_hpa=env.pressure_hpa,
+            water_vapour_density_g_m3=env.water_vapour_g_m3,
+            antenna_height_m=radar.antenna_height_m)
+        t_a = float(noise.antenna_temperature_k(t_sky))
+    t_s = float(noise.system_noise_temperature_k(
+        t_a, l_r, noise.power_ratio(radar.noise_figure_db)))
+    return RadarConstants(
+        wavelength=wavelength,
+        gain=gain,
+        l_tr=l_tr,
+        # pulse compression (not in the seed, which takes P_t as given): the matched filter
+        # gains τ/τ' on every echo, target or clutter cell, while B_N = 1/τ' [19] sets the noise
+        k_r0=float(noise.radar_constant(radar.peak_power_w * radar.compression_ratio, gain,
+                                        wavelength, l_tr)),
+        t_a=t_a,
+        t_s=t_s,
+        n0=float(noise.noise_power_w(t_s, bandwidth)),
+        bandwidth=bandwidth,
+        range_cell=constants.c * radar.pulse_width_s / 2.0,
+        theta_b=math.radians(radar.beamwidth_az_deg),
+        phi_b=phi_b,
+        tilt=tilt,
+        l_x=l_x,
+        l_c=l_x * float(noise.power_ratio(los.clutter_extra_db)),
+        l_cfar=float(noise.power_ratio(los.cfar_db)),
+        l_cd=float(noise.power_ratio(los.clutter_distribution_db)),
+        l_b=float(noise.power_ratio(los.beam_shape_db)),
+        l_r=l_r,
+    )
