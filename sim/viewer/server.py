@@ -62,7 +62,9 @@ MAX_CONTROL_BYTES: int = 4096
 # Kernel send buffer of a page's socket [bytes]: small, so a slow page's backlog builds in
 # its queue (where it is coalesced, dropped and counted) instead of in the kernel, where it
 # would only add latency.
-_WS_SNDBUF = 256 * 1024
+_WS_SNDBUF = 64 * 1024
+# Target truth points (targets x ends of scan) a recording source keeps for seeks.
+_MAX_TRUTH_POINTS = 2_000_000
 # How often the server tells the pages its clock and counters [s].
 _CLOCK_PERIOD_S = 0.25
 STATIC = Path(__file__).with_name("static")
@@ -362,19 +364,34 @@ class RecordingSource:
         self.records = 0
         self.meta: dict[str, dict] = {}
         self.truncated = False
+        #: Target truth states of the whole recording (one item per time), so that a page
+        #: that seeks draws the targets' whole past, not only the fade window's.
+        self.truth: list[dict] = []
+        truth_times: set[float] = set()
+        truth_points = 0
         with read_recording(self.path) as reader:
             for t, frames in reader:
                 if self.t0 is None:
                     self.t0 = t
                 self.t1 = t
                 self.records += 1
-                if bytes(frames[0]) == b"meta":
-                    try:
-                        item = to_view(*decode(frames))
-                    except (ProtocolError, ViewError):
-                        continue
-                    if item is not None and item["sensor"] not in self.meta:
-                        self.meta[item["sensor"]] = item
+                topic = bytes(frames[0])
+                if topic not in (b"meta", b"truth"):
+                    continue
+                try:
+                    item = to_view(topic, *decode(frames)[1:])
+                except (ProtocolError, ViewError):
+                    continue
+                if item is None:
+                    continue
+                if item["k"] == "meta" and item["sensor"] not in self.meta:
+                    self.meta[item["sensor"]] = item
+                elif item["k"] == "targets" and item["t"] not in truth_times \
+                        and truth_points < _MAX_TRUTH_POINTS:
+                    # each radar sends the same states at its ends of scan: one per time
+                    truth_times.add(item["t"])
+                    truth_points += item["e"].size
+                    self.truth.append(item)
             self.truncated = reader.truncated
         self.t0 = 0.0 if self.t0 is None else self.t0
         self.t1 = self.t0 if self.t1 is None else self.t1
@@ -502,6 +519,10 @@ class Player:
         # the meta of every sensor first: the page needs it before any plot
         for meta in self.source.meta.values():
             self.client.push(meta)
+        for item in self.source.truth:
+            if item["t"] >= t - window:
+                break  # the window's own states come with its records
+            self.client.push(item)
         await asyncio.to_thread(self._skip_before, t - window)
         while True:
             if not self._pending and not await asyncio.to_thread(self._read_chunk):

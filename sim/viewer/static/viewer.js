@@ -58,7 +58,9 @@
     for (const s of S.sensors.values()) {
       s.eos = []; s.batches = []; s.perScan = new Map(); s.lastScan = -1;
     }
-    S.batches.clear(); S.truth = []; S.truthTimes.clear(); S.tracks.clear();
+    // tracker tracks stay: they come from a live tracker, not from the replay, and are
+    // drawn up to the display time
+    S.batches.clear(); S.truth = []; S.truthTimes.clear();
   }
 
   // ------------------------------------------------------------------ items
@@ -300,7 +302,7 @@
 
   function niceStep(x) {
     const p = Math.pow(10, Math.floor(Math.log10(x)));
-    for (const m of [1, 2, 5, 10]) if (m * p >= x) return m * p;
+    for (const m of [1, 2, 2.5, 5, 10]) if (m * p >= x) return m * p;
     return 10 * p;
   }
 
@@ -340,28 +342,30 @@
 
     // range rings around the own ship, labelled; azimuth ticks every 30 degrees
     const visible = Math.hypot(w, h) / 2 / scale + Math.hypot(v.panE, v.panN);
-    const step = niceStep(Math.min(rMax, visible) / 5);
+    const step = niceStep(Math.min(rMax, visible) / 6);
     ctx.lineWidth = 1;
     ctx.font = "12px system-ui, sans-serif";
     ctx.textBaseline = "middle";
     for (let r = step; r < rMax + 1e-6; r += step) {
       ctx.strokeStyle = "rgba(93,255,106,0.22)";
       ctx.beginPath(); ctx.arc(sx, sy, r * scale, 0, 2 * Math.PI); ctx.stroke();
-      const a = Math.PI / 4;
+      // labels just above the east spoke: on screen for every ring narrower than the scope
+      const a = 75 * Math.PI / 180;
       ctx.fillStyle = "rgba(207,232,212,0.75)";
       ctx.fillText(fmtRange(r), sx + r * scale * Math.sin(a) + 3, sy - r * scale * Math.cos(a));
     }
     ctx.strokeStyle = "rgba(93,255,106,0.55)";
     ctx.beginPath(); ctx.arc(sx, sy, rMax * scale, 0, 2 * Math.PI); ctx.stroke();
     ctx.textAlign = "center";
+    // bearing labels outside the instrumented range, or at the scope's edge when zoomed in
+    const lr = Math.min(rMax * scale + 12, Math.min(w, h) / 2 - 12);
     for (let deg = 0; deg < 360; deg += 30) {
       const a = deg * Math.PI / 180, sa = Math.sin(a), ca = Math.cos(a);
       ctx.strokeStyle = "rgba(93,255,106,0.18)";
       ctx.beginPath(); ctx.moveTo(sx, sy);
       ctx.lineTo(sx + rMax * scale * sa, sy - rMax * scale * ca); ctx.stroke();
       ctx.fillStyle = "rgba(207,232,212,0.8)";
-      ctx.fillText(String(deg).padStart(3, "0"), sx + (rMax * scale + 12) * sa,
-                   sy - (rMax * scale + 12) * ca);
+      ctx.fillText(String(deg).padStart(3, "0"), cx + lr * sa, cy - lr * ca);
     }
     ctx.textAlign = "left";
 
@@ -596,6 +600,8 @@
       return { x: g.cx + (p.e + r * Math.sin(az) - g.ce) * g.scale,
                y: g.cy - (p.n + r * Math.cos(az) - g.cn) * g.scale, dpr: g.dpr };
     },
+    /** zoom (x, 1: the instrumented range fills the scope) and pan [m east, m north] */
+    setView(id, zoom, panE = 0, panN = 0) { S.views.set(id, { zoom, panE, panN }); },
     send,
   };
 
