@@ -566,6 +566,7 @@ def replay(
     linger_ms: int = DEFAULT_LINGER_MS,
     clock: Callable[[], float] = time.monotonic,
     sleep: Callable[[float], None] = time.sleep,
+    tap: Callable[[float, Sequence[bytes]], None] | None = None,
 ) -> dict[str, Any]:
     """Republish a recording's messages unchanged, paced by their simulated times.
 
@@ -589,6 +590,9 @@ def replay(
         Time allowed at the end to deliver queued messages [ms].
     clock, sleep : callable, optional
         Monotonic clock [s] and sleep function (replaceable in tests).
+    tap : callable or None, optional
+        Also called as ``tap(t_sim, frames)`` for each message, at its paced time (e.g. the
+        ASTERIX output of ``replay --asterix``, :class:`sim.asterix.udp.AsterixBus`).
 
     Returns
     -------
@@ -630,6 +634,8 @@ def replay(
                     sleep(delay)
             if publisher is not None:
                 publisher.send(frames)
+            if tap is not None:
+                tap(t_sim, frames)
             if out is not None:
                 out.write(message_json(frames) + "\n")
             count += 1

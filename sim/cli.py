@@ -1,4 +1,5 @@
-"""Command line: ``shipradar examples | validate | tables build | run | replay | tail | plot``.
+"""Command line: ``shipradar examples | validate | tables build | run | replay | tail | plot``,
+``shipradar export`` (a recording as ASTERIX, pcap, CSV or Parquet).
 
 Exit codes: 0 success, 2 bad input (scenario, arguments, files), 1 runtime failure.
 Every bad-input message names the field or option, the value and what is allowed.
@@ -123,6 +124,15 @@ def cmd_run(args) -> int:
             recorder = Recorder(args.record, overwrite=args.overwrite)
         if publisher or recorder:
             bus = Bus(publisher, recorder)
+        if args.asterix:
+            from shipradar.sim.asterix.stream import scenario_problems
+            from shipradar.sim.asterix.udp import AsterixBus, UdpSender
+
+            problems = scenario_problems(s)
+            if problems:
+                raise BadInput("\n".join(f"--asterix: {p}" for p in problems))
+            bus = AsterixBus(bus, UdpSender(args.asterix, allow_remote=args.allow_remote),
+                             args.asterix_max_datagram)
         sim = Simulation(s, bus=bus, seed=args.seed, duration_s=args.duration,
                          realtime=args.realtime, tables=tables,
                          progress=sys.stderr.isatty() and not args.quiet)
@@ -138,6 +148,8 @@ def cmd_run(args) -> int:
             for part in (publisher, recorder):
                 if part is not None:
                     part.close()
+    if args.asterix:
+        summary["asterix"] = bus.stats["asterix"]  # datagrams sent, records, markers
     pub = (summary.get("bus") or {}).get("publisher") or {}
     if pub.get("dropped"):
         print(f"warning: {pub['dropped']} message(s) dropped for slow subscribers "
@@ -152,10 +164,24 @@ def cmd_replay(args) -> int:
 
     if not Path(args.recording).exists():
         raise BadInput(f"replay: recording {args.recording} does not exist")
-    summary = replay(args.recording, endpoint=args.publish, speed=args.speed, fast=args.fast,
-                     wait_subscribers=args.wait_subscribers, wait_timeout_s=args.wait_timeout,
-                     on_slow=args.on_slow, allow_remote=args.allow_remote,
-                     out=None if args.publish else sys.stdout)
+    asterix = None
+    if args.asterix:
+        from shipradar.sim.asterix.udp import AsterixBus, UdpSender
+
+        asterix = AsterixBus(None, UdpSender(args.asterix, allow_remote=args.allow_remote),
+                             args.asterix_max_datagram)
+    try:
+        summary = replay(args.recording, endpoint=args.publish, speed=args.speed,
+                         fast=args.fast, wait_subscribers=args.wait_subscribers,
+                         wait_timeout_s=args.wait_timeout, on_slow=args.on_slow,
+                         allow_remote=args.allow_remote,
+                         out=None if args.publish or args.asterix else sys.stdout,
+                         tap=None if asterix is None else asterix.emit_frames)
+    finally:
+        if asterix is not None:
+            asterix.close()
+    if asterix is not None:
+        summary["asterix"] = asterix.stats["asterix"]
     if summary["truncated"]:
         print(f"warning: {args.recording} is truncated: {summary['frames']} whole frame(s) "
               f"replayed, {summary['bytes_ignored']} byte(s) of a partial last frame ignored",
@@ -166,6 +192,55 @@ def cmd_replay(args) -> int:
               file=sys.stderr)
     print(json.dumps(summary))
     return EXIT_OK
+
+
+def cmd_export(args) -> int:
+    from shipradar.sim.export import ExportError, export
+
+    if not Path(args.recording).exists():
+        raise BadInput(f"export: recording {args.recording} does not exist")
+    if Path(args.out).exists() and not args.overwrite:
+        raise BadInput(f"--out: {args.out} exists; pass --overwrite to replace it")
+    try:
+        summary = export(args.recording, args.format, args.out, port=args.port,
+                         max_block_bytes=args.asterix_max_datagram)
+    except ExportError as exc:
+        print(str(exc), file=sys.stderr)
+        return EXIT_FAILURE
+    print(json.dumps(summary))
+    return EXIT_OK
+
+
+def _datagram_size(text: str) -> int:
+    from shipradar.sim.asterix.encode import MAX_BLOCK_BYTES, MIN_BLOCK_BYTES
+
+    try:
+        v = int(text)
+    except ValueError:
+        v = None
+    if v is None or not MIN_BLOCK_BYTES <= v <= MAX_BLOCK_BYTES:
+        raise argparse.ArgumentTypeError(
+            f"--asterix-max-datagram must be an integer in [{MIN_BLOCK_BYTES}, "
+            f"{MAX_BLOCK_BYTES}] bytes, got {text!r}")
+    return v
+
+
+def _udp_port(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        v = None
+    if v is None or not 1 <= v <= 65535:
+        raise argparse.ArgumentTypeError(f"--port must be an integer in [1, 65535], got {text!r}")
+    return v
+
+
+def _asterix_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--asterix", default=None, metavar="udp://HOST:PORT",
+                   help="also send the plots as ASTERIX CAT048 + CAT034 UDP datagrams "
+                        "(loopback unless --allow-remote; docs/asterix.md)")
+    p.add_argument("--asterix-max-datagram", type=_datagram_size, default=1400,
+                   metavar="BYTES", help="largest ASTERIX datagram [bytes] (default 1400)")
 
 
 def cmd_tail(args) -> int:
@@ -244,6 +319,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--realtime", nargs="?", const=1.0, default=None,
                    type=_positive("--realtime"), help="pace to the wall clock x FACTOR")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
+    _asterix_arguments(r)
     r.set_defaults(func=cmd_run)
 
     rp = sub.add_parser("replay", help="republish a recording")
@@ -260,7 +336,22 @@ def build_parser() -> argparse.ArgumentParser:
                     help="slow subscriber: slow the replay down (pace) or count dropped frames")
     rp.add_argument("--allow-remote", action="store_true",
                     help="allow binding a non-loopback address")
+    _asterix_arguments(rp)
     rp.set_defaults(func=cmd_replay)
+
+    xp = sub.add_parser("export", help="convert a recording: raw ASTERIX, pcap, CSV, Parquet")
+    xp.add_argument("recording")
+    xp.add_argument("--format", required=True, choices=("asterix", "pcap", "csv", "parquet"),
+                    help="asterix: concatenated data blocks (.ast); pcap: the UDP datagrams "
+                         "(Wireshark); csv/parquet: plots with their truth, and target states")
+    xp.add_argument("--out", required=True, help="output file (csv/parquet: the plots table; "
+                    "the target states go beside it as STEM.targets.EXT)")
+    xp.add_argument("--overwrite", action="store_true", help="replace existing output")
+    xp.add_argument("--port", type=_udp_port, default=8600,
+                    help="UDP destination port written in the pcap (default 8600)")
+    xp.add_argument("--asterix-max-datagram", type=_datagram_size, default=1400,
+                    metavar="BYTES", help="largest ASTERIX data block [bytes] (default 1400)")
+    xp.set_defaults(func=cmd_export)
 
     tl = sub.add_parser("tail", help="print a stream as JSON lines")
     tl.add_argument("endpoint")
@@ -299,11 +390,13 @@ def main(argv: list[str] | None = None) -> int:
     else:
         args = build_parser().parse_args(argv)  # argparse exits with 2 on bad options
     from shipradar.sim.bus import EndpointError, PublisherStalledError, SubscriberTimeoutError
+    from shipradar.sim.asterix.encode import AsterixError
     from shipradar.sim.recording import RecordingError, RecordingExistsError
 
     try:
         return args.func(args)
-    except (BadInput, EndpointError, RecordingError, RecordingExistsError) as exc:
+    except (BadInput, EndpointError, RecordingError, RecordingExistsError,
+            AsterixError) as exc:
         print(str(exc), file=sys.stderr)
         return EXIT_BAD_INPUT
     except (SubscriberTimeoutError, PublisherStalledError) as exc:

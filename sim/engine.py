@@ -345,6 +345,10 @@ class _RadarProcess:
             "interference_codes": list(self.model.INTERFERENCE_NAMES),
             "origin": self.sim.scenario.origin.model_dump(),
             "start_time": self.sim.scenario.start_time.isoformat(),
+            # for ASTERIX output (sim/asterix): the data source and the noise floor that
+            # turns a plot's S/I into an amplitude (I048/130 PAM)
+            "sac_sic": list(self.sim.scenario.asterix_sources()[r.id]),
+            "noise_power_dbm": 10.0 * math.log10(self.model.n0 * 1e3),
         }
         self.sim.emit(protocol.TOPIC_META, t, payload)
 

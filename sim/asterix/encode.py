@@ -1,0 +1,460 @@
+"""ASTERIX bytes: CAT048 monoradar target reports and CAT034 monoradar service messages.
+
+Pure functions, vectorized: a sector's plots become one ``(n, width)`` byte matrix, filled
+column by column from the plot columns, then cut into data blocks of whole records. No
+Python object is made per plot.
+
+References (the standard's facts; layouts checked against two decoders we did not write,
+``asterix-decoder`` and Wireshark, in tests/test_asterix.py):
+
+- EUROCONTROL-SPEC-0149-4, ASTERIX Category 048 "Monoradar Target Reports" (edition 1.21
+  and later; the items used here have not changed since): I048/010, I048/020, I048/030,
+  I048/040, I048/042, I048/130, I048/140 and the standard User Application Profile.
+- EUROCONTROL-SPEC-0149-2b, ASTERIX Category 034 "Monoradar Service Messages" (edition
+  1.27 and later): I034/000, I034/010, I034/020, I034/030, I034/041, I034/050, I034/060,
+  I034/120.
+- EUROCONTROL-SPEC-0149 Part 1: data block = CAT (1 octet), LEN (2 octets, big-endian,
+  the whole block) and records; a record = FSPEC then the items in FRN order.
+
+Bit numbering follows the standard: bit 8 is an octet's most significant bit.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+__all__ = [
+    "CAT034",
+    "CAT048",
+    "DEFAULT_MAX_BLOCK_BYTES",
+    "NM_M",
+    "RHO_MAX_NM",
+    "AsterixError",
+    "cat048_records",
+    "encode_cat034_north_marker",
+    "encode_cat034_sector_crossings",
+    "encode_cat048",
+    "pack_blocks",
+    "seconds_of_day",
+    "time_of_day_counts",
+]
+
+CAT048, CAT034 = 48, 34
+#: International nautical mile [m].
+NM_M = 1852.0
+#: Largest data block (so UDP payload) by default [bytes]: under a 1500-byte Ethernet MTU
+#: with IPv4/IPv6 and UDP headers and some tunnel overhead.
+DEFAULT_MAX_BLOCK_BYTES = 1400
+#: Smallest and largest block size accepted [bytes] (the largest: a UDP/IPv4 payload).
+MIN_BLOCK_BYTES, MAX_BLOCK_BYTES = 64, 65507
+
+#: I048/040 RHO: 16 bits, LSB 1/256 NM, so RHO < 256 NM (the standard's own bound).
+RHO_LSB_NM = 1.0 / 256.0
+RHO_MAX_NM = 256.0
+#: I048/040 THETA and I034/020: LSB 360°/2^16 (I034/020 keeps the 8 most significant bits).
+THETA_COUNTS = 1 << 16
+#: I048/140, I034/030: LSB 1/128 s, elapsed since the last UTC midnight.
+TOD_PER_S = 128
+TOD_PER_DAY = 86400 * TOD_PER_S
+#: I048/042 X, Y: signed 16 bits, LSB 1/128 NM.
+XY_PER_NM = 128
+#: I048/130 PRL: LSB 360°/2^13 (0.044°), 8 bits, so at most 11.2°.
+PRL_PER_DEG = (1 << 13) / 360.0
+#: I034/041: antenna rotation period, LSB 1/128 s, 16 bits.
+PERIOD_PER_S = 128
+#: I034/120 latitude/longitude: signed 24 bits, LSB 180°/2^23.
+LATLON_PER_DEG = (1 << 23) / 180.0
+
+# I048/020 first octet: TYP = 1 (single PSR detection, bits 8-6 = 001), SIM = 1 (bit 5:
+# these reports are simulated), RDP/SPI/RAB = 0, FX = 0.
+_I048_020 = 0x30
+# I048/030 first octet: code 13 "target in clutter area" in bits 8-2, FX = 0.
+_I048_030_CLUTTER = 13 << 1
+# CAT048 FSPEC (standard UAP): octet 1 FRN1 010, FRN2 140, FRN3 020, FRN4 040, FRN5 070,
+# FRN6 090, FRN7 130, FX; octet 2 FRN8 220 ... FRN12 042 (bit 4), FX; octet 3 FRN15 210,
+# FRN16 030 (bit 7).
+_FS1_BASE = 0x80 | 0x40 | 0x20 | 0x10 | 0x01  # 010, 140, 020, 040, FX
+_FS1_130 = 0x02
+_FS2_042 = 0x08
+_FS3_030 = 0x40
+# I048/130 primary subfield: PRL present (bit 5), PAM present (bit 4), FX = 0.
+_I130_PRL, _I130_PAM = 0x10, 0x08
+# CAT034 message types (I034/000).
+MSG_NORTH_MARKER, MSG_SECTOR_CROSSING = 1, 2
+
+
+class AsterixError(ValueError):
+    """A value that the ASTERIX item cannot carry (refused, never wrapped or clipped)."""
+
+
+def seconds_of_day(start_time: dt.datetime) -> float:
+    """UTC seconds since the midnight before ``start_time``.
+
+    Parameters
+    ----------
+    start_time : datetime.datetime
+        Scenario start (simulated time 0); naive means UTC.
+
+    Returns
+    -------
+    float
+        Seconds in [0, 86400) [s].
+    """
+    if start_time.tzinfo is not None:
+        start_time = start_time.astimezone(dt.timezone.utc).replace(tzinfo=None)
+    midnight = start_time.replace(hour=0, minute=0, second=0, microsecond=0)
+    return (start_time - midnight).total_seconds()
+
+
+def time_of_day_counts(t_s: np.ndarray | float, start_sod_s: float) -> np.ndarray:
+    """I048/140 and I034/030: time of day in 1/128 s, wrapping at midnight.
+
+    Parameters
+    ----------
+    t_s : array_like
+        Simulated times [s since scenario start], finite.
+    start_sod_s : float
+        UTC seconds of day of the scenario start [s] (:func:`seconds_of_day`).
+
+    Returns
+    -------
+    numpy.ndarray of uint32
+        ``round((start_sod_s + t) * 128) mod 86400*128``: rounded to the nearest count
+        (error at most 1/256 s), zero at every midnight (so 23:59:59.999 rounds to 0).
+    """
+    t = np.asarray(t_s, dtype=float)
+    if not np.all(np.isfinite(t)):
+        raise AsterixError("time of day (I048/140, I034/030): times must be finite")
+    counts = np.rint((start_sod_s + t) * TOD_PER_S).astype(np.int64)
+    return np.mod(counts, TOD_PER_DAY).astype(np.uint32)
+
+
+def _be(values: np.ndarray, nbytes: int) -> list[np.ndarray]:
+    """Big-endian byte columns (most significant first) of non-negative integers."""
+    v = values.astype(np.uint32, copy=False)
+    return [((v >> (8 * k)) & 0xFF).astype(np.uint8) for k in range(nbytes - 1, -1, -1)]
+
+
+def _check_sac_sic(sac: int, sic: int) -> None:
+    for name, v in (("SAC", sac), ("SIC", sic)):
+        if not (isinstance(v, (int, np.integer)) and 0 <= v <= 255):
+            raise AsterixError(f"I048/010, I034/010: {name} must be an integer in [0, 255], "
+                               f"got {v!r}")
+
+
+def cat048_records(
+    time_s: np.ndarray,
+    range_m: np.ndarray,
+    azimuth_rad: np.ndarray,
+    *,
+    sac: int,
+    sic: int,
+    start_sod_s: float,
+    snr_db: np.ndarray | None = None,
+    clutter: np.ndarray | None = None,
+    prl_deg: float | None = None,
+    noise_power_dbm: float | None = None,
+    sensor: str = "?",
+) -> tuple[np.ndarray, np.ndarray]:
+    """CAT048 records of a batch of plots, as one byte buffer and the record offsets.
+
+    Parameters
+    ----------
+    time_s : numpy.ndarray
+        Plot times [s since scenario start] -> I048/140 (1/128 s, UTC, wraps at midnight).
+    range_m : numpy.ndarray
+        Measured slant ranges [m] -> I048/040 RHO (1/256 NM); must be in [0, 256) NM.
+    azimuth_rad : numpy.ndarray
+        Measured azimuths from true north, clockwise [rad] -> I048/040 THETA (360°/2^16);
+        with the range also -> I048/042 X (east), Y (north) in the radar's frame (1/128 NM).
+    sac, sic : int
+        Data source -> I048/010.
+    start_sod_s : float
+        UTC seconds of day of the scenario start [s].
+    snr_db : numpy.ndarray or None, optional
+        S/I of each plot [dB]; with ``noise_power_dbm`` -> I048/130 PAM = S/I + N0' [dBm]
+        (1 dBm, clipped to the item's [-128, 127] dBm).
+    clutter : numpy.ndarray of bool or None, optional
+        Plots whose dominant interference is clutter -> I048/030 code 13 "target in clutter
+        area" (the item is absent for the others).
+    prl_deg : float or None, optional
+        Azimuth extent of a plot [deg] -> I048/130 PRL (360°/2^13, at most 11.2°).
+    noise_power_dbm : float or None, optional
+        Receiver noise power N0' [dBm], the reference of PAM.
+    sensor : str, optional
+        Radar id, for error messages.
+
+    Returns
+    -------
+    buf : numpy.ndarray of uint8
+        The records, back to back.
+    offsets : numpy.ndarray of int64
+        ``n + 1`` offsets: record i is ``buf[offsets[i]:offsets[i + 1]]``.
+
+    Raises
+    ------
+    AsterixError
+        A range or azimuth that is not finite, a negative range, or a range at or beyond
+        256 NM (RHO's bound; such a plot is refused, never wrapped), or a bad SAC/SIC.
+
+    Notes
+    -----
+    Every record has I048/010, I048/140, I048/020 (single PSR detection, SIM set),
+    I048/040 and I048/042; I048/130 when ``prl_deg`` or PAM is known; I048/030 on
+    clutter-dominated plots. I048/170 and the other track items are absent: these are plots.
+    """
+    _check_sac_sic(sac, sic)
+    r = np.asarray(range_m, dtype=float)
+    az = np.asarray(azimuth_rad, dtype=float)
+    n = r.size
+    bad = ~(np.isfinite(r) & np.isfinite(az))
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise AsterixError(f"radar {sensor}: plot {i} has a non-finite range or azimuth "
+                           f"({r[i]!r} m, {az[i]!r} rad); I048/040 cannot carry it")
+    rho = np.rint(r * (256.0 / NM_M))
+    over = (rho >= THETA_COUNTS) | (r < 0.0)
+    if over.any():
+        i = int(np.flatnonzero(over)[0])
+        raise AsterixError(
+            f"radar {sensor}: plot {i} at range {r[i]:.0f} m ({r[i] / NM_M:.2f} NM) is outside "
+            f"I048/040 RHO's range [0, {RHO_MAX_NM:g}) NM (16 bits of 1/256 NM); ASTERIX "
+            f"CAT048 cannot carry it (refused, not wrapped)")
+    rho = rho.astype(np.uint32)
+    theta = np.mod(np.rint(az * (THETA_COUNTS / (2.0 * math.pi))).astype(np.int64),
+                   THETA_COUNTS)
+    tod = time_of_day_counts(time_s, start_sod_s)
+    rho_nm = r / NM_M
+    # I048/042 in the radar's own frame: X east, Y north of the antenna, from the slant
+    # range (the radar measures no elevation); |X|, |Y| < 256 NM, at most 32767 counts
+    x = np.clip(np.rint(rho_nm * np.sin(az) * XY_PER_NM), -32768, 32767).astype(np.int64)
+    y = np.clip(np.rint(rho_nm * np.cos(az) * XY_PER_NM), -32768, 32767).astype(np.int64)
+    x, y = np.mod(x, 1 << 16), np.mod(y, 1 << 16)  # two's complement
+    has_pam = noise_power_dbm is not None and snr_db is not None
+    i130 = (_I130_PRL if prl_deg is not None else 0) | (_I130_PAM if has_pam else 0)
+    in_clutter = (np.zeros(n, dtype=bool) if clutter is None
+                  else np.asarray(clutter, dtype=bool))
+
+    def const(v: int) -> np.ndarray:
+        return np.full(n, v, dtype=np.uint8)
+
+    cols = [const(_FS1_BASE | (_FS1_130 if i130 else 0)),
+            (_FS2_042 | in_clutter).astype(np.uint8),
+            const(_FS3_030),  # kept only where I048/030 follows
+            const(sac), const(sic), *_be(tod, 3), const(_I048_020),
+            *_be(rho, 2), *_be(theta, 2)]
+    if i130:
+        cols.append(const(i130))
+        if prl_deg is not None:
+            prl = int(np.clip(round(float(prl_deg) * PRL_PER_DEG), 0, 255))
+            cols.append(const(prl))
+        if has_pam:
+            s = np.asarray(snr_db, dtype=float)
+            # S/I of -inf (no signal) or NaN reads as the item's floor, +inf as its ceiling
+            s = np.nan_to_num(s, nan=-np.inf) + float(noise_power_dbm)
+            pam = np.clip(np.rint(np.clip(s, -1e3, 1e3)), -128, 127).astype(np.int64)
+            cols.append(np.mod(pam, 256).astype(np.uint8))
+    cols += [*_be(x, 2), *_be(y, 2), const(_I048_030_CLUTTER)]
+    mat = np.stack(cols, axis=1) if n else np.zeros((0, len(cols)), dtype=np.uint8)
+    keep = np.ones(mat.shape, dtype=bool)
+    keep[:, 2] = in_clutter  # FSPEC octet 3
+    keep[:, -1] = in_clutter  # I048/030
+    buf = mat[keep]
+    lengths = keep.sum(axis=1)
+    offsets = np.zeros(n + 1, dtype=np.int64)
+    np.cumsum(lengths, out=offsets[1:])
+    return buf, offsets
+
+
+def pack_blocks(category: int, buf: np.ndarray, offsets: np.ndarray,
+                max_block_bytes: int = DEFAULT_MAX_BLOCK_BYTES) -> list[bytes]:
+    """Cut records into data blocks of whole records, each at most ``max_block_bytes``.
+
+    Parameters
+    ----------
+    category : int
+        ASTERIX category (48, 34).
+    buf : numpy.ndarray of uint8
+        Records back to back.
+    offsets : numpy.ndarray of int64
+        Record boundaries (``n + 1``).
+    max_block_bytes : int, optional
+        Largest block, its 3-octet CAT/LEN header included [bytes].
+
+    Returns
+    -------
+    list[bytes]
+        Data blocks: CAT, LEN (big-endian, whole block), records. Empty for no record.
+    """
+    if not MIN_BLOCK_BYTES <= max_block_bytes <= MAX_BLOCK_BYTES:
+        raise AsterixError(f"block size must be in [{MIN_BLOCK_BYTES}, {MAX_BLOCK_BYTES}] "
+                           f"bytes, got {max_block_bytes}")
+    room = max_block_bytes - 3
+    n = offsets.size - 1
+    blocks = []
+    s = 0
+    data = buf.tobytes()
+    off = offsets.tolist()
+    while s < n:
+        # the last record that still ends within this block (one search per block)
+        e = int(np.searchsorted(offsets, off[s] + room, side="right")) - 1
+        if e <= s:
+            raise AsterixError(f"a CAT{category:03d} record of {off[s + 1] - off[s]} bytes "
+                               f"does not fit a {max_block_bytes}-byte block")
+        size = off[e] - off[s] + 3
+        blocks.append(bytes((category, size >> 8, size & 0xFF)) + data[off[s]:off[e]])
+        s = e
+    return blocks
+
+
+def encode_cat048(plots: dict, *, sac: int, sic: int, start_sod_s: float,
+                  prl_deg: float | None = None, noise_power_dbm: float | None = None,
+                  max_block_bytes: int = DEFAULT_MAX_BLOCK_BYTES,
+                  clutter_code: int = 1) -> list[bytes]:
+    """CAT048 data blocks of one ``plots`` message.
+
+    Parameters
+    ----------
+    plots : dict
+        The payload of a ``plots`` message (docs/protocol.md 4.2): ``time_s``, ``range_m``,
+        ``azimuth_rad``, ``snr_db``, ``interference`` columns and ``sensor``.
+    sac, sic : int
+        Data source (I048/010).
+    start_sod_s : float
+        UTC seconds of day of the scenario start [s].
+    prl_deg : float or None, optional
+        Plot azimuth extent [deg] (I048/130 PRL).
+    noise_power_dbm : float or None, optional
+        Receiver noise power [dBm], reference of I048/130 PAM.
+    max_block_bytes : int, optional
+        Largest data block [bytes].
+    clutter_code : int, optional
+        The ``interference`` code of clutter (``meta.interference_codes``).
+
+    Returns
+    -------
+    list[bytes]
+        Data blocks in plot order (see :func:`cat048_records` for the items).
+    """
+    interference = plots.get("interference")
+    buf, offsets = cat048_records(
+        plots["time_s"], plots["range_m"], plots["azimuth_rad"], sac=sac, sic=sic,
+        start_sod_s=start_sod_s, snr_db=plots.get("snr_db"),
+        clutter=None if interference is None else np.asarray(interference) == clutter_code,
+        prl_deg=prl_deg, noise_power_dbm=noise_power_dbm, sensor=str(plots.get("sensor", "?")))
+    return pack_blocks(CAT048, buf, offsets, max_block_bytes)
+
+
+def _azimuth_counts(azimuth_rad: np.ndarray) -> np.ndarray:
+    a = np.asarray(azimuth_rad, dtype=float)
+    return np.mod(np.rint(a * (THETA_COUNTS / (2.0 * math.pi))).astype(np.int64), THETA_COUNTS)
+
+
+def encode_cat034_sector_crossings(
+    time_s: Sequence[float] | np.ndarray, azimuth_rad: Sequence[float] | np.ndarray, *,
+    sac: int, sic: int, start_sod_s: float,
+    max_block_bytes: int = DEFAULT_MAX_BLOCK_BYTES,
+) -> list[bytes]:
+    """CAT034 sector crossing messages (I034/000 = 2), one record per crossing.
+
+    Parameters
+    ----------
+    time_s : array_like
+        When the antenna crossed each sector's start azimuth [s since scenario start]
+        -> I034/030 (1/128 s, UTC).
+    azimuth_rad : array_like
+        That azimuth, from true north [rad] -> I034/020, the 8 most significant bits of
+        the 16-bit azimuth (360°/2^8 = 1.40625° per count, truncated as the standard says).
+    sac, sic : int
+        Data source (I034/010).
+    start_sod_s : float
+        UTC seconds of day of the scenario start [s].
+    max_block_bytes : int, optional
+        Largest data block [bytes].
+
+    Returns
+    -------
+    list[bytes]
+        Data blocks; records are FSPEC 0xF0 (010, 000, 030, 020), 8 octets each.
+    """
+    _check_sac_sic(sac, sic)
+    tod = time_of_day_counts(time_s, start_sod_s)
+    n = tod.size
+    # 16-bit count first, then its top byte: the rounding happens once, at the LSB
+    sector = (_azimuth_counts(azimuth_rad) >> 8).astype(np.uint8)
+
+    def const(v: int) -> np.ndarray:
+        return np.full(n, v, dtype=np.uint8)
+
+    mat = np.stack([const(0xF0), const(sac), const(sic), const(MSG_SECTOR_CROSSING),
+                    *_be(tod, 3), sector], axis=1) if n else np.zeros((0, 8), np.uint8)
+    offsets = np.arange(n + 1, dtype=np.int64) * mat.shape[1]
+    return pack_blocks(CAT034, mat.reshape(-1), offsets, max_block_bytes)
+
+
+def encode_cat034_north_marker(
+    t_s: float, *, sac: int, sic: int, start_sod_s: float, rotation_period_s: float,
+    lat_deg: float, lon_deg: float, height_m: float, circular_polarization: bool = False,
+) -> bytes:
+    """One CAT034 north marker message (I034/000 = 1) in its own data block.
+
+    Parameters
+    ----------
+    t_s : float
+        When the antenna crossed true north [s since scenario start] -> I034/030.
+    sac, sic : int
+        Data source (I034/010).
+    start_sod_s : float
+        UTC seconds of day of the scenario start [s].
+    rotation_period_s : float
+        Antenna rotation period [s] -> I034/041 (1/128 s, below 512 s).
+    lat_deg, lon_deg : float
+        WGS-84 position of the antenna at ``t_s`` [deg] -> I034/120 (180°/2^23, about
+        2.4 m of latitude).
+    height_m : float
+        Height of the antenna above the WGS-84 ellipsoid [m] -> I034/120 (1 m, signed
+        16 bits).
+    circular_polarization : bool, optional
+        I034/060 PSR POL bit (0: linear, shipradar's H and V).
+
+    Returns
+    -------
+    bytes
+        A data block of one record: FSPEC 0xEF 0x10 (010, 000, 030, 041, 050, 060; 120),
+        26 octets with its header.
+
+    Notes
+    -----
+    I034/050 says: COM NOGO 0 (operational), RDPC 0, no overload, time source valid; PSR
+    channel A, no overload. I034/060: no reduction step, STC map 0, POL as given.
+    """
+    _check_sac_sic(sac, sic)
+    if not 0.0 < rotation_period_s < 65536 / PERIOD_PER_S:
+        raise AsterixError(f"I034/041: rotation period must be in (0, 512) s, got "
+                           f"{rotation_period_s}")
+    if not (math.isfinite(lat_deg) and math.isfinite(lon_deg) and math.isfinite(height_m)):
+        raise AsterixError("I034/120: the position must be finite")
+    if not -32768 <= round(height_m) <= 32767:
+        raise AsterixError(f"I034/120: height must be in [-32768, 32767] m, got {height_m}")
+    tod = int(time_of_day_counts(t_s, start_sod_s))
+    period = round(rotation_period_s * PERIOD_PER_S)
+    lat = round(lat_deg * LATLON_PER_DEG)
+    # +180° is -180°: the same meridian, and the only value past the signed 24-bit range
+    lon = (round(lon_deg * LATLON_PER_DEG) + (1 << 23)) % (1 << 24) - (1 << 23)
+    lat = min(lat, (1 << 23) - 1)
+    record = bytes((
+        0xEF, 0x10,  # FSPEC: FRN 1-7 but 020; FX; FRN 11 (120)
+        sac, sic,  # I034/010
+        MSG_NORTH_MARKER,  # I034/000
+        (tod >> 16) & 0xFF, (tod >> 8) & 0xFF, tod & 0xFF,  # I034/030
+        (period >> 8) & 0xFF, period & 0xFF,  # I034/041
+        0x90, 0x00, 0x20,  # I034/050: COM + PSR subfields; COM all clear; PSR channel A
+        0x90, 0x00, 0x80 if circular_polarization else 0x00,  # I034/060: COM + PSR
+    )) + int(round(height_m)).to_bytes(2, "big", signed=True) \
+        + lat.to_bytes(3, "big", signed=True) + lon.to_bytes(3, "big", signed=True)
+    size = len(record) + 3
+    return bytes((CAT034, size >> 8, size & 0xFF)) + record

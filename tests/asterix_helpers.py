@@ -1,0 +1,81 @@
+"""Helpers of the ASTERIX and export tests: a small moving-ship scene, tshark on demand."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+
+import pytest
+
+from shipradar.sim.scenario import parse_scenario
+
+from .helpers import quiet_radar
+
+#: The scene starts 10 s before a UTC midnight, so every run crosses it.
+START = "2026-06-01T23:59:50Z"
+
+
+def scene_dict(duration_s: float = 8.0, radars=None, start: str = START) -> dict:
+    """A ship under way (10 m/s) with two radars and one closing target; many noise false
+    alarms (t_fa 0.5 s), so a few seconds give a few dozen plots."""
+    radars = radars or [
+        quiet_radar(id="r1", false_alarm_time_s=0.5),
+        # starts at 100°: its north crossings fall mid-revolution (dead-reckoned position)
+        quiet_radar(id="r2", false_alarm_time_s=1.0, rotation_rpm=40, start_azimuth_deg=100.0,
+                    beamwidth_az_deg=1.2, sac=25, sic=7),
+    ]
+    return {
+        "name": "asterix", "duration_s": duration_s, "seed": 5, "start_time": start,
+        "origin": {"lat_deg": 44.6, "lon_deg": -63.0},
+        "platforms": [{"id": "ship", "radars": radars, "waypoints": [
+            {"time_s": 0, "east_m": 0, "north_m": 0},
+            {"time_s": 100, "east_m": 800, "north_m": 600}]}],
+        "targets": [{"id": "m1", "rcs": {"type": "constant", "sigma_m2": 10.0}, "waypoints": [
+            {"time_s": 0, "east_m": 20000, "north_m": 15000, "altitude_m": 50},
+            {"time_s": 100, "east_m": 5000, "north_m": 3000, "altitude_m": 50}]}],
+        "fidelity": {"propagation": "free_space", "atmosphere": False, "clutter": False},
+    }
+
+
+def scene(**kw):
+    return parse_scenario(scene_dict(**kw))
+
+
+def _install_tshark() -> None:
+    if os.geteuid() != 0 or shutil.which("apt-get") is None:
+        return
+    env = dict(os.environ, DEBIAN_FRONTEND="noninteractive")
+    subprocess.run(["apt-get", "update", "-q"], capture_output=True, env=env, timeout=600)
+    subprocess.run(["apt-get", "install", "-y", "-q", "tshark"], capture_output=True, env=env,
+                   timeout=900)
+
+
+def tshark_path() -> str:
+    """tshark, installed now if missing (root); skipped without it, failed under CI."""
+    path = shutil.which("tshark")
+    if path is None:
+        _install_tshark()
+        path = shutil.which("tshark")
+    if path is None:
+        msg = "tshark (Debian package tshark) is not installed and could not be installed"
+        if os.environ.get("CI"):
+            pytest.fail(msg)
+        pytest.skip(msg)
+    return path
+
+
+def tshark_asterix(pcap, port: int) -> list[dict]:
+    """Wireshark's dissection of every ASTERIX data block of a pcap, in order: one
+    ``{"category": int, "records": [message dict, ...]}`` per datagram."""
+    res = subprocess.run(
+        [tshark_path(), "-r", str(pcap), "-d", f"udp.port=={port},asterix", "-T", "json",
+         "--no-duplicate-keys"], capture_output=True, text=True, timeout=120, check=True)
+    out = []
+    for pkt in json.loads(res.stdout):
+        a = pkt["_source"]["layers"]["asterix"]
+        msgs = a["asterix.message"]
+        out.append({"category": int(a["asterix.category"]),
+                    "records": msgs if isinstance(msgs, list) else [msgs]})
+    return out
