@@ -88,6 +88,12 @@ class DwellModel:
         fid = scenario.fidelity
         env = scenario.environment
         self.method = fid.pd_method
+        # Opt-in common random numbers (sim.fidelity; None in a normal run, whose stream is
+        # unchanged): ``look_uniforms(target_rows, t_s) -> u`` replaces the detection draw
+        # by one uniform per look derived from the look itself, and ``look_probe(**cols)``
+        # receives every look's P_d, so two fidelity settings see the same dice per look.
+        self.look_uniforms = None
+        self.look_probe = None
         self.k = k = radar_constants(scenario, radar)
         self.wavelength, self.gain, self.k_r0 = k.wavelength, k.gain, k.k_r0
         self.l_x, self.l_c, self.l_r = k.l_x, k.l_c, k.l_r
@@ -440,7 +446,15 @@ class DwellModel:
         pd = detection.probability_of_detection(
             si_db, self.pfa, n_e, self.swerling[rows[lead]], method=self.method,
             integrator=self.radar.integrator, detector=self.radar.detector)
-        hit = rng.random(n_groups) < pd
+        if self.look_uniforms is None:
+            hit = rng.random(n_groups) < pd
+        else:
+            hit = self.look_uniforms(rows[lead], t[lead]) < pd
+        if self.look_probe is not None:
+            self.look_probe(rows=rows, t=t, pd=pd[group], si_db=si_db[group],
+                            interference=code[group], hit=hit[group],
+                            slant_range_m=geom.slant_range, ground_range_m=geom.ground_range,
+                            height_m=tpos[:, 2])
         # power-weighted position of each contact (a single target: its own)
         w = p_r / np.maximum(p_sum[group], _DB_FLOOR)
         r_true = np.bincount(group, weights=w * geom.slant_range, minlength=n_groups)
