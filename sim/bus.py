@@ -29,6 +29,7 @@ __all__ = [
     "EndpointError",
     "Publisher",
     "PublisherStalledError",
+    "RunInterrupted",
     "SubscriberTimeoutError",
     "check_bind_endpoint",
     "message_json",
@@ -62,8 +63,14 @@ class PublisherStalledError(TimeoutError):
     """In pace mode, a subscriber stopped reading for longer than the stall timeout."""
 
 
-def check_bind_endpoint(endpoint: str, *, allow_remote: bool = False) -> None:
-    """Refuse endpoints reachable from other machines unless explicitly allowed.
+class RunInterrupted(Exception):
+    """Raised by :meth:`Bus.flush` (an end of scan) once a stop was requested (SIGTERM,
+    Ctrl-C): the run ends on a whole scan, with the recording complete up to it."""
+
+
+def check_bind_endpoint(endpoint: str, *, allow_remote: bool = False,
+                        secured: bool = False) -> None:
+    """Refuse endpoints reachable from other machines unless secured or explicitly allowed.
 
     Parameters
     ----------
@@ -72,21 +79,27 @@ def check_bind_endpoint(endpoint: str, *, allow_remote: bool = False) -> None:
         ``ipc:///tmp/radar``, ``inproc://radar``.
     allow_remote : bool, optional
         Accept any endpoint (``tcp://0.0.0.0:5555``, ``tcp://*:5555``, an interface name or
-        a non-loopback address). The stream is unauthenticated and unencrypted: only do this
-        on a trusted network.
+        a non-loopback address) without CURVE. The stream is unauthenticated and
+        unencrypted: only do this on a trusted network.
+    secured : bool, optional
+        The stream is CURVE-authenticated and encrypted (:mod:`sim.security`): any TCP
+        endpoint is accepted.
 
     Raises
     ------
     EndpointError
         If the endpoint is malformed, or is neither ``ipc://``, ``inproc://`` nor TCP on a
-        loopback address (127.0.0.0/8, ::1, localhost) while ``allow_remote`` is False.
+        loopback address (127.0.0.0/8, ::1, localhost) while neither ``secured`` (TCP) nor
+        ``allow_remote`` is True.
     """
     scheme, sep, rest = endpoint.partition("://")
     if not sep or not rest:
         raise EndpointError(f"malformed endpoint {endpoint!r}: expected e.g. tcp://127.0.0.1:5555")
-    if allow_remote or scheme in ("ipc", "inproc"):
+    if allow_remote or scheme in ("ipc", "inproc") or (secured and scheme == "tcp"):
         return
-    hint = "bind a loopback address such as tcp://127.0.0.1:5555, or allow remote binding"
+    hint = ("bind a loopback address such as tcp://127.0.0.1:5555, secure the stream with "
+            "CURVE (--curve-secret-key and --curve-authorized; shipradar keys generate DIR), "
+            "or accept anyone on the network with --allow-insecure-remote")
     if scheme != "tcp":
         raise EndpointError(
             f"refusing to bind {endpoint}: transport {scheme!r} is not local; {hint}"
@@ -141,6 +154,10 @@ class Publisher:
     context : zmq.Context or None, optional
         Context to use (needed for ``inproc://`` peers). By default the publisher owns a
         private context, which lets :meth:`close` block until queued messages are delivered.
+    curve : sim.security.CurveServer or None, optional
+        Authenticate subscribers and encrypt the stream with CurveZMQ: only subscribers
+        whose public key is authorised complete the handshake (the others receive nothing
+        and are not counted as subscribers). A CURVE publisher may bind any TCP endpoint.
 
     Notes
     -----
@@ -161,6 +178,7 @@ class Publisher:
         allow_remote: bool = False,
         stall_timeout_s: float | None = None,
         context: zmq.Context | None = None,
+        curve: Any = None,
     ) -> None:
         if on_slow not in _ON_SLOW:
             raise ValueError(f"on_slow must be one of {_ON_SLOW}, got {on_slow!r}")
@@ -168,7 +186,7 @@ class Publisher:
             raise ValueError(f"wait_subscribers must be >= 0, got {wait_subscribers}")
         if sndhwm < 0:
             raise ValueError(f"sndhwm must be >= 0, got {sndhwm}")
-        check_bind_endpoint(endpoint, allow_remote=allow_remote)
+        check_bind_endpoint(endpoint, allow_remote=allow_remote, secured=curve is not None)
         self.wait_subscribers = wait_subscribers
         self.wait_timeout_s = wait_timeout_s
         self.on_slow = on_slow
@@ -176,7 +194,13 @@ class Publisher:
         self._own_context = context is None
         self.context: zmq.Context = zmq.Context() if context is None else context
         self._sock = self.context.socket(zmq.XPUB)
+        self._auth = None
         try:
+            if curve is not None:
+                # the ZAP handler must run before the socket binds, or early handshakes
+                # would go unauthenticated
+                self._auth = curve.start_authenticator(self.context)
+                curve.apply(self._sock)
             self._sock.setsockopt(zmq.XPUB_VERBOSER, 1)
             self._sock.setsockopt(zmq.XPUB_NODROP, 1)
             self._sock.setsockopt(zmq.SNDHWM, sndhwm)
@@ -204,6 +228,8 @@ class Publisher:
 
     def _abort(self) -> None:
         self._sock.close(linger=0)
+        if self._auth is not None:
+            self._auth.stop()
         if self._own_context:
             self.context.term()
 
@@ -403,6 +429,8 @@ class Publisher:
         self._drain_subscriptions()
         self._closed = True
         self._sock.close(linger=linger_ms)
+        if self._auth is not None:
+            self._auth.stop()  # its socket must be closed before the context ends
         if self._own_context:
             self.context.term()
 
@@ -435,6 +463,10 @@ class Bus:
         self.recorder = recorder
         self._messages: Counter[bytes] = Counter()
         self._bytes = 0
+        #: Set (e.g. by a signal handler) to end the run at the next end of scan.
+        self.stop_requested = False
+        #: Simulated time of the last message [s] (None before the first).
+        self.t_last: float | None = None
 
     def emit(self, topic: bytes, t_sim: float, payload: Mapping[str, Any]) -> list[bytes]:
         """Encode one message and send it to the recorder and the publisher.
@@ -474,6 +506,7 @@ class Bus:
         self._messages[bytes(frames[0])] += 1
         self._bytes += len(frames[0]) + len(frames[1]) if len(frames) == 2 else sum(
             len(f) for f in frames)
+        self.t_last = t_sim
 
     def flush(self, fsync: bool = False) -> None:
         """End of scan: hand the recording to the OS (``fsync``: to the disk).
@@ -482,9 +515,16 @@ class Bus:
         ----------
         fsync : bool, optional
             Also wait for stable storage.
+
+        Raises
+        ------
+        RunInterrupted
+            After flushing, if :attr:`stop_requested` is set.
         """
         if self.recorder is not None:
             self.recorder.flush(fsync=fsync)
+        if self.stop_requested:
+            raise RunInterrupted(f"stop requested at t = {self.t_last} s")
 
     def close(self, linger_ms: int = DEFAULT_LINGER_MS) -> None:
         """Close the recorder and the publisher (delivering queued messages first).
@@ -567,6 +607,8 @@ def replay(
     clock: Callable[[], float] = time.monotonic,
     sleep: Callable[[float], None] = time.sleep,
     tap: Callable[[float, Sequence[bytes]], None] | None = None,
+    strict: bool = False,
+    curve: Any = None,
 ) -> dict[str, Any]:
     """Republish a recording's messages unchanged, paced by their simulated times.
 
@@ -593,11 +635,17 @@ def replay(
     tap : callable or None, optional
         Also called as ``tap(t_sim, frames)`` for each message, at its paced time (e.g. the
         ASTERIX output of ``replay --asterix``, :class:`sim.asterix.udp.AsterixBus`).
+    strict : bool, optional
+        Stop with :class:`sim.recording.RecordingError` at the first damaged record
+        (default: skip damaged records and go on; the summary counts them).
+    curve : sim.security.CurveServer or None, optional
+        Authenticate and encrypt the stream (see :class:`Publisher`).
 
     Returns
     -------
     dict
-        ``frames`` (messages republished), ``truncated`` and ``bytes_ignored`` (see
+        ``frames`` (messages republished), ``truncated`` and ``bytes_ignored``,
+        ``damaged_regions``, ``bytes_skipped`` and ``records_skipped`` (see
         :class:`sim.recording.RecordingReader`), ``t_first`` and ``t_last`` [s simulated],
         ``wall_s``, ``schema_version`` and ``publisher`` (stats or None).
 
@@ -609,7 +657,7 @@ def replay(
     """
     if not fast and not (speed > 0 and speed < float("inf")):
         raise ValueError(f"speed must be a positive finite number, got {speed!r}")
-    reader = read_recording(path)  # bad file: fail before binding anything
+    reader = read_recording(path, strict=strict)  # bad file: fail before binding anything
     publisher = None
     try:
         if endpoint is not None:
@@ -619,6 +667,7 @@ def replay(
                 wait_timeout_s=wait_timeout_s,
                 on_slow=on_slow,
                 allow_remote=allow_remote,
+                curve=curve,
             )
             publisher.wait_for_subscribers()
         count = 0
@@ -647,6 +696,9 @@ def replay(
             "frames": count,
             "truncated": reader.truncated,
             "bytes_ignored": reader.bytes_ignored,
+            "damaged_regions": len(reader.damaged),
+            "bytes_skipped": reader.bytes_skipped,
+            "records_skipped": reader.records_skipped,
             "t_first": t_first,
             "t_last": t_last,
             "wall_s": wall_s,
@@ -667,6 +719,7 @@ def tail(
     max_messages: int | None = None,
     timeout_s: float | None = None,
     context: zmq.Context | None = None,
+    curve: Any = None,
 ) -> int:
     """Subscribe to a stream and print one JSON line per message.
 
@@ -684,6 +737,8 @@ def tail(
         Stop after this long without a message [s] (idle timeout). None: never.
     context : zmq.Context or None, optional
         Context to use (needed for ``inproc://``); default the process-wide instance.
+    curve : sim.security.CurveClient or None, optional
+        Subscribe to a CURVE publisher with these keys.
 
     Returns
     -------
@@ -696,6 +751,8 @@ def tail(
     sock.setsockopt(zmq.LINGER, 0)
     # a message larger than any valid one drops the connection instead of being allocated
     sock.setsockopt(zmq.MAXMSGSIZE, MAX_BODY_BYTES + 1024)
+    if curve is not None:
+        curve.apply(sock)
     count = 0
     try:
         sock.connect(endpoint)

@@ -9,7 +9,9 @@ from __future__ import annotations
 
 import argparse
 import json
+import signal
 import sys
+import time
 from pathlib import Path
 
 EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
@@ -97,33 +99,82 @@ def cmd_tables_build(args) -> int:
     from shipradar.tables.scene import build_scene_tables
 
     s = _load(_scenario_path(args))
+    _memory_budget(args, s)
     report = build_scene_tables(s, progress=sys.stderr.isatty(), log=sys.stderr)
     print(json.dumps(report, sort_keys=False))
     return EXIT_OK
 
 
+def _curve(args, role: str):
+    """The ``--curve-*`` options as a CurveServer/CurveClient (None when not given)."""
+    from shipradar.sim.security import curve_from_args
+
+    return curve_from_args(args, role)
+
+
+def _memory_budget(args, scenario) -> None:
+    """Refuse, before any work, a scene whose tables exceed the memory budget."""
+    from shipradar.tables.budget import check_memory_budget, memory_budget_bytes
+
+    check_memory_budget(scenario, memory_budget_bytes(getattr(args, "memory_budget", None)))
+
+
+class _StopOnSignal:
+    """SIGTERM or Ctrl-C: stop the run at the next end of scan (the bus raises
+    RunInterrupted from its flush, so the recording ends with a whole scan); a second
+    signal, or a run without a bus, stops at once (KeyboardInterrupt)."""
+
+    def __init__(self, bus):
+        self.bus = bus
+        self._old: dict[int, object] = {}
+
+    def _handler(self, signum, frame) -> None:
+        if self.bus is None or self.bus.stop_requested:
+            raise KeyboardInterrupt
+        self.bus.stop_requested = True
+
+    def __enter__(self):
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            try:
+                self._old[sig] = signal.signal(sig, self._handler)
+            except ValueError:  # not the main thread (library use): leave signals alone
+                pass
+        return self
+
+    def __exit__(self, *exc) -> None:
+        for sig, old in self._old.items():
+            signal.signal(sig, old)
+
+
 def cmd_run(args) -> int:
-    from shipradar.sim.bus import Bus, Publisher
+    from shipradar.sim.bus import Bus, Publisher, RunInterrupted
     from shipradar.sim.engine import Simulation
-    from shipradar.sim.recording import Recorder
+    from shipradar.sim.recording import Recorder, RecordingWriteError
 
     s = _load(_scenario_path(args))
     if args.record and Path(args.record).exists() and not args.overwrite:
         raise BadInput(f"--record: {args.record} exists; pass --overwrite to replace it")
+    curve = _curve(args, "server")
+    _memory_budget(args, s)
     from shipradar.tables.scene import load_scene_tables
 
     # the tables the scene reads: from the cache, built now if missing (shown on stderr)
     tables = load_scene_tables(s, progress=sys.stderr.isatty(), log=sys.stderr)
-    publisher = recorder = bus = None
+    if args.record and hasattr(signal, "SIGXFSZ"):
+        # past a file-size limit write() then fails with EFBIG, which the recorder reports
+        # and recovers from, instead of the signal killing the process mid-record
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+    publisher = recorder = bus = core_bus = None
+    summary = None
     try:
         if args.publish:
             publisher = Publisher(args.publish, wait_subscribers=args.wait_subscribers,
                                   wait_timeout_s=args.wait_timeout, on_slow=args.on_slow,
-                                  allow_remote=args.allow_remote)
+                                  allow_remote=args.allow_remote, curve=curve)
         if args.record:
-            recorder = Recorder(args.record, overwrite=args.overwrite)
+            recorder = Recorder(args.record, overwrite=args.overwrite, compress=args.compress)
         if publisher or recorder:
-            bus = Bus(publisher, recorder)
+            bus = core_bus = Bus(publisher, recorder)
         if args.asterix:
             from shipradar.sim.asterix.stream import scenario_problems
             from shipradar.sim.asterix.udp import AsterixBus, UdpSender
@@ -140,14 +191,41 @@ def cmd_run(args) -> int:
             print(f"note: {line}", file=sys.stderr)
         if publisher is not None and args.wait_subscribers:
             publisher.wait_for_subscribers()
-        summary = sim.run()
+        wall0 = time.perf_counter()
+        with _StopOnSignal(core_bus):
+            try:
+                summary = sim.run()
+            except (RunInterrupted, KeyboardInterrupt):
+                summary = sim.summary(time.perf_counter() - wall0)
+                summary["interrupted"] = True
+                t_last = getattr(core_bus, "t_last", None)
+                summary["simulated_s"] = t_last  # the last message's time (None: no bus)
+                wall = summary["wall_s"]
+                summary["realtime_factor"] = (round(t_last / wall, 2) if t_last and wall
+                                              else None)
+                print("interrupted: the run stopped at the end of a scan; the recording, "
+                      "if any, is closed and complete up to there", file=sys.stderr)
+            except RecordingWriteError as exc:
+                print(f"error: {exc}", file=sys.stderr)
+                summary = sim.summary(time.perf_counter() - wall0)
+                summary["error"] = str(exc)
+                summary["simulated_s"] = getattr(core_bus, "t_last", None)
     finally:
-        if bus is not None:
-            bus.close()
-        else:
-            for part in (publisher, recorder):
-                if part is not None:
-                    part.close()
+        try:
+            if bus is not None:
+                bus.close()
+            else:
+                for part in (publisher, recorder):
+                    if part is not None:
+                        part.close()
+        except RecordingWriteError as exc:  # the last buffered records did not fit
+            if summary is None:
+                raise
+            print(f"error: {exc}", file=sys.stderr)
+            summary["error"] = str(exc)
+    if "error" in summary:
+        print(json.dumps(summary))
+        return EXIT_FAILURE
     if args.asterix:
         summary["asterix"] = bus.stats["asterix"]  # datagrams sent, records, markers
     pub = (summary.get("bus") or {}).get("publisher") or {}
@@ -164,6 +242,7 @@ def cmd_replay(args) -> int:
 
     if not Path(args.recording).exists():
         raise BadInput(f"replay: recording {args.recording} does not exist")
+    curve = _curve(args, "server")
     asterix = None
     if args.asterix:
         from shipradar.sim.asterix.udp import AsterixBus, UdpSender
@@ -174,7 +253,7 @@ def cmd_replay(args) -> int:
         summary = replay(args.recording, endpoint=args.publish, speed=args.speed,
                          fast=args.fast, wait_subscribers=args.wait_subscribers,
                          wait_timeout_s=args.wait_timeout, on_slow=args.on_slow,
-                         allow_remote=args.allow_remote,
+                         allow_remote=args.allow_remote, strict=args.strict, curve=curve,
                          out=None if args.publish or args.asterix else sys.stdout,
                          tap=None if asterix is None else asterix.emit_frames)
     finally:
@@ -186,6 +265,11 @@ def cmd_replay(args) -> int:
         print(f"warning: {args.recording} is truncated: {summary['frames']} whole frame(s) "
               f"replayed, {summary['bytes_ignored']} byte(s) of a partial last frame ignored",
               file=sys.stderr)
+    if summary["damaged_regions"]:
+        print(f"warning: {args.recording} is damaged: {summary['damaged_regions']} region(s), "
+              f"{summary['bytes_skipped']} byte(s) and {summary['records_skipped']} record(s) "
+              f"skipped; {summary['frames']} valid record(s) replayed (shipradar recording "
+              f"verify gives the regions; --strict stops at the first)", file=sys.stderr)
     pub = summary.get("publisher") or {}
     if pub.get("dropped"):
         print(f"warning: {pub['dropped']} message(s) dropped for slow subscribers",
@@ -247,8 +331,101 @@ def cmd_tail(args) -> int:
     from shipradar.sim.bus import tail
 
     topics = [t.encode() for t in args.topic] if args.topic else None
-    tail(args.endpoint, topics=topics, max_messages=args.count, timeout_s=args.timeout)
+    tail(args.endpoint, topics=topics, max_messages=args.count, timeout_s=args.timeout,
+         curve=_curve(args, "client"))
     return EXIT_OK
+
+
+def cmd_recording_verify(args) -> int:
+    from shipradar.sim.recording import verify_recording
+
+    if not Path(args.recording).is_file():
+        raise BadInput(f"recording verify: {args.recording} does not exist or is not a file")
+    rep = verify_recording(args.recording)
+    for r in rep["damage"]:
+        print(f"warning: {args.recording}: damaged region at bytes {r['start']}-{r['end']}: "
+              f"{r['reason']} ({r['records']} record(s) lost)", file=sys.stderr)
+    if rep["truncated"]:
+        print(f"warning: {args.recording} is truncated: the last {rep['bytes_ignored']} "
+              f"byte(s) are a torn or zero-filled tail", file=sys.stderr)
+    print(json.dumps(rep))
+    return EXIT_OK if rep["status"] == "clean" else EXIT_FAILURE
+
+
+def cmd_recording_repair(args) -> int:
+    from shipradar.sim.recording import repair_recording
+
+    if not Path(args.recording).is_file():
+        raise BadInput(f"recording repair: {args.recording} does not exist or is not a file")
+    rep = repair_recording(args.recording, args.out, overwrite=args.overwrite,
+                           compress=args.compress)
+    print(json.dumps(rep))
+    return EXIT_OK
+
+
+def cmd_keys_generate(args) -> int:
+    from shipradar.sim.security import generate_keys
+
+    out = generate_keys(args.directory, clients=args.name or ["client"])
+    print(json.dumps(out))
+    return EXIT_OK
+
+
+def cmd_view(args) -> int:
+    from shipradar.sim.bus import EndpointError
+    from shipradar.sim.viewer.server import HostError, ViewerServer, run_viewer
+
+    source = args.source
+    if "://" not in source and not Path(source).is_file():
+        raise BadInput(f"view: SOURCE {source!r} is neither a ZeroMQ endpoint (tcp://HOST:PORT, "
+                       "ipc://PATH) nor an existing recording file")
+    for ep in args.tracks or []:
+        if "://" not in ep:
+            raise BadInput(f"--tracks {ep!r} is not a ZeroMQ endpoint (tcp://HOST:PORT)")
+    try:
+        server = ViewerServer(source, host=args.host, port=args.port,
+                              allow_remote=args.allow_remote, tracks=args.tracks,
+                              speed=args.speed, max_queue=args.max_queue)
+        run_viewer(server, open_browser=args.open)
+    except HostError as exc:
+        raise BadInput(str(exc)) from None
+    except EndpointError as exc:
+        raise BadInput(f"view: {exc}") from None
+    except OSError as exc:  # the port is taken, or the address is not ours
+        raise BadInput(f"--port {args.port}: cannot listen on {args.host}:{args.port} "
+                       f"({exc.strerror or exc}); choose another port (0 picks a free one)"
+                       ) from None
+    except KeyboardInterrupt:
+        return EXIT_OK
+    return EXIT_OK
+
+
+def _int_range(name: str, lo: int, hi: int):
+    def conv(text: str) -> int:
+        try:
+            v = int(text)
+        except ValueError:
+            v = None
+        if v is None or not lo <= v <= hi:
+            raise argparse.ArgumentTypeError(f"{name} must be an integer in [{lo}, {hi}], "
+                                             f"got {text!r}")
+        return v
+
+    return conv
+
+
+def _float_range(name: str, lo: float, hi: float):
+    def conv(text: str) -> float:
+        try:
+            v = float(text)
+        except ValueError:
+            v = None
+        if v is None or not lo <= v <= hi:
+            raise argparse.ArgumentTypeError(f"{name} must be a number in [{lo:g}, {hi:g}], "
+                                             f"got {text!r}")
+        return v
+
+    return conv
 
 
 def cmd_plot(args) -> int:
@@ -280,8 +457,16 @@ def _scenario_arguments(p: argparse.ArgumentParser) -> None:
                    help="a shipped example scenario instead of a file (shipradar examples)")
 
 
+def _budget_argument(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--memory-budget", type=_positive("--memory-budget"), default=None,
+                   metavar="MIB", help="largest memory the scene's tables may take [MiB] "
+                   "(default $SHIPRADAR_MEMORY_BUDGET_MIB or 4096)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     from shipradar import __version__
+    from shipradar.sim.recording import COMPRESSIONS
+    from shipradar.sim.security import add_curve_arguments
 
     p = argparse.ArgumentParser(prog="shipradar", description=__doc__.splitlines()[0])
     p.add_argument("--version", action="version", version=f"shipradar {__version__}")
@@ -298,6 +483,7 @@ def build_parser() -> argparse.ArgumentParser:
     tsub = t.add_subparsers(dest="tables_command", required=True)
     tb = tsub.add_parser("build", help="build the tables a scenario needs (cached)")
     _scenario_arguments(tb)
+    _budget_argument(tb)
     tb.set_defaults(func=cmd_tables_build)
 
     r = sub.add_parser("run", help="run a scenario headless")
@@ -314,8 +500,14 @@ def build_parser() -> argparse.ArgumentParser:
                    help="longest wait for those subscribers [s]")
     r.add_argument("--on-slow", choices=("pace", "drop"), default="pace",
                    help="slow subscriber: slow the run down (pace) or count dropped frames")
-    r.add_argument("--allow-remote", action="store_true",
-                   help="allow binding a non-loopback address (e.g. tcp://0.0.0.0:5556)")
+    r.add_argument("--compress", choices=COMPRESSIONS, default="none",
+                   help="compress each record of the recording (zstd; docs/protocol.md)")
+    r.add_argument("--allow-insecure-remote", "--allow-remote", dest="allow_remote",
+                   action="store_true",
+                   help="allow binding a non-loopback address (e.g. tcp://0.0.0.0:5556) "
+                        "without CURVE: anyone on the network can subscribe")
+    add_curve_arguments(r, "server")
+    _budget_argument(r)
     r.add_argument("--realtime", nargs="?", const=1.0, default=None,
                    type=_positive("--realtime"), help="pace to the wall clock x FACTOR")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -334,8 +526,12 @@ def build_parser() -> argparse.ArgumentParser:
                     help="longest wait for those subscribers [s]")
     rp.add_argument("--on-slow", choices=("pace", "drop"), default="pace",
                     help="slow subscriber: slow the replay down (pace) or count dropped frames")
-    rp.add_argument("--allow-remote", action="store_true",
-                    help="allow binding a non-loopback address")
+    rp.add_argument("--allow-insecure-remote", "--allow-remote", dest="allow_remote",
+                    action="store_true",
+                    help="allow binding a non-loopback address without CURVE")
+    rp.add_argument("--strict", action="store_true",
+                    help="stop at the first damaged record (default: skip it and go on)")
+    add_curve_arguments(rp, "server")
     _asterix_arguments(rp)
     rp.set_defaults(func=cmd_replay)
 
@@ -359,7 +555,51 @@ def build_parser() -> argparse.ArgumentParser:
     tl.add_argument("--count", type=_count("--count"), default=None, help="stop after N messages")
     tl.add_argument("--timeout", type=_positive("--timeout"), default=None,
                     help="stop after S seconds without a message")
+    add_curve_arguments(tl, "client")
     tl.set_defaults(func=cmd_tail)
+
+    rc = sub.add_parser("recording", help="check or salvage a recording (verify, repair)")
+    rcsub = rc.add_subparsers(dest="recording_command", required=True)
+    rv = rcsub.add_parser("verify", help="report records, time span, sensors, damage, "
+                                         "truncation (exit 0 clean, 1 damaged, 2 unreadable)")
+    rv.add_argument("recording")
+    rv.set_defaults(func=cmd_recording_verify)
+    rr = rcsub.add_parser("repair", help="write every valid record to a new file (the input "
+                                         "is never modified)")
+    rr.add_argument("recording")
+    rr.add_argument("out", metavar="OUT")
+    rr.add_argument("--overwrite", action="store_true", help="replace an existing OUT")
+    rr.add_argument("--compress", choices=COMPRESSIONS, default="none",
+                    help="compression of OUT")
+    rr.set_defaults(func=cmd_recording_repair)
+
+    ky = sub.add_parser("keys", help="CurveZMQ keys for authenticated, encrypted streams")
+    kysub = ky.add_subparsers(dest="keys_command", required=True)
+    kg = kysub.add_parser("generate", help="a publisher key pair, subscriber key pairs and "
+                                           "DIR/authorized/ (docs/protocol.md, Security)")
+    kg.add_argument("directory", metavar="DIR")
+    kg.add_argument("--name", action="append", metavar="NAME",
+                    help="subscriber key pair to create (repeatable; default 'client')")
+    kg.set_defaults(func=cmd_keys_generate)
+
+    vw = sub.add_parser("view", help="live PPI in the browser, of a stream or a recording")
+    vw.add_argument("source", help="ZeroMQ endpoint of a run/replay (tcp://HOST:PORT) or a "
+                                   "recording file (replayed by the viewer)")
+    vw.add_argument("--port", type=_int_range("--port", 0, 65535), default=8765,
+                    help="HTTP port of the page (0: a free one) [default 8765]")
+    vw.add_argument("--host", default="127.0.0.1",
+                    help="address to listen on [default 127.0.0.1]")
+    vw.add_argument("--allow-remote", action="store_true",
+                    help="allow listening on a non-loopback address (no authentication)")
+    vw.add_argument("--open", action="store_true", help="open the page in the browser")
+    vw.add_argument("--tracks", action="append", metavar="ENDPOINT",
+                    help="also draw the tracks a tracker publishes there (repeatable)")
+    vw.add_argument("--speed", type=_float_range("--speed", 1, 100), default=1.0,
+                    help="recording: initial replay speed, x1 to x100 [default 1]")
+    vw.add_argument("--max-queue", type=_int_range("--max-queue", 16, 1_000_000),
+                    default=4096, help="messages queued per page before the oldest are "
+                                       "dropped [default 4096]")
+    vw.set_defaults(func=cmd_view)
 
     pl = sub.add_parser("plot", help="render figures of a scenario's tables as PNG")
     pl.add_argument("scenario")
@@ -392,11 +632,13 @@ def main(argv: list[str] | None = None) -> int:
     from shipradar.sim.bus import EndpointError, PublisherStalledError, SubscriberTimeoutError
     from shipradar.sim.asterix.encode import AsterixError
     from shipradar.sim.recording import RecordingError, RecordingExistsError
+    from shipradar.sim.security import CurveKeyError
+    from shipradar.tables.budget import MemoryBudgetError
 
     try:
         return args.func(args)
     except (BadInput, EndpointError, RecordingError, RecordingExistsError,
-            AsterixError) as exc:
+            AsterixError, CurveKeyError, MemoryBudgetError) as exc:
         print(str(exc), file=sys.stderr)
         return EXIT_BAD_INPUT
     except (SubscriberTimeoutError, PublisherStalledError) as exc:

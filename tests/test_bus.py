@@ -391,7 +391,9 @@ def test_replay_of_truncated_recording_reports_it(tmp_path):
     out = io.StringIO()
     summary = replay(path, fast=True, out=out)
     assert summary["frames"] == 4 and summary["truncated"]
-    last_record = 8 + 10 + 4 + len(frames[4][0]) + 4 + len(frames[4][1])
+    # format 2: 32-byte record header (marker, length, flags, sequence, CRCs), then t_sim,
+    # frame count and the frames with their lengths
+    last_record = 32 + 10 + 4 + len(frames[4][0]) + 4 + len(frames[4][1])
     assert summary["bytes_ignored"] == last_record - 3
     lines = [json.loads(line) for line in out.getvalue().splitlines()]
     assert [ln["payload"]["scan"] for ln in lines] == [0, 1, 2, 3]

@@ -1,4 +1,5 @@
-"""Recording file: round trip, truncation after a crash, overwrite refusal, corruption."""
+"""Recording file: round trip, truncation after a crash, overwrite refusal, corruption,
+format 1 still read. Damage and resynchronisation: tests/test_recording_damage.py."""
 
 from __future__ import annotations
 
@@ -21,6 +22,8 @@ from shipradar.sim.recording import (
     MAGIC,
     MAX_FRAMES,
     MAX_RECORD_BYTES,
+    REC2_HEADER_BYTES,
+    SYNC,
     Recorder,
     RecordingError,
     RecordingExistsError,
@@ -76,7 +79,9 @@ def test_header_layout(tmp_path):
     Recorder(path).close()
     data = path.read_bytes()
     assert len(data) == HEADER_BYTES == 16
-    assert data == MAGIC + struct.pack("<HHI", FORMAT_VERSION, SCHEMA_VERSION, 0)
+    head = MAGIC + struct.pack("<HHH", FORMAT_VERSION, SCHEMA_VERSION, 0)
+    assert data == head + struct.pack("<H", zlib.crc32(head) & 0xFFFF)
+    assert FORMAT_VERSION == 2
     reader = RecordingReader(path)
     assert list(reader) == [] and not reader.truncated
     reader.close()
@@ -89,7 +94,9 @@ def test_record_layout_matches_documentation(tmp_path):
     rec_bytes = path.read_bytes()[HEADER_BYTES:]
     payload = struct.pack("<dH", 1.5, 2) + struct.pack("<I", 3) + b"eos"
     payload += struct.pack("<I", 1) + b"\x80"
-    assert rec_bytes == struct.pack("<II", len(payload), zlib.crc32(payload)) + payload
+    mid = struct.pack("<IHHQI", len(payload), 0, 0, 0, zlib.crc32(payload))
+    assert REC2_HEADER_BYTES == 32
+    assert rec_bytes == SYNC + mid + struct.pack("<I", zlib.crc32(mid)) + payload
 
 
 def test_reading_while_writer_is_open_sees_flushed_records(tmp_path):
@@ -203,37 +210,56 @@ def test_unsupported_format_version_is_rejected(tmp_path):
         RecordingReader(path)
 
 
+def _append_record(path, payload, *, n=None, seq=0, flags=0):
+    mid = struct.pack("<IHHQI", len(payload) if n is None else n, flags, 0, seq,
+                      zlib.crc32(payload))
+    with path.open("ab") as f:
+        f.write(SYNC + mid + struct.pack("<I", zlib.crc32(mid)) + payload)
+
+
 def test_oversized_record_length_is_rejected_before_reading(tmp_path):
     path = tmp_path / "x.srrec"
     write(path, messages(2))
-    with path.open("ab") as f:
-        f.write(struct.pack("<II", MAX_RECORD_BYTES + 1, 0) + b"junk")
-    reader = read_recording(path)
+    _append_record(path, b"junk", n=MAX_RECORD_BYTES + 1, seq=2)
+    path.open("ab").write(b"more junk that is not a record")
+    reader = read_recording(path, strict=True)
     it = iter(reader)
     assert len([next(it), next(it)]) == 2
     with pytest.raises(RecordingError, match="over the .*maximum"):
         next(it)
     reader.close()
+    with read_recording(path) as reader:
+        assert len(list(reader)) == 2
+        assert len(reader.damaged) == 1 and "maximum" in reader.damaged[0].reason
+        assert not reader.truncated
 
 
 def test_corrupted_record_fails_its_crc(tmp_path):
     path = tmp_path / "x.srrec"
-    ends = write(path, messages(3))
+    msgs = messages(3)
+    ends = write(path, msgs)
     data = bytearray(path.read_bytes())
-    data[ends[0] + 12] ^= 0xFF  # inside the second record's payload
+    data[ends[0] + REC2_HEADER_BYTES + 12] ^= 0xFF  # inside the second record's payload
     path.write_bytes(bytes(data))
-    with read_recording(path) as reader, pytest.raises(RecordingError, match="CRC"):
+    with read_recording(path, strict=True) as reader, pytest.raises(RecordingError, match="CRC"):
         list(reader)
+    with read_recording(path) as reader:  # default: skip it, go on
+        assert list(reader) == [msgs[0], msgs[2]]
+        (region,) = reader.damaged
+        assert (region.start, region.end, region.records) == (ends[0], ends[1], 1)
+        assert reader.bytes_skipped == ends[1] - ends[0] and reader.records_skipped == 1
 
 
 def test_record_with_inconsistent_frames_is_rejected(tmp_path):
     path = tmp_path / "x.srrec"
     Recorder(path).close()
-    payload = struct.pack("<dH", 0.0, 1) + struct.pack("<I", 50) + b"short"
-    with path.open("ab") as f:
-        f.write(struct.pack("<II", len(payload), zlib.crc32(payload)) + payload)
-    with read_recording(path) as reader, pytest.raises(RecordingError, match="malformed"):
+    _append_record(path, struct.pack("<dH", 0.0, 1) + struct.pack("<I", 50) + b"short")
+    with read_recording(path, strict=True) as reader, pytest.raises(RecordingError,
+                                                                    match="malformed"):
         list(reader)
+    with read_recording(path) as reader:
+        assert list(reader) == []
+        assert "malformed" in reader.damaged[0].reason
 
 
 def test_writer_limits(tmp_path):
@@ -257,3 +283,72 @@ def test_recorder_accepts_path_strings(tmp_path):
     with Recorder(path) as rec:
         rec.write(0.0, [b"eos", b"\x80"])
     assert len(list(read_recording(path))) == 1
+
+
+def test_format_1_is_still_read():
+    """A file written by the format-1 writer (tests/data, generated by that code path)."""
+    import msgpack
+
+    path = Path(__file__).parent / "data" / "recording_v1.srrec"
+    expected = [(0.5 * i, [b"eos", msgpack.packb({"v": 1, "t": 0.5 * i, "sensor": "s1",
+                                                   "scan": i})]) for i in range(4)]
+    expected.append((2.0, [b"a", b"b", b"c"]))
+    with read_recording(path, strict=True) as reader:
+        assert list(reader) == expected
+        assert reader.format_version == 1 and reader.schema_version == 1
+        assert not reader.truncated and not reader.damaged
+    data = path.read_bytes()
+    for cut in (len(data) - 3, len(data) - 20):
+        short = Path(os.environ.get("TMPDIR", "/tmp")) / f"v1cut-{os.getpid()}.srrec"
+        try:
+            short.write_bytes(data[:cut])
+            with read_recording(short) as reader:
+                assert list(reader) == expected[:4] and reader.truncated
+            short.write_bytes(data + bytes(64))  # zero-filled tail: a truncation
+            with read_recording(short) as reader:
+                assert list(reader) == expected and reader.truncated
+                assert reader.bytes_ignored == 64 and not reader.damaged
+            bad = bytearray(data)
+            bad[16 + 8 + 20] ^= 0x01  # first record's body: nothing after it can be trusted
+            short.write_bytes(bytes(bad))
+            with read_recording(short) as reader:
+                assert list(reader) == []
+                assert reader.damaged[0].end == len(data)
+            with read_recording(short, strict=True) as reader, pytest.raises(RecordingError):
+                list(reader)
+        finally:
+            short.unlink(missing_ok=True)
+
+
+def test_compressed_round_trip_and_layout(tmp_path):
+    path = tmp_path / "z.srrec"
+    msgs = messages(30)
+    with Recorder(path, compress="zstd") as rec:
+        for t, frames in msgs:
+            rec.write(t, frames)
+        rec.write(99.0, [b"plots", bytes(20000)])  # compresses well
+    with read_recording(path, strict=True) as reader:
+        got = list(reader)
+        assert reader.compressed is True
+    assert got == [*msgs, (99.0, [b"plots", bytes(20000)])]
+    assert path.stat().st_size < 20000
+    with pytest.raises(RecordingError, match="compression must be one of none, zstd"):
+        Recorder(tmp_path / "y.srrec", compress="gzip")
+
+
+def test_compressed_recording_is_deterministic(tmp_path):
+    msgs = messages(40)
+    blobs = []
+    for name in ("a", "b"):
+        with Recorder(tmp_path / f"{name}.srrec", compress="zstd") as rec:
+            for t, frames in msgs:
+                rec.write(t, frames)
+        blobs.append((tmp_path / f"{name}.srrec").read_bytes())
+    assert blobs[0] == blobs[1]
+
+
+def test_oversized_file_is_refused_when_a_limit_is_given(tmp_path):
+    path = tmp_path / "x.srrec"
+    write(path, messages(3))
+    with pytest.raises(RecordingError, match="over the 100-byte limit"):
+        read_recording(path, max_bytes=100)
