@@ -134,3 +134,31 @@ def test_property_counts_nonnegative_integers(eta, n_ch, seed):
     c = false_alarm_count(np.array([eta, eta]), n_ch, np.random.default_rng(seed))
     assert c.dtype == np.int64 and np.all(c >= 0)
     assert np.all(c <= eta + 12 * np.sqrt(eta) + 40)
+
+
+def test_poisson_quantile_equals_scipy_ppf_and_edges():
+    # the fast inverse CDF of [93] gives scipy's counts draw for draw (the stream depends
+    # on it), over the whole Poisson regime and at U = 0
+    rng = np.random.default_rng(5)
+    eta = rng.uniform(0.0, false_alarms.NORMAL_MIN_ETA, 200_000)
+    u = rng.random(eta.size)
+    u[:10] = 0.0
+    u[10:20] = np.nextafter(1.0, 0.0)
+    ref = np.maximum(stats.poisson.ppf(u, eta), 0.0).astype(np.int64)
+    np.testing.assert_array_equal(false_alarms.poisson_quantile(u, eta), ref)
+    cdf = false_alarms.poisson_cdf_table(eta[:50])
+    np.testing.assert_array_equal(false_alarms.poisson_quantile(u[:50], cdf=cdf), ref[:50])
+
+
+def test_clutter_generator_counts_match_false_alarm_count():
+    # ClutterFalseAlarms prepares the regimes once; its counts are false_alarm_count's
+    eta = np.array([0.0, 0.05, 0.17, 0.2, 1.0, 5.0, 8.99, 9.0, 30.0])
+    gen = false_alarms.ClutterFalseAlarms(
+        np.zeros(eta.size), np.full(eta.size, 1e4), np.zeros(eta.size),
+        np.full(eta.size, 0.1), np.ones(eta.size), eta, np.full(eta.size, 2.0),
+        threshold_ratio=10.0, n_channels=2, n_pulses=10.0, range_cell_m=30.0,
+        beamwidth_rad=0.03, antenna_height_m=20.0)
+    for seed in range(20):
+        counts, _, _ = gen.draw(np.random.default_rng(seed))
+        ref = false_alarm_count(gen.eta, 2, np.random.default_rng(seed))
+        np.testing.assert_array_equal(counts, ref)
