@@ -10,7 +10,7 @@ ENDPOINT ?= tcp://127.0.0.1:5556
 SERVE_ARGS ?= --realtime 1
 TAIL_ARGS ?=
 
-.PHONY: install demo test bench lint clean tables serve tail
+.PHONY: install demo test bench lint clean tables serve tail tshark
 
 $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -34,8 +34,15 @@ serve: $(STAMP)
 tail: $(STAMP)
 	$(VENV)/bin/shipradar tail $(ENDPOINT) $(TAIL_ARGS)
 
-test: $(STAMP)
+test: $(STAMP) tshark
 	MPLBACKEND=Agg $(PY) -m pytest -q
+
+# Wireshark's ASTERIX dissector checks our CAT048/CAT034 bytes (tests/test_asterix.py);
+# installed when missing and we are root, never failing here (the tests say what is missing)
+tshark:
+	@command -v tshark >/dev/null || { [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null \
+	  && apt-get update -q >/dev/null && DEBIAN_FRONTEND=noninteractive apt-get install -y -q \
+	  tshark >/dev/null; } || echo "note: tshark not installed (apt-get install tshark)"
 
 bench: $(STAMP)
 	for b in benchmarks/*.py; do echo "== $$b"; $(PY) $$b || exit 1; done

@@ -2,8 +2,9 @@
 
 - ``asterix``: the data blocks that ``replay --asterix`` would send, back to back (the
   common ``.ast`` file that ASTERIX tools read).
-- ``pcap``: the same blocks as UDP datagrams (127.0.0.1 -> 127.0.0.1:PORT, one per block,
-  Ethernet framing), stamped with the scenario's UTC time of the block; Wireshark decodes
+- ``pcap``: the datagrams that ``replay --asterix`` sends (127.0.0.1 -> 127.0.0.1:PORT,
+  whole data blocks, Ethernet framing), stamped with the scenario's UTC time of their last
+  block; Wireshark decodes
   them with ``-d udp.port==PORT,asterix`` (8600 by default, Wireshark's ASTERIX port).
   Written with ``dpkt``.
 - ``csv`` / ``parquet``: two tables for pandas, written with ``pyarrow``: the plots, one
@@ -24,7 +25,7 @@ import numpy as np
 
 from shipradar.sim import protocol
 from shipradar.sim.asterix.encode import DEFAULT_MAX_BLOCK_BYTES
-from shipradar.sim.asterix.stream import AsterixStream
+from shipradar.sim.asterix.stream import AsterixStream, datagrams
 from shipradar.sim.recording import read_recording
 
 __all__ = ["FORMATS", "ExportError", "export", "plot_tables", "targets_path"]
@@ -55,7 +56,8 @@ def _blocks(path, max_block_bytes: int) -> tuple[list[tuple[float, bytes]], Aste
     stream = AsterixStream(max_block_bytes)
     blocks: list[tuple[float, bytes]] = []
     for topic, t, payload in _messages(path):
-        blocks.extend(stream.feed(topic, t, payload))
+        # the datagrams that replay --asterix sends for this message
+        blocks.extend(datagrams(stream.feed(topic, t, payload), max_block_bytes))
     return blocks, stream
 
 
@@ -210,7 +212,7 @@ def export(recording: str | os.PathLike[str], fmt: str, out: str | os.PathLike[s
                     f.write(block)
         else:
             _write_pcap(out, blocks, stream.start_epoch_s or 0.0, port)
-            summary["port"] = port
+            summary.update(port=port, datagrams=len(blocks))
         summary.update(stream.stats)
         return summary
     try:

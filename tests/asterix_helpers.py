@@ -68,14 +68,16 @@ def tshark_path() -> str:
 
 def tshark_asterix(pcap, port: int) -> list[dict]:
     """Wireshark's dissection of every ASTERIX data block of a pcap, in order: one
-    ``{"category": int, "records": [message dict, ...]}`` per datagram."""
+    ``{"category": int, "records": [message dict, ...]}`` per data block (a datagram may
+    hold several)."""
     res = subprocess.run(
         [tshark_path(), "-r", str(pcap), "-d", f"udp.port=={port},asterix", "-T", "json",
          "--no-duplicate-keys"], capture_output=True, text=True, timeout=120, check=True)
     out = []
     for pkt in json.loads(res.stdout):
-        a = pkt["_source"]["layers"]["asterix"]
-        msgs = a["asterix.message"]
-        out.append({"category": int(a["asterix.category"]),
-                    "records": msgs if isinstance(msgs, list) else [msgs]})
+        layer = pkt["_source"]["layers"]["asterix"]
+        for a in layer if isinstance(layer, list) else [layer]:
+            msgs = a["asterix.message"]
+            out.append({"category": int(a["asterix.category"]),
+                        "records": msgs if isinstance(msgs, list) else [msgs]})
     return out

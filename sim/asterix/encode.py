@@ -211,63 +211,70 @@ def cat048_records(
     r = np.asarray(range_m, dtype=float)
     az = np.asarray(azimuth_rad, dtype=float)
     n = r.size
-    bad = ~(np.isfinite(r) & np.isfinite(az))
-    if bad.any():
-        i = int(np.flatnonzero(bad)[0])
-        raise AsterixError(f"radar {sensor}: plot {i} has a non-finite range or azimuth "
-                           f"({r[i]!r} m, {az[i]!r} rad); I048/040 cannot carry it")
     rho = np.rint(r * (256.0 / NM_M))
-    over = (rho >= THETA_COUNTS) | (r < 0.0)
-    if over.any():
-        i = int(np.flatnonzero(over)[0])
+    # one test for NaN, inf and out of range (NaN compares False): the rare bad plot is
+    # then found and named
+    if n and not (rho.min() >= 0.0 and rho.max() < THETA_COUNTS and np.isfinite(az).all()):
+        bad = ~(np.isfinite(r) & np.isfinite(az))
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise AsterixError(f"radar {sensor}: plot {i} has a non-finite range or azimuth "
+                               f"({r[i]!r} m, {az[i]!r} rad); I048/040 cannot carry it")
+        i = int(np.flatnonzero((rho >= THETA_COUNTS) | (r < 0.0))[0])
         raise AsterixError(
             f"radar {sensor}: plot {i} at range {r[i]:.0f} m ({r[i] / NM_M:.2f} NM) is outside "
             f"I048/040 RHO's range [0, {RHO_MAX_NM:g}) NM (16 bits of 1/256 NM); ASTERIX "
             f"CAT048 cannot carry it (refused, not wrapped)")
-    rho = rho.astype(np.uint32)
-    theta = np.mod(np.rint(az * (THETA_COUNTS / (2.0 * math.pi))).astype(np.int64),
-                   THETA_COUNTS)
+    theta = np.rint(az * (THETA_COUNTS / (2.0 * math.pi))).astype(np.int64) & 0xFFFF
     tod = time_of_day_counts(time_s, start_sod_s)
-    rho_nm = r / NM_M
+    rho_nm = r * (XY_PER_NM / NM_M)
     # I048/042 in the radar's own frame: X east, Y north of the antenna, from the slant
-    # range (the radar measures no elevation); |X|, |Y| < 256 NM, at most 32767 counts
-    x = np.clip(np.rint(rho_nm * np.sin(az) * XY_PER_NM), -32768, 32767).astype(np.int64)
-    y = np.clip(np.rint(rho_nm * np.cos(az) * XY_PER_NM), -32768, 32767).astype(np.int64)
-    x, y = np.mod(x, 1 << 16), np.mod(y, 1 << 16)  # two's complement
+    # range (the radar measures no elevation); |X|, |Y| < 256 NM, so at most 32767 counts
+    x = np.minimum(np.rint(rho_nm * np.sin(az)), 32767.0).astype(">i2")
+    y = np.minimum(np.rint(rho_nm * np.cos(az)), 32767.0).astype(">i2")
     has_pam = noise_power_dbm is not None and snr_db is not None
     i130 = (_I130_PRL if prl_deg is not None else 0) | (_I130_PAM if has_pam else 0)
-    in_clutter = (np.zeros(n, dtype=bool) if clutter is None
-                  else np.asarray(clutter, dtype=bool))
-
-    def const(v: int) -> np.ndarray:
-        return np.full(n, v, dtype=np.uint8)
-
-    cols = [const(_FS1_BASE | (_FS1_130 if i130 else 0)),
-            (_FS2_042 | in_clutter).astype(np.uint8),
-            const(_FS3_030),  # kept only where I048/030 follows
-            const(sac), const(sic), *_be(tod, 3), const(_I048_020),
-            *_be(rho, 2), *_be(theta, 2)]
+    # the record without I048/030: a constant template, then the plot fields as big-endian
+    # views written column blocks at a time
+    template = [_FS1_BASE | (_FS1_130 if i130 else 0), _FS2_042, sac, sic, 0, 0, 0, _I048_020,
+                0, 0, 0, 0]
     if i130:
-        cols.append(const(i130))
+        template.append(i130)
         if prl_deg is not None:
-            prl = int(np.clip(round(float(prl_deg) * PRL_PER_DEG), 0, 255))
-            cols.append(const(prl))
+            template.append(int(min(max(round(float(prl_deg) * PRL_PER_DEG), 0), 255)))
         if has_pam:
-            s = np.asarray(snr_db, dtype=float)
-            # S/I of -inf (no signal) or NaN reads as the item's floor, +inf as its ceiling
-            s = np.nan_to_num(s, nan=-np.inf) + float(noise_power_dbm)
-            pam = np.clip(np.rint(np.clip(s, -1e3, 1e3)), -128, 127).astype(np.int64)
-            cols.append(np.mod(pam, 256).astype(np.uint8))
-    cols += [*_be(x, 2), *_be(y, 2), const(_I048_030_CLUTTER)]
-    mat = np.stack(cols, axis=1) if n else np.zeros((0, len(cols)), dtype=np.uint8)
-    keep = np.ones(mat.shape, dtype=bool)
-    keep[:, 2] = in_clutter  # FSPEC octet 3
-    keep[:, -1] = in_clutter  # I048/030
-    buf = mat[keep]
-    lengths = keep.sum(axis=1)
+            template.append(0)
+    c_xy = len(template)
+    template += [0, 0, 0, 0]
+    w = len(template)
+    mat = np.empty((n, w), dtype=np.uint8)
+    mat[:] = np.array(template, dtype=np.uint8)
+    mat[:, 4:7] = tod.astype(">u4").view(np.uint8).reshape(n, 4)[:, 1:]
+    mat[:, 8:10] = rho.astype(">u2").view(np.uint8).reshape(n, 2)
+    mat[:, 10:12] = theta.astype(">u2").view(np.uint8).reshape(n, 2)
+    if has_pam:
+        # S/I of -inf (no signal) or NaN reads as the item's floor, +inf as its ceiling
+        pam = np.fmin(np.fmax(np.asarray(snr_db, dtype=float) + float(noise_power_dbm),
+                              -128.0), 127.0)
+        mat[:, c_xy - 1] = np.rint(pam).astype(np.int8).view(np.uint8)
+    mat[:, c_xy:c_xy + 2] = x.view(np.uint8).reshape(n, 2)
+    mat[:, c_xy + 2:c_xy + 4] = y.view(np.uint8).reshape(n, 2)
+    in_clutter = None if clutter is None else np.asarray(clutter, dtype=bool)
+    if in_clutter is None or not in_clutter.any():
+        return mat.reshape(-1), np.arange(n + 1, dtype=np.int64) * w
+    # clutter-dominated plots: FSPEC octet 3 (FRN16) and I048/030 code 13 at the end
+    full = np.empty((n, w + 2), dtype=np.uint8)
+    full[:, :2] = mat[:, :2]
+    full[:, 1] |= in_clutter  # FX of FSPEC octet 2
+    full[:, 2] = _FS3_030
+    full[:, 3:w + 1] = mat[:, 2:]
+    full[:, w + 1] = _I048_030_CLUTTER
+    keep = np.ones(full.shape, dtype=bool)
+    keep[:, 2] = in_clutter
+    keep[:, w + 1] = in_clutter
     offsets = np.zeros(n + 1, dtype=np.int64)
-    np.cumsum(lengths, out=offsets[1:])
-    return buf, offsets
+    np.cumsum(w + 2 * in_clutter, out=offsets[1:])
+    return full[keep], offsets
 
 
 def pack_blocks(category: int, buf: np.ndarray, offsets: np.ndarray,
@@ -295,6 +302,9 @@ def pack_blocks(category: int, buf: np.ndarray, offsets: np.ndarray,
                            f"bytes, got {max_block_bytes}")
     room = max_block_bytes - 3
     n = offsets.size - 1
+    total = int(offsets[-1])
+    if 0 < total <= room:  # the usual sector: one block
+        return [bytes((category, (total + 3) >> 8, (total + 3) & 0xFF)) + buf.tobytes()]
     blocks = []
     s = 0
     data = buf.tobytes()
@@ -382,6 +392,21 @@ def encode_cat034_sector_crossings(
         Data blocks; records are FSPEC 0xF0 (010, 000, 030, 020), 8 octets each.
     """
     _check_sac_sic(sac, sic)
+    if len(time_s) <= 4:
+        # the usual call (one boundary per plots message): plain integers beat numpy's
+        # per-call overhead here; same rounding (half to even) as the vectorized path
+        recs = []
+        for t, az in zip(time_s, azimuth_rad, strict=True):
+            if not (math.isfinite(t) and math.isfinite(az)):
+                raise AsterixError("I034/030, I034/020: times and azimuths must be finite")
+            c = round((start_sod_s + t) * TOD_PER_S) % TOD_PER_DAY
+            sector = (round(az * (THETA_COUNTS / (2.0 * math.pi))) % THETA_COUNTS) >> 8
+            recs.append(bytes((0xF0, sac, sic, MSG_SECTOR_CROSSING, c >> 16, (c >> 8) & 0xFF,
+                               c & 0xFF, sector)))
+        if not recs:
+            return []
+        size = 3 + 8 * len(recs)
+        return [bytes((CAT034, size >> 8, size & 0xFF)) + b"".join(recs)]
     tod = time_of_day_counts(time_s, start_sod_s)
     n = tod.size
     # 16-bit count first, then its top byte: the rounding happens once, at the LSB

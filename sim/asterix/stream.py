@@ -39,7 +39,7 @@ from shipradar.sim.asterix.encode import (
     seconds_of_day,
 )
 
-__all__ = ["AsterixStream"]
+__all__ = ["AsterixStream", "datagrams", "scenario_problems"]
 
 # WGS-84, for dead-reckoning the antenna between an end of scan and a north crossing
 _A, _E2 = 6378137.0, 6.69437999014e-3
@@ -228,7 +228,7 @@ class AsterixStream:
                 self.stats["north_markers"] += 1
             else:
                 blocks = encode_cat034_sector_crossings(
-                    times, src.azimuth(times), sac=src.sac, sic=src.sic,
+                    times.tolist(), src.azimuth(times).tolist(), sac=src.sac, sic=src.sic,
                     start_sod_s=src.start_sod_s, max_block_bytes=self.max_block_bytes)
                 out.extend((float(times[-1]), b) for b in blocks)
                 self.stats["sector_crossings"] += times.size
@@ -280,3 +280,36 @@ def scenario_problems(scenario: Any) -> list[str]:
             lines.append(f"radar {radar.id}: rotation period {radar.scan_period_s:g} s is "
                          "beyond I034/041's 512 s")
     return lines
+
+
+def datagrams(blocks: list[tuple[float, bytes]], max_bytes: int) -> list[tuple[float, bytes]]:
+    """Pack consecutive data blocks into UDP payloads of at most ``max_bytes``.
+
+    Parameters
+    ----------
+    blocks : list of (float, bytes)
+        ``(t_sim, block)`` in sending order, each block at most ``max_bytes``.
+    max_bytes : int
+        Largest payload [bytes].
+
+    Returns
+    -------
+    list of (float, bytes)
+        ``(t_sim of the last block, payload)``: whole data blocks back to back (ASTERIX
+        allows several blocks per datagram; a sector's CAT048 block and the CAT034 sector
+        crossing after it then travel together, one system call instead of two).
+    """
+    out: list[tuple[float, bytes]] = []
+    parts: list[bytes] = []
+    size = 0
+    t_last = 0.0
+    for t, block in blocks:
+        if parts and size + len(block) > max_bytes:
+            out.append((t_last, b"".join(parts)))
+            parts, size = [], 0
+        parts.append(block)
+        size += len(block)
+        t_last = t
+    if parts:
+        out.append((t_last, b"".join(parts)))
+    return out

@@ -1,6 +1,6 @@
 """ASTERIX over UDP: the socket of ``shipradar run|replay --asterix udp://HOST:PORT``.
 
-One data block per datagram (whole records, at most ``max_block_bytes``). Loopback only
+Whole data blocks per datagram (whole records; the payload at most ``max_block_bytes``). Loopback only
 unless remote sending is explicitly allowed, as for the ZeroMQ stream (docs/protocol.md 1):
 ASTERIX has no authentication and no encryption, and a multicast group or a remote host
 puts the plots on a network.
@@ -15,7 +15,7 @@ from typing import Any
 
 from shipradar.sim import protocol
 from shipradar.sim.asterix.encode import DEFAULT_MAX_BLOCK_BYTES, AsterixError
-from shipradar.sim.asterix.stream import AsterixStream
+from shipradar.sim.asterix.stream import AsterixStream, datagrams
 
 __all__ = ["AsterixBus", "UdpSender", "parse_udp_url"]
 
@@ -135,21 +135,30 @@ class AsterixBus:
         self.inner = inner
         self.sender = sender
         self.stream = AsterixStream(max_block_bytes)
+        self.max_block_bytes = max_block_bytes
 
     def emit(self, topic: bytes, t_sim: float, payload: Mapping[str, Any]) -> None:
         """Pass the message on to ``inner``, then send its ASTERIX blocks."""
         if self.inner is not None:
             self.inner.emit(topic, t_sim, payload)
-        for _, block in self.stream.feed(topic, t_sim, payload):
-            self.sender.send(block)
+        if topic == b"truth":
+            return  # never sent, and the bulk of the messages
+        blocks = self.stream.feed(topic, t_sim, payload)
+        if blocks:
+            for _, payload_bytes in datagrams(blocks, self.max_block_bytes):
+                self.sender.send(payload_bytes)
 
     def emit_frames(self, t_sim: float, frames: Sequence[bytes]) -> None:
         """Same as :meth:`emit` for an already encoded message (replay)."""
         if self.inner is not None:
             self.inner.emit_frames(t_sim, frames)
+        if bytes(frames[0]) == b"truth":
+            return
         topic, t, payload = protocol.decode(frames)
-        for _, block in self.stream.feed(topic, t, payload):
-            self.sender.send(block)
+        blocks = self.stream.feed(topic, t, payload)
+        if blocks:
+            for _, payload_bytes in datagrams(blocks, self.max_block_bytes):
+                self.sender.send(payload_bytes)
 
     def flush(self, fsync: bool = False) -> None:
         if self.inner is not None:

@@ -1,0 +1,115 @@
+"""ASTERIX encoding cost (issue 13): encoder throughput and the raid's real-time factor.
+
+    python benchmarks/asterix.py [--scenario scenarios/raid.yaml] [--duration 120]
+                                 [--repeat 3]
+
+In one process:
+1. the messages of a run of the scenario are collected (no bus), then every ``plots``
+   message is encoded (a) to ASTERIX by :class:`sim.asterix.AsterixStream` (CAT048 records
+   and the CAT034 markers they trigger) and (b) to the msgpack stream by
+   :func:`sim.protocol.encode`: plots/s of each and their ratio;
+2. the run itself with a recording, with and without ``--asterix`` (datagrams to a loopback
+   UDP socket that nobody reads, so only the sender's cost counts): the real-time factor of
+   each and the share of the run that ASTERIX costs. Target: at most 10 %.
+
+Each case runs ``--repeat`` times and keeps the fastest (other processes only slow a run).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import socket
+import tempfile
+import time
+from pathlib import Path
+
+from shipradar.sim import protocol
+from shipradar.sim.asterix import AsterixStream
+from shipradar.sim.asterix.udp import AsterixBus, UdpSender
+from shipradar.sim.bus import Bus
+from shipradar.sim.engine import Simulation
+from shipradar.sim.recording import Recorder
+from shipradar.sim.scenario import load_scenario
+from shipradar.tables.scene import load_scene_tables
+
+ROOT = Path(__file__).resolve().parents[1]
+#: Largest share of the run that ASTERIX may cost (issue 13).
+TARGET_SHARE = 0.10
+
+
+def best(fn, repeat):
+    times = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        out = fn()
+        times.append(time.perf_counter() - t0)
+    return min(times), out
+
+
+def encoders(msgs, repeat):
+    plots = sum(len(p["range_m"]) for t, _, p in msgs if t == "plots")
+
+    def ast():
+        stream = AsterixStream()
+        return sum(len(b) for m in msgs for _, b in stream.feed(*m))
+
+    def mp():
+        return sum(len(protocol.encode(b"plots", t, p)[1]) for topic, t, p in msgs
+                   if topic == "plots")
+
+    t_ast, ast_bytes = best(ast, repeat)
+    t_mp, mp_bytes = best(mp, repeat)
+    return {"plots": plots, "plot_messages": sum(t == "plots" for t, _, _ in msgs),
+            "asterix_plots_per_s": round(plots / t_ast), "asterix_bytes": ast_bytes,
+            "msgpack_plots_per_s": round(plots / t_mp), "msgpack_bytes": mp_bytes,
+            "asterix_time_over_msgpack": round(t_ast / t_mp, 2)}
+
+
+def run(scenario, duration, tables, asterix, repeat):
+    sink = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    sink.bind(("127.0.0.1", 0))
+    url = f"udp://127.0.0.1:{sink.getsockname()[1]}"
+    walls, summary = [], None
+    try:
+        for _ in range(repeat):
+            with tempfile.TemporaryDirectory() as tmp:
+                bus = Bus(None, Recorder(Path(tmp) / "bench.rec"))
+                if asterix:
+                    bus = AsterixBus(bus, UdpSender(url))
+                sim = Simulation(scenario, bus=bus, duration_s=duration, tables=tables)
+                t0 = time.perf_counter()
+                summary = sim.run()
+                bus.close()
+                walls.append(time.perf_counter() - t0)
+    finally:
+        sink.close()
+    wall = min(walls)
+    out = {"wall_s": round(wall, 3), "realtime_factor": round(duration / wall, 1)}
+    if asterix:
+        out["datagrams"] = summary["bus"]["asterix"]["datagrams"]
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--scenario", default=str(ROOT / "scenarios" / "raid.yaml"))
+    ap.add_argument("--duration", type=float, default=120.0)
+    ap.add_argument("--repeat", type=int, default=3)
+    args = ap.parse_args()
+    s = load_scenario(args.scenario)
+    tables = load_scene_tables(s)
+    msgs = list(Simulation(s, duration_s=args.duration, tables=tables).messages())
+    enc = encoders(msgs, args.repeat)
+    run(s, min(args.duration, 10.0), tables, True, 1)  # warm-up
+    plain = run(s, args.duration, tables, False, args.repeat)
+    ast = run(s, args.duration, tables, True, args.repeat)
+    share = 1.0 - plain["wall_s"] / ast["wall_s"] if ast["wall_s"] > 0 else 0.0
+    print(json.dumps({"scenario": s.name, "simulated_s": args.duration, "encoders": enc,
+                      "run_without_asterix": plain, "run_with_asterix": ast,
+                      "asterix_share_of_run": round(share, 3),
+                      "target_share": TARGET_SHARE}, indent=1))
+
+
+if __name__ == "__main__":
+    main()
