@@ -39,11 +39,19 @@ association, which only saves time (the PDA gate is much smaller).
 OSPA (Stone Soup's :class:`OSPAMetric`, position only, cut-off ``ospa_c``, order ``ospa_p``) is
 computed at every end of scan between the confirmed tracks, predicted to the end-of-scan
 time, and the truth topic's active targets at that time.
+
+Tracks back to a display: ``--publish-tracks ENDPOINT`` binds a ZeroMQ publisher there and
+sends, at every end of scan, one ``tracks`` message (docs/protocol.md, "tracks") with the
+confirmed tracks predicted to that time; ``shipradar view SOURCE --tracks ENDPOINT`` draws them::
+
+    python examples/track_stonesoup.py tcp://127.0.0.1:5555 --publish-tracks tcp://127.0.0.1:5560
+    shipradar view tcp://127.0.0.1:5555 --tracks tcp://127.0.0.1:5560
 """
 
 from __future__ import annotations
 
 import argparse
+import datetime as dt
 import json
 import math
 import sys
@@ -74,7 +82,8 @@ from stonesoup.updater.kalman import ExtendedKalmanUpdater
 
 from shipradar.sim.stonesoup_reader import ShipradarDetectionReader
 
-__all__ = ["ClutterMap", "clutter_density", "main", "radar_clutter_profile", "track"]
+__all__ = ["ClutterMap", "clutter_density", "main", "radar_clutter_profile", "track",
+           "tracks_payload"]
 
 
 def clutter_density(meta: dict, *, min_false_alarms_per_scan: float = 0.01) -> float:
@@ -177,6 +186,27 @@ def _truth_states(truth: dict | None) -> list[State]:
     return out
 
 
+def tracks_payload(sensor: str, scan: int, time_s: float, tracks, predictor, when) -> dict:
+    """The ``tracks`` message (docs/protocol.md) of the confirmed ``tracks`` at ``when``.
+
+    Each track's state is predicted to ``when`` (the end of scan, simulated ``time_s`` [s]);
+    positions, velocities and 1-sigma position errors are in the scenario's local frame.
+    """
+    rows = sorted(tracks, key=lambda trk: trk.id)  # a stable order, message to message
+    preds = [predictor.predict(trk.state, timestamp=when) for trk in rows]
+    sv = np.array([np.asarray(p.state_vector, dtype=float).ravel() for p in preds]
+                  ).reshape(-1, 4)
+    cov = np.array([np.diag(np.asarray(p.covar, dtype=float)) for p in preds]).reshape(-1, 4)
+    return {
+        "sensor": sensor, "scan": int(scan), "time_s": float(time_s),
+        "track_id": [str(trk.id) for trk in rows],
+        "east_m": sv[:, 0].copy(), "north_m": sv[:, 2].copy(),
+        "v_east_mps": sv[:, 1].copy(), "v_north_mps": sv[:, 3].copy(),
+        "sigma_east_m": np.sqrt(np.maximum(cov[:, 0], 0.0)),
+        "sigma_north_m": np.sqrt(np.maximum(cov[:, 2], 0.0)),
+    }
+
+
 def track(
     source: Any,
     *,
@@ -194,6 +224,8 @@ def track(
     idle_timeout_s: float = 10.0,
     context=None,
     out=None,
+    publish_tracks: str | None = None,
+    curve=None,
 ) -> dict[str, Any]:
     """Track one sensor of a stream and score it at every end of scan.
 
@@ -229,8 +261,15 @@ def track(
         are not offered to the associator [m].
     idle_timeout_s : float
         Live source: stop after this long without a message [s].
+    curve : shipradar.sim.security.CurveClient or None
+        Keys for a CURVE publisher (``--curve-secret-key``, ``--curve-server-key``).
     out : TextIO or None
         Print one JSON line per scan there.
+    publish_tracks : str or None
+        Publish the confirmed tracks at every end of scan on this ZeroMQ endpoint (topic
+        ``tracks``, :func:`tracks_payload`; loopback only). Published with
+        ``on_slow="drop"``: a slow display never slows the tracker (losses are counted in
+        the returned ``tracks_publisher``).
 
     Returns
     -------
@@ -238,10 +277,38 @@ def track(
         ``scans``: one dict per scan (``time``, ``scan``, ``ospa`` [m], ``tracks`` (confirmed),
         ``truths`` (active targets), ``detections``, ``nearest_m``: per active target the
         distance [m] to the nearest confirmed track, None without tracks); ``tracks``: every
-        confirmed Stone Soup track (alive or deleted); ``mean_ospa`` [m]; ``meta``.
+        confirmed Stone Soup track (alive or deleted); ``mean_ospa`` [m]; ``meta``;
+        ``tracks_publisher``: the publisher's counters, or None.
     """
+    publisher = None
+    if publish_tracks is not None:
+        from shipradar.sim.bus import Publisher
+
+        publisher = Publisher(publish_tracks, on_slow="drop")
+    try:
+        res = _track(source, sensor=sensor, q_m2_s3=q_m2_s3, prob_detect=prob_detect,
+                     confirm=confirm, delete_after=delete_after,
+                     prior_speed_sigma_mps=prior_speed_sigma_mps,
+                     min_false_alarms_per_scan=min_false_alarms_per_scan, ospa_c=ospa_c,
+                     ospa_p=ospa_p,
+                     max_initiation_clutter_per_km2=max_initiation_clutter_per_km2,
+                     pregate_m=pregate_m, idle_timeout_s=idle_timeout_s, context=context,
+                     out=out, publisher=publisher, curve=curve)
+    finally:
+        if publisher is not None:
+            stats = publisher.stats
+            publisher.close()
+    res["tracks_publisher"] = None if publisher is None else stats
+    return res
+
+
+def _track(source, *, sensor, q_m2_s3, prob_detect, confirm, delete_after,
+           prior_speed_sigma_mps, min_false_alarms_per_scan, ospa_c, ospa_p,
+           max_initiation_clutter_per_km2, pregate_m, idle_timeout_s, context, out,
+           publisher, curve=None) -> dict[str, Any]:
     reader = ShipradarDetectionReader(source=source, sensor=sensor, truth=True,
-                                      idle_timeout_s=idle_timeout_s, context=context)
+                                      idle_timeout_s=idle_timeout_s, context=context,
+                                      curve=curve)
     transition = CombinedLinearGaussianTransitionModel(
         [ConstantVelocity(q_m2_s3), ConstantVelocity(q_m2_s3)])
     predictor = ExtendedKalmanPredictor(transition)
@@ -326,6 +393,13 @@ def track(
                                for e in estimates), default=None) for s in truths],
         }
         scans.append(row)
+        if publisher is not None:
+            from shipradar.sim.protocol import encode
+
+            time_s = (when - dt.datetime.fromisoformat(reader.meta["start_time"])
+                      ).total_seconds()
+            publisher.send(encode(b"tracks", time_s, tracks_payload(
+                reader.meta["sensor"], reader.scan, time_s, tracks, predictor, when)))
         if out is not None:
             print(json.dumps(row), file=out, flush=True)
     values = [s["ospa"] for s in scans if s["truths"]]
@@ -338,6 +412,8 @@ def track(
 
 
 def main(argv: list[str] | None = None) -> int:
+    from shipradar.sim.security import CurveKeyError, add_curve_arguments, curve_from_args
+
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("source", help="endpoint (tcp://host:port) or recording file")
     ap.add_argument("--sensor", default=None, help="radar id (default: the first)")
@@ -347,10 +423,19 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--ospa-c", type=float, default=2000.0, help="OSPA cut-off [m]")
     ap.add_argument("--timeout", type=float, default=10.0, help="idle timeout, live [s]")
     ap.add_argument("--quiet", action="store_true", help="only the summary line")
+    ap.add_argument("--publish-tracks", default=None, metavar="ENDPOINT",
+                    help="publish the confirmed tracks there every scan (topic 'tracks', "
+                         "for shipradar view --tracks ENDPOINT)")
+    add_curve_arguments(ap, "client")
     a = ap.parse_args(argv)
+    try:
+        curve = curve_from_args(a, "client")
+    except CurveKeyError as exc:
+        ap.error(str(exc))  # exit 2 with the option, the file and what is wrong
     res = track(a.source, sensor=a.sensor, q_m2_s3=a.q, confirm=a.confirm,
                 delete_after=a.delete_after, ospa_c=a.ospa_c, idle_timeout_s=a.timeout,
-                out=None if a.quiet else sys.stdout)
+                out=None if a.quiet else sys.stdout, publish_tracks=a.publish_tracks,
+                curve=curve)
     print(json.dumps({"scans": len(res["scans"]), "confirmed_tracks": len(res["tracks"]),
                       "mean_ospa_m": res["mean_ospa"]}))
     return 0

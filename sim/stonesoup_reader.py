@@ -111,7 +111,7 @@ def _is_endpoint(source: Any) -> bool:
 
 
 def iter_messages(source, topics: Iterable[bytes], *, idle_timeout_s: float | None = 10.0,
-                  context=None) -> Iterator[tuple[bytes, float, dict]]:
+                  context=None, curve=None) -> Iterator[tuple[bytes, float, dict]]:
     """Decoded ``(topic, t_sim, payload)`` of a source, keeping only ``topics``.
 
     Parameters
@@ -125,10 +125,12 @@ def iter_messages(source, topics: Iterable[bytes], *, idle_timeout_s: float | No
         Live source: stop after this long without a message [s]; None waits for ever.
     context : zmq.Context or None
         For ``inproc://`` endpoints; default the process-wide context.
+    curve : sim.security.CurveClient or None
+        Keys for a CURVE publisher (docs/protocol.md, Security).
     """
     wanted = tuple(topics)
     if _is_endpoint(source):
-        yield from _iter_endpoint(source, wanted, idle_timeout_s, context)
+        yield from _iter_endpoint(source, wanted, idle_timeout_s, context, curve)
         return
     if isinstance(source, (str, os.PathLike)):
         from shipradar.sim.recording import read_recording
@@ -145,12 +147,14 @@ def iter_messages(source, topics: Iterable[bytes], *, idle_timeout_s: float | No
             yield protocol.decode(frames)
 
 
-def _iter_endpoint(endpoint, topics, idle_timeout_s, context):
+def _iter_endpoint(endpoint, topics, idle_timeout_s, context, curve=None):
     import zmq
 
     ctx = zmq.Context.instance() if context is None else context
     sock = ctx.socket(zmq.SUB)
     sock.setsockopt(zmq.LINGER, 0)
+    if curve is not None:
+        curve.apply(sock)
     # The run may send faster than the tracker takes plots; a large queue plus the
     # publisher's "pace" mode means nothing is lost (docs/protocol.md, backpressure).
     sock.setsockopt(zmq.RCVHWM, 0)
@@ -235,6 +239,9 @@ class ShipradarDetectionReader(DetectionReader):
     ndim_state: int = Property(default=4, doc="Dimension of the tracker's state.")
     mapping: tuple = Property(default=(0, 2), doc="Indices of x (east) and y (north).")
     context: Any = Property(default=None, doc="zmq.Context for inproc:// endpoints.")
+    curve: Any = Property(default=None, doc="Keys for a CURVE publisher "
+                          "(:class:`shipradar.sim.security.CurveClient`, e.g. "
+                          "``CurveClient.from_files(secret_key_file, server_key_file)``).")
 
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
@@ -286,7 +293,7 @@ class ShipradarDetectionReader(DetectionReader):
         plot_truth: dict[int, tuple[int, int]] = {}
         for topic, t_sim, p in iter_messages(self.source, topics,
                                              idle_timeout_s=self.idle_timeout_s,
-                                             context=self.context):
+                                             context=self.context, curve=self.curve):
             if self.sensor is None and topic == protocol.TOPIC_META:
                 self.sensor = p["sensor"]
             if p.get("sensor") != self.sensor:
