@@ -92,6 +92,10 @@ def cmd_validate(args) -> int:
     radars = ", ".join(r.id for _, r in s.radars())
     print(f"{args.scenario}: valid ({len(s.targets)} targets, radars: {radars}, "
           f"{s.duration_s:g} s)")
+    if getattr(args, "explain", False):
+        from shipradar.sim.fidelity import explain_lines
+
+        print("\n".join(explain_lines(s)))
     return EXIT_OK
 
 
@@ -450,6 +454,12 @@ def cmd_report(args) -> int:
     return cli_main(args.rest)
 
 
+def cmd_fidelity(args) -> int:
+    from shipradar.sim.fidelity import cli_main
+
+    return cli_main(args.rest)
+
+
 # --------------------------------------------------------------------------- parser
 def _scenario_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("scenario", nargs="?", default=None, help="scenario YAML file")
@@ -477,6 +487,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     v = sub.add_parser("validate", help="check a scenario file")
     _scenario_arguments(v)
+    v.add_argument("--explain", action="store_true",
+                   help="list the parts of the model the scene exercises and those it skips")
     v.set_defaults(func=cmd_validate)
 
     t = sub.add_parser("tables", help="off-line level: precompute a scenario's tables")
@@ -618,15 +630,22 @@ def build_parser() -> argparse.ArgumentParser:
                          help="study report: PNG figures and an index page (shipradar report -h)")
     rep.add_argument("rest", nargs=argparse.REMAINDER)
     rep.set_defaults(func=cmd_report)
+
+    fi = sub.add_parser("fidelity", add_help=False,
+                        help="measure the speed/accuracy trade on a scene and recommend a "
+                             "fidelity block (shipradar fidelity -h)")
+    fi.add_argument("rest", nargs=argparse.REMAINDER)
+    fi.set_defaults(func=cmd_fidelity)
     return p
 
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
-    if argv and argv[0] in ("montecarlo", "report"):
-        # these commands own their argument parsing (sim.montecarlo, sim.report)
+    if argv and argv[0] in ("montecarlo", "report", "fidelity"):
+        # these commands own their argument parsing (sim.montecarlo, sim.report, sim.fidelity)
         args = argparse.Namespace(rest=argv[1:], func={"montecarlo": cmd_montecarlo,
-                                                       "report": cmd_report}[argv[0]])
+                                                       "report": cmd_report,
+                                                       "fidelity": cmd_fidelity}[argv[0]])
     else:
         args = build_parser().parse_args(argv)  # argparse exits with 2 on bad options
     from shipradar.sim.bus import EndpointError, PublisherStalledError, SubscriberTimeoutError
