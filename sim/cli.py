@@ -130,9 +130,11 @@ class _StopOnSignal:
 
     def __init__(self, bus):
         self.bus = bus
+        self.signum: int | None = None
         self._old: dict[int, object] = {}
 
     def _handler(self, signum, frame) -> None:
+        self.signum = signum
         if self.bus is None or self.bus.stop_requested:
             raise KeyboardInterrupt
         self.bus.stop_requested = True
@@ -196,7 +198,7 @@ def cmd_run(args) -> int:
         if publisher is not None and args.wait_subscribers:
             publisher.wait_for_subscribers()
         wall0 = time.perf_counter()
-        with _StopOnSignal(core_bus):
+        with _StopOnSignal(core_bus) as stop:
             try:
                 summary = sim.run()
             except (RunInterrupted, KeyboardInterrupt):
@@ -207,8 +209,9 @@ def cmd_run(args) -> int:
                 wall = summary["wall_s"]
                 summary["realtime_factor"] = (round(t_last / wall, 2) if t_last and wall
                                               else None)
-                print("interrupted: the run stopped at the end of a scan; the recording, "
-                      "if any, is closed and complete up to there", file=sys.stderr)
+                print(f"interrupted ({signal.Signals(stop.signum or signal.SIGINT).name}): "
+                      f"the run stopped at t = {t_last} s; the recording, if any, is closed "
+                      f"and complete up to there", file=sys.stderr)
             except RecordingWriteError as exc:
                 print(f"error: {exc}", file=sys.stderr)
                 summary = sim.summary(time.perf_counter() - wall0)
@@ -238,6 +241,8 @@ def cmd_run(args) -> int:
               f"({pub['dropped_by_topic']}); the recording, if any, holds them all",
               file=sys.stderr)
     print(json.dumps(summary))
+    if summary.get("interrupted"):
+        return 128 + int(stop.signum or signal.SIGINT)  # the shell's convention: 130, 143
     return EXIT_OK
 
 

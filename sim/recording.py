@@ -107,6 +107,9 @@ class RecordingWriteError(OSError):
     valid recording of everything before the failure.
     """
 
+    def __str__(self) -> str:
+        return str(self.strerror)  # the message alone, without "[Errno 28]"
+
 
 def _header_crc16(head14: bytes) -> int:
     return zlib.crc32(head14) & 0xFFFF
