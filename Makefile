@@ -48,7 +48,7 @@ bench: $(STAMP)
 	for b in benchmarks/*.py; do echo "== $$b"; $(PY) $$b || exit 1; done
 
 lint: $(STAMP)
-	$(PY) -m pip install -q ruff && $(VENV)/bin/ruff check sim sensors tables tests benchmarks
+	$(PY) -m pip install -q ruff && $(VENV)/bin/ruff check shipradar sim sensors tables scenarios tests benchmarks examples
 
 clean:
 	rm -rf $(VENV) $(OUT) .pytest_cache
