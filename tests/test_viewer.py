@@ -217,3 +217,64 @@ def test_stalled_page_does_not_change_the_run(tmp_path):
     assert summary["bus"]["publisher"]["dropped"] == 0
     assert {k: summary[k] for k in COUNTS} == {k: reference[k] for k in COUNTS}
     assert page["dropped"] > 0, page  # the page was told: its status line shows this count
+
+
+# ----------------------------------------------------------------------------- tracks
+def test_example_tracker_publishes_tracks_that_reach_the_page(demo_recording):
+    """examples/track_stonesoup.py --publish-tracks -> shipradar view --tracks -> page."""
+    import asyncio
+    import datetime as dt
+    import importlib.util
+
+    import aiohttp
+
+    spec = importlib.util.spec_from_file_location(
+        "track_stonesoup", ROOT / "examples" / "track_stonesoup.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    endpoint = f"tcp://127.0.0.1:{free_port()}"
+    server = ViewerServer(str(demo_recording["path"]), port=0, autoplay=False,
+                          tracks=[endpoint])
+    with ViewerThread(server):
+        items = []
+
+        async def page(ready: asyncio.Event, done: asyncio.Event):
+            async with aiohttp.ClientSession() as session, \
+                    session.ws_connect(server.url + "ws") as ws:
+                ready.set()
+                while not done.is_set():
+                    try:
+                        msg = await asyncio.wait_for(ws.receive(), 0.2)
+                    except asyncio.TimeoutError:
+                        continue
+                    items.extend(it for it in unpack_batch(msg.data)["items"]
+                                 if it["k"] == "tracks")
+
+        async def main():
+            ready, done = asyncio.Event(), asyncio.Event()
+            reader = asyncio.create_task(page(ready, done))
+            await ready.wait()
+            res = await asyncio.to_thread(mod.track, str(demo_recording["path"]),
+                                          publish_tracks=endpoint)
+            # only plain values leave the task: asyncio.run's clean-up may repr its result,
+            # and the repr of Stone Soup tracks takes minutes
+            out.update(scans=res["scans"], tracks_publisher=res["tracks_publisher"])
+            await asyncio.sleep(0.5)  # the last messages in flight
+            done.set()
+            await reader
+
+        out: dict = {}
+        asyncio.run(main())
+        res = out
+    assert res["tracks_publisher"]["dropped"] == 0
+    assert res["tracks_publisher"]["sent"] == len(res["scans"])
+    with_tracks = [it for it in items if it["ids"]]
+    assert with_tracks, "no track reached the page"
+    # the page gets what the tracker estimated: the confirmed missile track, near the truth
+    last = with_tracks[-1]
+    start = dt.datetime.fromisoformat("2026-06-01T12:00:00+00:00")  # the demo's start_time
+    by_time = {round((dt.datetime.fromisoformat(r["time"]) - start).total_seconds(), 6): r
+               for r in res["scans"]}
+    row = by_time[round(last["t"], 6)]
+    assert row["tracks"] == len(last["ids"])
+    assert last["e"].shape == last["n"].shape == (len(last["ids"]),)
