@@ -231,6 +231,19 @@ class Simulation:
         if self.bus is not None:
             self.bus.emit(topic, t, payload)
 
+    @property
+    def encodes_ahead(self) -> bool:
+        """True when the bus is a :class:`sim.bus.Bus`, which only moves encoded frames: the
+        sector frames of a revolution are then encoded together when it starts
+        (:func:`sim.protocol.encode_slices`, the same bytes).  Other buses (the in-process
+        :class:`CallbackSink`, the ASTERIX bus, test doubles) get each payload as a dict."""
+        bus = self.bus
+        if bus is None:
+            return False
+        from shipradar.sim.bus import Bus
+
+        return type(bus) is Bus
+
 
 class _RadarProcess:
     """One rotating radar: sector events, beam crossings, false alarms, frames."""
@@ -252,6 +265,7 @@ class _RadarProcess:
         self._scan = _merge_parts([])
         self._cursor = 0
         self._plan_rows = np.zeros(0, dtype=int)
+        self._frames: dict[int, tuple[int, bytes, bytes]] | None = None
         self.target_ids = [t.id for t in sim.scenario.targets]
         self._eos_cache: dict[float, tuple[float, float]] = {}
         # revolutions computed ahead (see _compute_block), consumed one per scan
@@ -307,9 +321,10 @@ class _RadarProcess:
                     self._block = self._compute_block(scan)
                 self._scan = self._block.pop(0)
                 self._cursor = 0
+                self._frames = self._encode_scan(scan) if sim.encodes_ahead else None
             t_b = min((k + 1) * self.sector_s, sim.duration)
             yield env.timeout(t_b - env.now)
-            self._emit_sector(t_a, t_b, scan, last=sector == self.n_sectors - 1)
+            self._emit_sector(t_a, t_b, scan, last=sector == self.n_sectors - 1, sector=sector)
             sim.stats.sectors += 1
             if sector == self.n_sectors - 1 or t_b >= sim.duration:
                 self._end_of_scan(t_b, scan)
@@ -498,8 +513,73 @@ class _RadarProcess:
             out.append(_merge_parts(parts))
         return out
 
-    def _emit_sector(self, t_a: float, t_b: float, scan: int, last: bool) -> None:
-        """Publish the plots (and their truth) whose times fall in the sector [t_a, t_b)."""
+    def _sector_cuts(self, scan: int) -> list[int]:
+        """Index in the revolution's plots where each sector's plots end (the sector frames of
+        :meth:`_emit_sector`: times before the sector's end, everything left in the last)."""
+        n, sim = self.n_sectors, self.sim
+        ends = [min(float(scan * n + j + 1) * self.sector_s, sim.duration)
+                for j in range(n - 1)]
+        times = self._scan["time_s"]
+        return [*np.searchsorted(times, ends, side="left").tolist(), int(times.size)]
+
+    def _encode_scan(self, scan: int) -> dict[int, tuple[float, bytes, bytes]]:
+        """The plot and truth bodies of every non-empty sector of revolution ``scan``, by
+        sector, encoded at once (byte for byte what :meth:`_emit_sector` would encode).
+
+        Sectors the run does not reach (its end inside the revolution) are encoded but
+        never sent.
+        """
+        scan_plots = self._scan
+        cuts = self._sector_cuts(scan)
+        start = [0, *cuts[:-1]]
+        sectors = [j for j in range(self.n_sectors) if cuts[j] > start[j]]
+        if not sectors:
+            return {}
+        n, sim = self.n_sectors, self.sim
+        times = [min(float(scan * n + j + 1) * self.sector_s, sim.duration) for j in sectors]
+        i0 = np.array([start[j] for j in sectors], dtype=np.int64)
+        i1 = np.array([cuts[j] for j in sectors], dtype=np.int64)
+        s0, s1 = i0.tolist(), i1.tolist()
+        # plot ids run on through the revolution's sectors (as plot_counter does)
+        plot_id = np.arange(self.plot_counter, self.plot_counter + int(i1[-1]), dtype=np.int64)
+        cols = {"plot_id": (plot_id, s0, s1)}
+        cols.update({c: (scan_plots[c], s0, s1) for c in PLOT_COLUMNS})
+        sid = self.radar.id
+        plots = protocol.encode_slices(protocol.TOPIC_PLOTS, times,
+                                       {"sensor": sid, "scan": scan}, cols)
+        # each sector's contributor offsets start at 0: one array of every sector's rebased
+        # offsets (n + 1 per sector), sliced per sector
+        off = scan_plots["contrib_offsets"]
+        length = i1 - i0 + 1
+        first = np.cumsum(length) - length
+        idx = np.repeat(i0 - first, length) + np.arange(int(length.sum()))
+        rebased = (off[idx] - np.repeat(off[i0], length)).astype(np.int64, copy=False)
+        truth = protocol.encode_slices(
+            protocol.TOPIC_TRUTH, times, {"sensor": sid, "scan": scan, "kind": "plots"}, {
+                "plot_id": (plot_id, s0, s1),
+                "origin": (scan_plots["origin"], s0, s1),
+                "target": (scan_plots["target"], s0, s1),
+                "contrib_offsets": (rebased, first.tolist(), (first + length).tolist()),
+                "contrib_targets": (scan_plots["contrib_targets"], off[i0].tolist(),
+                                    off[i1].tolist()),
+            })
+        rows = (i1 - i0).tolist()
+        return {j: (r, p, q) for j, r, p, q in zip(sectors, rows, plots, truth, strict=True)}
+
+    def _emit_sector(self, t_a: float, t_b: float, scan: int, last: bool,
+                     sector: int = -1) -> None:
+        """Publish the plots (and their truth) whose times fall in the sector [t_a, t_b)
+        (sector ``sector`` of revolution ``scan``)."""
+        if self._frames is not None:
+            frames = self._frames.pop(sector, None)
+            if frames is not None:
+                rows, plots, truth = frames
+                self._cursor += rows
+                self.plot_counter += rows
+                emit = self.sim.bus.emit_frames
+                emit(t_b, [protocol.TOPIC_PLOTS, plots])
+                emit(t_b, [protocol.TOPIC_TRUTH, truth])
+            return
         scan_plots = self._scan
         times = scan_plots["time_s"]
         i0 = self._cursor

@@ -400,3 +400,32 @@ def test_fast_encoder_errors_are_the_documented_ones():
     # the packer is left clean after an error
     assert encode(TOPIC_EOS, 1.0, {"scan": 1}) == protocol._encode_reference(
         TOPIC_EOS, 1.0, {"scan": 1})
+
+
+def test_encode_slices_same_bytes_as_encode():
+    # the engine's sector frames: each message is encode() of the sliced columns
+    from shipradar.sim.protocol import encode, encode_slices
+
+    rng = np.random.default_rng(3)
+    n = 50
+    cols = {
+        "plot_id": np.arange(100, 100 + n, dtype=np.int64),
+        "range_m": rng.random(n) * 1e5,
+        "origin": rng.integers(0, 3, n).astype(np.uint8),
+        "target": rng.integers(-1, 9, n).astype(np.int32),
+        "big": rng.random(n).astype(">f8"),  # converted once, as encode_array does
+    }
+    cuts = [0, 0, 7, 7, 30, 49, 50]  # empty, short and single-row slices
+    start, stop = cuts[:-1], cuts[1:]
+    times = [0.5 * (k + 1) for k in range(len(start))]
+    fixed = {"sensor": "sps49", "scan": 3, "kind": "plots", "meta": {"a": [1, 2.5, None]}}
+    bodies = encode_slices(b"truth", times, fixed,
+                           {k: (v, start, stop) for k, v in cols.items()})
+    for j, body in enumerate(bodies):
+        payload = dict(fixed)
+        payload.update({k: v[start[j]:stop[j]] for k, v in cols.items()})
+        assert body == encode(b"truth", times[j], payload)[1]
+    with pytest.raises(ProtocolError):
+        encode_slices(b"plots", [0.0], {"scan": 1}, {"scan": (cols["plot_id"], [0], [1])})
+    with pytest.raises(ProtocolError):
+        encode_slices(b"plots", [float("nan")], {}, {"x": (cols["plot_id"], [0], [1])})
