@@ -2,30 +2,30 @@
 
 ``shipradar report SCENARIO [--out DIR] [--montecarlo STUDY.csv]`` (entry :func:`cli_main`).
 
-Figures (each skipped with a note in the index when its inputs or module are missing):
+Figures (each skipped with a note in the index when the scene lacks its input):
 
 - ``pd_range.png``: P_d against ground range per target — the dwell model's P_d at every
   beam crossing along the target's track (:func:`sim.montecarlo.model_pd_looks`), and, when a
   Monte Carlo study is given or found, its empirical P_d per target kind with 95 % Wilson
   intervals (``*_pd_range.csv`` of :mod:`sim.montecarlo`).
-- the propagation figures of :mod:`shipradar.sim.figures.propagation` (F against range, coverage
-  diagram), whatever ``plot_*`` functions that module has whose arguments the scene
-  provides;
+- ``propagation_*.png``: F against range for the standard and ducted atmospheres, and with
+  a PE table in the scene, F against range from the table and its coverage diagram
+  (:mod:`sim.figures.propagation`);
 - ``sigma0_range.png``: σ0* against range with and without the scene's duct
-  (:func:`shipradar.sim.figures.clutter.plot_ducting_reflectivity`), and the scene's clutter map when
-  it has one (:func:`shipradar.sim.figures.clutter.plot_clutter_ppi`);
+  (:func:`sim.figures.clutter.plot_ducting_reflectivity`), and the scene's clutter map when
+  it has one (:func:`sim.figures.clutter.plot_clutter_ppi`);
 - ``improvement_doppler.png``: I_F against Doppler for the radar's processor
-  (:func:`shipradar.sim.figures.doppler.plot_improvement_vs_doppler`);
+  (:func:`sim.figures.doppler.plot_improvement_vs_doppler`);
 - ``false_alarms_range.png``: the seed's Fig. 8, histograms of false-alarm range, noise-induced
   (flat) beside sea-clutter-induced (falling with range), from the dwell model's own per-scan
-  draws (:func:`shipradar.sim.figures.false_alarms.generated_false_alarms`) over ``fa_scans`` scans —
+  draws (:func:`sim.figures.false_alarms.generated_false_alarms`) over ``fa_scans`` scans —
   the code the engine runs every scan, repeated to get a visible histogram (noise panel from
   500 draws' worth of scans);
 - ``pfac_map.png``: the radar's P_fac map (7.2) as a PPI, and against range the expected
   false alarms per scan with P_fac upwind, crosswind and downwind (when it has one);
 - ``ppi.png``: one scan of a run (the scan with the most plots, one with a target plot if
   any), plots coloured by origin, full range and zoomed on the sea-clutter false alarms, with
-  the targets' tracks (:func:`shipradar.sim.figures.false_alarms.plot_ppi_by_origin`).
+  the targets' tracks (:func:`sim.figures.false_alarms.plot_ppi_by_origin`).
 
 Only the first radar of the scene is drawn. matplotlib runs with the Agg backend.
 """
@@ -35,7 +35,6 @@ from __future__ import annotations
 import argparse
 import csv
 import html
-import inspect
 import json
 import math
 import os
@@ -68,47 +67,12 @@ def _first_line(doc: str | None) -> str:
     return (doc or "").strip().split("\n")[0].strip()
 
 
-def _call_with_pool(fn, path: Path, pool: dict[str, Any]) -> tuple[bool, str]:
-    """Call ``fn(path, **kwargs)`` with the keyword arguments ``pool`` can fill.
-
-    Returns (called, note): not called when a required argument is missing from the pool.
-    """
-    sig = inspect.signature(fn)
-    params = list(sig.parameters.values())
-    kwargs = {}
-    for p in params[1:]:
-        if p.kind in (p.VAR_POSITIONAL, p.VAR_KEYWORD):
-            continue
-        if p.name in pool and pool[p.name] is not None:
-            kwargs[p.name] = pool[p.name]
-        elif p.default is inspect.Parameter.empty:
-            return False, f"{fn.__module__}.{fn.__name__}: needs {p.name!r}, which the scene " \
-                          "does not provide"
-    if params[0].kind == params[0].KEYWORD_ONLY:
-        kwargs[params[0].name] = path
-        fn(**kwargs)
-    else:
-        fn(path, **kwargs)
-    return True, ""
-
-
-def _pool(scenario, tables) -> dict[str, Any]:
-    """Arguments figure functions may ask for, from the scene's first radar."""
-    platform, radar = scenario.radars()[0]
+def _scene_heights(scenario) -> tuple[float, float]:
+    """(duct height [m], 0 without a given-height duct; first target's first altitude [m])."""
     env = scenario.environment
-    rt = tables.for_radar(radar.id) if tables is not None else None
-    duct_h = env.duct.height_m if env.duct is not None and env.duct.type == "height" else None
+    duct = env.duct.height_m if env.duct is not None and env.duct.type == "height" else 0.0
     target_h = scenario.targets[0].waypoints[0].altitude_m if scenario.targets else 10.0
-    return {
-        "scenario": scenario, "radar": radar, "platform": platform, "tables": tables,
-        "table": rt.propagation if rt is not None else None,
-        "freq_hz": radar.frequency_hz, "frequency_hz": radar.frequency_hz,
-        "polarization": radar.polarization, "antenna_height_m": radar.antenna_height_m,
-        "duct_height_m": duct_h if duct_h is not None else 0.0,
-        "wind_speed_mps": env.wind_speed_mps, "wave_height_m": scenario.wave_height,
-        "max_range_m": radar.instrumented_range_m,
-        "height_m": target_h, "target_height_m": target_h,
-    }
+    return duct, target_h
 
 
 # --------------------------------------------------------------------------- figures
@@ -163,7 +127,10 @@ def _fig_false_alarms(path: Path, scenario, tables, radar_id: str, scans: int,
                       seed: int) -> tuple[str, dict]:
     """The seed's Fig. 8 for the scene: noise-induced (flat) beside sea-clutter-induced
     (falling with range), from the dwell model's own per-scan generators."""
-    from shipradar.sim.figures.false_alarms import generated_false_alarms, plot_false_alarm_histograms
+    from shipradar.sim.figures.false_alarms import (
+        generated_false_alarms,
+        plot_false_alarm_histograms,
+    )
 
     fa = generated_false_alarms(scenario, radar_id, scans=scans, seed=seed, min_noise=500,
                                 tables=tables)
@@ -327,67 +294,19 @@ def build_report(scenario, out_dir: str | os.PathLike = "report", *,
     else:
         notes.append("P_d against range: the beam crossed no target in the run")
 
-    pool = _pool(scenario, tables)
-    # propagation figures (another module; whatever it offers)
-    try:
-        from shipradar.sim.figures import propagation as prop_fig
-    except ImportError as exc:
-        notes.append(f"F against range and coverage diagram: sim.figures.propagation is not "
-                     f"available ({exc})")
-    else:
-        fns = [(n, f) for n, f in inspect.getmembers(prop_fig, inspect.isfunction)
-               if n.startswith("plot_") and f.__module__ == prop_fig.__name__]
-        if not fns:
-            notes.append("shipradar.sim.figures.propagation has no plot_* function")
-        for name, fn in fns:
-            fname = f"propagation_{name[5:]}.png"
-            try:
-                ok, why = _call_with_pool(fn, out / fname, pool)
-            except Exception as exc:  # another module's figure must not sink the report
-                ok, why = False, f"shipradar.sim.figures.propagation.{name} failed: {exc!r}"
-            if ok:
-                add(fname, _first_line(fn.__doc__) or name)
-            else:
-                notes.append(why)
-    # clutter figures
-    try:
-        from shipradar.sim.figures import clutter as clutter_fig
-    except ImportError as exc:
-        notes.append(f"σ0* against range: sim.figures.clutter is not available ({exc})")
-    else:
-        try:
-            ok, why = _call_with_pool(clutter_fig.plot_ducting_reflectivity,
-                                      out / "sigma0_range.png", pool)
-        except Exception as exc:
-            ok, why = False, f"σ0* against range failed: {exc!r}"
-        if ok:
-            add("sigma0_range.png", "σ0* against range, standard atmosphere and with the "
-                "scene's duct (seed Fig. 6), at the radar's frequency and polarization")
-        else:
-            notes.append(why)
-        sea_map = tables.for_radar(radar.id).sea_clutter
-        if sea_map is not None and hasattr(clutter_fig, "plot_clutter_ppi"):
-            try:
-                clutter_fig.plot_clutter_ppi(out / "clutter_map.png", sea_map)
-                add("clutter_map.png", "The scene's sea-clutter map (PPI)")
-            except Exception as exc:
-                notes.append(f"clutter map failed: {exc!r}")
-        elif sea_map is None:
-            notes.append("clutter map: the scene has no sea-clutter table (clutter off)")
-    # improvement factor
+    rt = tables.for_radar(radar.id)
+    figures += _propagation_figures(out, scenario, radar, rt.propagation, notes)
+    figures += _clutter_figures(out, scenario, radar, rt.sea_clutter, notes)
     kw = _doppler_kwargs(radar)
     if kw is None:
         notes.append(f"I_F against Doppler: processor {radar.processor.type!r} has no "
                      "filter bank")
     else:
-        try:
-            from shipradar.sim.figures.doppler import plot_improvement_vs_doppler
+        from shipradar.sim.figures.doppler import plot_improvement_vs_doppler
 
-            plot_improvement_vs_doppler(out / "improvement_doppler.png", **kw)
-            add("improvement_doppler.png",
-                f"I_F against normalized Doppler f_d/f_r for the radar's processor ({kw})")
-        except Exception as exc:
-            notes.append(f"I_F against Doppler failed: {exc!r}")
+        plot_improvement_vs_doppler(out / "improvement_doppler.png", **kw)
+        add("improvement_doppler.png",
+            f"I_F against normalized Doppler f_d/f_r for the radar's processor ({kw})")
     # false alarms (seed Fig. 8) and the PPI of one scan of the run
     caption, _ = _fig_false_alarms(out / "false_alarms_range.png", scenario, tables, radar.id,
                                    fa_scans, scenario.seed if seed is None else seed)
@@ -408,6 +327,55 @@ def build_report(scenario, out_dir: str | os.PathLike = "report", *,
                             math.radians(scenario.environment.wind_direction_deg)))
     index = _write_index(out, scenario, figures, notes)
     return {"index": str(index), "figures": figures, "notes": notes}
+
+
+def _propagation_figures(out: Path, scenario, radar, table, notes: list[str]) -> list[dict]:
+    """F against range for the standard and ducted atmospheres (two-ray and PE reference
+    curves), and, with a PE table in the scene, F against range from it and its coverage."""
+    from shipradar.sim.figures import propagation as prop_fig
+
+    duct, target_h = _scene_heights(scenario)
+    figs = []
+    prop_fig.plot_factor_vs_range(
+        out / "propagation_factor_vs_range.png", freq_hz=radar.frequency_hz,
+        polarization=radar.polarization, antenna_height_m=radar.antenna_height_m,
+        target_height_m=target_h, wave_height_m=scenario.wave_height)
+    figs.append({"file": "propagation_factor_vs_range.png",
+                 "caption": _first_line(prop_fig.plot_factor_vs_range.__doc__)})
+    if table is None:
+        notes.append("F from the scene's PE table and its coverage diagram: the scene has no "
+                     f"PE table (fidelity.propagation = {scenario.fidelity.propagation!r})")
+        return figs
+    prop_fig.plot_table_factor_vs_range(out / "propagation_table_factor_vs_range.png", table,
+                                        height_m=target_h, wave_height_m=scenario.wave_height)
+    prop_fig.plot_coverage(out / "propagation_coverage.png", table)
+    figs += [{"file": "propagation_table_factor_vs_range.png",
+              "caption": _first_line(prop_fig.plot_table_factor_vs_range.__doc__)},
+             {"file": "propagation_coverage.png",
+              "caption": _first_line(prop_fig.plot_coverage.__doc__)}]
+    return figs
+
+
+def _clutter_figures(out: Path, scenario, radar, sea_map, notes: list[str]) -> list[dict]:
+    """σ0* against range with and without the scene's duct (seed Fig. 6), and the scene's
+    sea-clutter map when it has one."""
+    from shipradar.sim.figures import clutter as clutter_fig
+
+    duct, _ = _scene_heights(scenario)
+    clutter_fig.plot_ducting_reflectivity(
+        out / "sigma0_range.png", freq_hz=radar.frequency_hz, polarization=radar.polarization,
+        antenna_height_m=radar.antenna_height_m, duct_height_m=duct,
+        wind_speed_mps=scenario.environment.wind_speed_mps, wave_height_m=scenario.wave_height,
+        max_range_m=radar.instrumented_range_m)
+    figs = [{"file": "sigma0_range.png",
+             "caption": "σ0* against range, standard atmosphere and with the scene's duct "
+                        "(seed Fig. 6), at the radar's frequency and polarization"}]
+    if sea_map is None:
+        notes.append("clutter map: the scene has no sea-clutter table (clutter off)")
+    else:
+        clutter_fig.plot_clutter_ppi(out / "clutter_map.png", sea_map)
+        figs.append({"file": "clutter_map.png", "caption": "The scene's sea-clutter map (PPI)"})
+    return figs
 
 
 def _write_index(out: Path, scenario, figures, notes) -> Path:
