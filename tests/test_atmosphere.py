@@ -229,7 +229,8 @@ def test_grid_table_build_cache_and_lookup(table_cache, gas10):
     got = atm_table.lookup_gas_fog_loss_db(table, r_q, e_q)
     assert got[0] == pytest.approx(table.values[50, j], rel=1e-12)
     assert got[1] > table.values[-1, j]
-    assert got[2] == pytest.approx(atm_table.lookup_gas_fog_loss_db(table, 100e3, els[-1]), rel=1e-12)
+    assert got[2] == pytest.approx(atm_table.lookup_gas_fog_loss_db(table, 100e3, els[-1]),
+                                   rel=1e-12)
 
 
 @settings(max_examples=100, deadline=None)

@@ -9,7 +9,13 @@ from hypothesis import strategies as st
 from scipy import stats
 
 from shipradar.sensors import measurement
-from shipradar.sensors.measurement import expected_errors, measure, noisy_azimuth, noisy_range, output_snr
+from shipradar.sensors.measurement import (
+    expected_errors,
+    measure,
+    noisy_azimuth,
+    noisy_range,
+    output_snr,
+)
 
 
 def test_errors_equal_resolution_at_12_db():

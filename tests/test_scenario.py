@@ -152,7 +152,8 @@ def test_cli_bad_file_exit_2_and_nothing_run(tmp_path):
     bad.write_text(yaml.safe_dump(d))
     rec = tmp_path / "out.rec"
     for argv in (["validate", str(bad)], ["run", str(bad), "--record", str(rec)]):
-        proc = subprocess.run([sys.executable, "-m", "shipradar.sim.cli", *argv], capture_output=True,
+        proc = subprocess.run([sys.executable, "-m", "shipradar.sim.cli", *argv],
+                              capture_output=True,
                               text=True, cwd=ROOT, timeout=120)
         assert proc.returncode == 2
         assert "targets[2].waypoints[0].altitude_m: must be >= 0, got -5" in proc.stderr

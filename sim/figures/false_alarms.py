@@ -4,7 +4,8 @@ the P_fac map of 7.2.
 
 Both take plain arrays (from a run's truth and plot topics, or from the generators of
 :mod:`sensors.false_alarms`); :func:`generated_false_alarms` draws them for a scenario without
-running the engine.  ``python -m shipradar.sim.figures.false_alarms SCENARIO.yaml OUTDIR`` writes all three.
+running the engine.
+``python -m shipradar.sim.figures.false_alarms SCENARIO.yaml OUTDIR`` writes all three.
 """
 
 from __future__ import annotations
