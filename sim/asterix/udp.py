@@ -1,7 +1,8 @@
 """ASTERIX over UDP: the socket of ``shipradar run|replay --asterix udp://HOST:PORT``.
 
-Whole data blocks per datagram (whole records; the payload at most ``max_block_bytes``). Loopback only
-unless remote sending is explicitly allowed, as for the ZeroMQ stream (docs/protocol.md 1):
+Whole data blocks per datagram (whole records; the payload at most ``max_block_bytes``).
+Loopback only unless remote sending is explicitly allowed, as for the ZeroMQ stream
+(docs/protocol.md 1):
 ASTERIX has no authentication and no encryption, and a multicast group or a remote host
 puts the plots on a network.
 """
