@@ -63,6 +63,8 @@ MAX_CONTROL_BYTES: int = 4096
 # its queue (where it is coalesced, dropped and counted) instead of in the kernel, where it
 # would only add latency.
 _WS_SNDBUF = 64 * 1024
+# Stream messages read between two yields to the pages' senders during a burst.
+_YIELD_EVERY = 16
 # Target truth points (targets x ends of scan) a recording source keeps for seeks.
 _MAX_TRUTH_POINTS = 2_000_000
 # How often the server tells the pages its clock and counters [s].
@@ -332,6 +334,10 @@ class LiveSource:
                 for client in self.clients:
                     client.push(item)
                 self.first_message.set()
+                if self.received % _YIELD_EVERY == 0:
+                    # a ready socket completes recv without yielding: let the pages' senders
+                    # run during a burst, or a page that keeps up would see drops
+                    await asyncio.sleep(0)
         finally:
             self.close()
 
