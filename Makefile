@@ -10,7 +10,7 @@ ENDPOINT ?= tcp://127.0.0.1:5556
 SERVE_ARGS ?= --realtime 1
 TAIL_ARGS ?=
 
-.PHONY: install demo test bench lint clean tables serve tail tshark
+.PHONY: install demo test bench lint clean tables serve tail tshark chromium viewer-screenshot
 
 $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -24,6 +24,7 @@ demo: $(STAMP)
 	mkdir -p $(OUT)
 	$(VENV)/bin/shipradar tables build $(DEMO)
 	$(VENV)/bin/shipradar run $(DEMO) --record $(OUT)/demo.rec --overwrite
+	@echo "watch it: $(VENV)/bin/shipradar view $(OUT)/demo.rec --open"
 
 tables: $(STAMP)
 	$(VENV)/bin/shipradar tables build $(DEMO)
@@ -34,7 +35,7 @@ serve: $(STAMP)
 tail: $(STAMP)
 	$(VENV)/bin/shipradar tail $(ENDPOINT) $(TAIL_ARGS)
 
-test: $(STAMP) tshark
+test: $(STAMP) tshark chromium
 	MPLBACKEND=Agg $(PY) -m pytest -q
 
 # Wireshark's ASTERIX dissector checks our CAT048/CAT034 bytes (tests/test_asterix.py);
@@ -43,6 +44,20 @@ tshark:
 	@command -v tshark >/dev/null || { [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null \
 	  && apt-get update -q >/dev/null && DEBIAN_FRONTEND=noninteractive apt-get install -y -q \
 	  tshark >/dev/null; } || echo "note: tshark not installed (apt-get install tshark)"
+
+# Headless Chromium for the viewer's browser tests (tests/test_viewer_browser.py, driven by
+# Playwright through executable_path): installed when missing and we are root, never failing
+# here (the tests skip, or fail under CI, and say what is missing)
+chromium:
+	@command -v chromium >/dev/null || { [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null \
+	  && apt-get update -q >/dev/null && DEBIAN_FRONTEND=noninteractive apt-get install -y -q \
+	  chromium >/dev/null; } || echo "note: chromium not installed (apt-get install chromium)"
+
+# docs/viewer.png: the viewer on the demo recording (made by `make demo` when missing)
+viewer-screenshot: $(STAMP) chromium
+	test -f $(OUT)/demo.rec || $(MAKE) demo
+	$(PY) -m shipradar.sim.viewer.screenshot $(OUT)/demo.rec docs/viewer.png --at 84.3 \
+	  --zoom 2.5 --fade 10
 
 bench: $(STAMP)
 	for b in benchmarks/*.py; do echo "== $$b"; $(PY) $$b || exit 1; done
