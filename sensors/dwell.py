@@ -113,6 +113,12 @@ class DwellModel:
         self.n_cells = float(false_alarms.resolution_cells(
             radar.instrumented_range_m, self.theta_b, self.range_cell))
         self.noise_false_alarms_per_scan = self.n_cells * self.pfa
+        if self.method == "table":
+            # the exact P_d tabulated against (N_e, S/I) for this P_fa, N_e in [1, N_n]
+            from shipradar.tables.pd import PdTables
+
+            self._pd_tables = PdTables(self.pfa, self.n_pulses,
+                                       [t.swerling_case for t in scenario.targets])
         self._prepare_targets(scenario)
         self._prepare_jammers(scenario)
         self._prepare_propagation(scenario)
@@ -443,9 +449,13 @@ class DwellModel:
         n_e = detection.effective_pulses(
             self.n_pulses, clutter_dominated=code == CLUTTER, **self._pulse_args(clutter, lead))
         si_db = db(si)
-        pd = detection.probability_of_detection(
-            si_db, self.pfa, n_e, self.swerling[rows[lead]], method=self.method,
-            integrator=self.radar.integrator, detector=self.radar.detector)
+        swerling = self.swerling[rows[lead]]
+        if self.method == "table":
+            pd = self._pd_tables(si_db, n_e, swerling)
+        else:
+            pd = detection.probability_of_detection(
+                si_db, self.pfa, n_e, swerling, method=self.method,
+                integrator=self.radar.integrator, detector=self.radar.detector)
         if self.look_uniforms is None:
             hit = rng.random(n_groups) < pd
         else:

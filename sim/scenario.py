@@ -437,8 +437,10 @@ class Environment(_Model):
 class Fidelity(_Model):
     """Speed versus accuracy choices (docs/accuracy.md gives their measured error and cost)."""
 
-    pd_method: Literal["exact", "seed"] = Field(
-        "exact", description="P_d: exact Swerling formulas, or the seed's [78]-[83]"
+    pd_method: Literal["exact", "seed", "table"] = Field(
+        "exact", description="P_d: exact Swerling formulas, the seed's [78]-[83], or a "
+        "table of the exact P_d against S/I and N_e built per radar and Swerling case "
+        "(tables/pd.py; interpolation error in docs/accuracy.md)"
     )
     propagation: Literal["free_space", "two_ray", "pe"] = Field(
         "pe", description="F: free space (F = pattern), two-ray multipath, or PE table"
@@ -480,7 +482,7 @@ class Scenario(_Model):
         # the exact Swerling P_d is the square-law detector's with uniform (equal-weight)
         # non-coherent integration; other laws and integrators are Table I's corrections,
         # which only the seed method has
-        if self.fidelity.pd_method != "exact":
+        if self.fidelity.pd_method == "seed":  # "table" tabulates the exact P_d
             return self
         for i, p in enumerate(self.platforms):
             for j, r in enumerate(p.radars):
