@@ -65,7 +65,8 @@ def pixels(page, sensor: str, x: float, y: float, half: int = 4):
         const d = window.devicePixelRatio || 1;
         const img = c.getContext('2d').getImageData(Math.round(x * d) - h, Math.round(y * d) - h,
                                                      2 * h + 1, 2 * h + 1).data;
-        const out = []; for (let i = 0; i < img.length; i += 4) out.push([img[i], img[i+1], img[i+2]]);
+        const out = [];
+        for (let i = 0; i < img.length; i += 4) out.push([img[i], img[i + 1], img[i + 2]]);
         return out; }""", [sensor, x, y, half])
 
 
@@ -111,8 +112,9 @@ def test_target_plot_drawn_where_its_range_and_azimuth_say(page, demo_recording,
 
 def test_slider_seeks_and_play_pause(page, demo_recording):  # noqa: F811
     seek(page, 60.0)
-    scans = page.evaluate("""() => { const s = [...window.shipradarViewer.state.sensors.values()][0];
-                             return s.batches.map(b => b.scan); }""")
+    scans = page.evaluate("""() => {
+        const s = [...window.shipradarViewer.state.sensors.values()][0];
+        return s.batches.map(b => b.scan); }""")
     fade = page.evaluate("() => window.shipradarViewer.state.fadeScans")
     # what a seek sends: the scans still fading at 60 s, none after
     assert scans and max(scans) <= 60 and min(scans) >= 60 - fade - 1

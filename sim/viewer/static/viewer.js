@@ -28,7 +28,7 @@
     clock: { t: 0, playing: false, speed: 1, live: false, ended: false, perf: 0 },
     lastItemT: 0,
     fadeScans: 5, truthColours: true, truthTracks: true, showTracks: true,
-    selected: "all",
+    selected: "all", userSelected: false,
     frozenAt: null,          // live stream: display time frozen by "pause"
     status: {}, latencyMs: null, errors: [], batchesReceived: 0, itemsReceived: 0,
     framesDrawn: 0, connected: false, closed: false,
@@ -230,7 +230,8 @@
   function rebuildScopes() {
     const ids = [...S.sensors.keys()];
     const sel = document.getElementById("sensor");
-    const prev = sel.value || S.selected;
+    // until the user picks one, every radar is shown (side by side once there are two)
+    const prev = S.userSelected ? S.selected : "all";
     sel.innerHTML = "";
     if (ids.length > 1) sel.add(new Option("all, side by side", "all"));
     for (const id of ids) sel.add(new Option(id, id));
@@ -527,7 +528,7 @@
     const c = S.clock;
     const live = S.info && S.info.mode === "live";
     const playing = live ? S.frozenAt === null : c.playing;
-    el("play").innerHTML = playing ? "&#9208; pause" : (c.ended ? "&#9654; replay" : "&#9654; play");
+    el("play").innerHTML = playing ? "pause" : (c.ended ? "&#9654; replay" : "&#9654; play");
     if (!live && c.speed) el("speed").value = String(c.speed);
   }
 
@@ -561,7 +562,11 @@
   el("truth-colours").addEventListener("change", () => { S.truthColours = el("truth-colours").checked; });
   el("truth-tracks").addEventListener("change", () => { S.truthTracks = el("truth-tracks").checked; });
   el("tracks").addEventListener("change", () => { S.showTracks = el("tracks").checked; });
-  el("sensor").addEventListener("change", () => { S.selected = el("sensor").value; rebuildScopes(); });
+  el("sensor").addEventListener("change", () => {
+    S.selected = el("sensor").value;
+    S.userSelected = true;
+    rebuildScopes();
+  });
   el("reset-view").addEventListener("click", () => S.views.clear());
 
   // ------------------------------------------------------------------ frame loop
