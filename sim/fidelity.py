@@ -494,8 +494,12 @@ def _cache_files() -> list[Path]:
 
 
 def run_setting(scenario: Scenario, setting: Setting, seeds: Sequence[int], duration_s: float,
-                clock: _TableClock) -> RunResult:
-    """Run the scene under one setting, once per seed, with common random numbers."""
+                clock: _TableClock, *, crn: bool = True) -> RunResult:
+    """Run the scene under one setting, once per seed, with common random numbers.
+
+    ``crn=False`` leaves the detection draw on the engine's sequential stream (for tests:
+    then a change in the number of other draws, false alarms for instance, moves the dice
+    of every later look)."""
     from shipradar.sim.engine import Simulation
 
     scene = _with_fidelity(scenario, setting.fidelity)
@@ -513,7 +517,8 @@ def run_setting(scenario: Scenario, setting: Setting, seeds: Sequence[int], dura
         for k, proc in enumerate(sim.radars):
             model = proc.model
             period = proc.radar.scan_period_s
-            model.look_uniforms = look_uniforms(seed, k, period)
+            if crn:
+                model.look_uniforms = look_uniforms(seed, k, period)
             model.look_probe = _probe(cols, run, k, period)
             if run == 0:
                 expected[(proc.radar.id, "noise")] = float(model.noise_false_alarms_per_scan)
