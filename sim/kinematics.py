@@ -2,7 +2,9 @@
 
 Positions are kept in the scenario origin's local frame: east and north [m] on the tangent
 plane (waypoints given as latitude/longitude are converted once with ``pymap3d``) and the
-altitude above the sea [m].  Motion between waypoints is at constant velocity.
+altitude above the sea [m].  Motion between waypoints is at constant velocity; scenario
+segments (turns, speed changes, weaves, climbs, rounded waypoint corners) are pieces with
+closed forms (:class:`Piece`, :func:`piece_state`), built by :mod:`sim.trajectory`.
 
 Geometry from an antenna to its targets is computed on the WGS-84 ellipsoid (``pymap3d``):
 true-north azimuth in the antenna's own local frame (so a ship 100 km from the origin still
@@ -13,10 +15,11 @@ elevation on the 4/3 effective earth used throughout the radar model.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import pymap3d
+from scipy.special import ellipeinc
 
 from shipradar.sim.scenario import Origin, Waypoint
 
@@ -92,48 +95,186 @@ def waypoint_enu(waypoints: Sequence[Waypoint], frame: LocalFrame | Origin) -> n
     return out
 
 
+#: Standard gravity [m/s²] (scipy.constants.g), the unit of the turn and acceleration loads.
+G0 = 9.80665
+#: Piece kinds of :class:`Trajectories`: constant velocity; a horizontal arc or straight line
+#: with a constant turn rate or a constant along-track acceleration (never both: their product
+#: has no closed form) and a constant vertical acceleration; a sinusoidal offset (weave, or
+#: smooth climb/dive) flown at constant speed.
+LINEAR, ARC, SINE = 0, 1, 2
+#: Offset planes of a :data:`SINE` piece.
+LATERAL, VERTICAL = 0, 1
+
+
+@dataclass(frozen=True)
+class Piece:
+    """One analytic piece of a trajectory, starting at time ``t0`` [s] for ``dt`` [s].
+
+    ``p0`` (3,) start position (east, north, up) [m]; ``vel`` (3,) the constant velocity of a
+    :data:`LINEAR` piece [m/s] (zero for the others); ``kind`` and ``par`` (6,):
+
+    * :data:`ARC`: ψ0 heading [rad, clockwise from north], v0 horizontal speed [m/s], a
+      along-track acceleration [m/s²], ω turn rate [rad/s, > 0 clockwise], vz0 vertical speed
+      [m/s], az vertical acceleration [m/s²];
+    * :data:`SINE`: ψ0 base heading [rad], v speed along the path [m/s], A offset amplitude
+      [m] (signed: right/up positive), k angular frequency [rad/s], plane (:data:`LATERAL` or
+      :data:`VERTICAL`), m = (A k / v)² < 1.
+    """
+
+    t0: float
+    dt: float
+    p0: np.ndarray
+    vel: np.ndarray
+    kind: int = LINEAR
+    par: np.ndarray = field(default_factory=lambda: np.zeros(6))
+
+    def end(self) -> tuple[np.ndarray, np.ndarray]:
+        """Position (3,) [m] and velocity (3,) [m/s] at the end of the piece."""
+        pos, vel, _ = piece_state(self.p0[None], self.vel[None], np.array([self.kind]),
+                                  self.par[None], np.array([self.dt]), accel=False)
+        return pos[0], vel[0]
+
+
+def piece_state(p0, vel0, kind, par, tau, accel=True):
+    """Closed-form position, velocity and acceleration of M pieces at times ``tau`` [s] into
+    them (no numerical integration).
+
+    Parameters
+    ----------
+    p0, vel0 : (M, 3) start positions [m] and linear velocities [m/s]
+    kind : (M,) piece kinds (:data:`LINEAR`, :data:`ARC`, :data:`SINE`)
+    par : (M, 6) piece parameters (:class:`Piece`)
+    tau : (M,) time into each piece [s], >= 0
+    accel : also return the accelerations (else None)
+
+    Notes
+    -----
+    ARC: the chord of an arc flown at constant speed is v τ sinc(ωτ/2) along the mean heading
+    ψ0 + ωτ/2; with ω = 0 and an along-track acceleration a it is v0 τ + a τ²/2 along ψ0.  The
+    one expression (v0 τ + a τ²/2) sinc(ωτ/2) covers both, and stays exact as ω -> 0.
+
+    SINE: offset d(τ) = A (1 - cos kτ) across (lateral) or above (vertical) the base heading,
+    flown at the constant path speed v: the along-track speed is √(v² - d'²) =
+    v √(1 - m sin² kτ), whose integral is (v/k) E(kτ | m), the incomplete elliptic integral
+    of the second kind (``scipy.special.ellipeinc``).  d' = 0 at τ = 0 and at every half
+    period, so the velocity is continuous with a straight entry and, after whole half
+    periods, with a straight exit.
+    """
+    tau = np.asarray(tau, dtype=float)
+    pos = p0 + vel0 * tau[:, None]
+    vel = vel0.copy()
+    acc = np.zeros_like(vel) if accel else None
+    nl = np.flatnonzero(kind != LINEAR)
+    if nl.size == 0:
+        return pos, vel, acc
+    for code in (ARC, SINE):
+        sel = nl[kind[nl] == code]
+        if sel.size == 0:
+            continue
+        q, ts = par[sel], tau[sel]
+        psi0 = q[:, 0]
+        if code == ARC:
+            v0, a, w, vz0, az = q[:, 1], q[:, 2], q[:, 3], q[:, 4], q[:, 5]
+            chord = (v0 * ts + 0.5 * a * ts * ts) * np.sinc(w * ts / (2.0 * np.pi))
+            mid = psi0 + 0.5 * w * ts
+            pos[sel, 0] += chord * np.sin(mid)
+            pos[sel, 1] += chord * np.cos(mid)
+            pos[sel, 2] += vz0 * ts + 0.5 * az * ts * ts
+            v, psi = v0 + a * ts, psi0 + w * ts
+            s, c = np.sin(psi), np.cos(psi)
+            vel[sel] = np.column_stack([v * s, v * c, vz0 + az * ts])
+            if accel:
+                # along-track a, centripetal v ω to the right of the heading (cos ψ, -sin ψ)
+                acc[sel] = np.column_stack([a * s + v * w * c, a * c - v * w * s, az])
+            continue
+        v, amp, k, plane, m = q[:, 1], q[:, 2], q[:, 3], q[:, 4], q[:, 5]
+        th = k * ts
+        st, ct = np.sin(th), np.cos(th)
+        along = v / k * ellipeinc(th, m)
+        off = amp * (1.0 - ct)
+        root = np.sqrt(np.maximum(1.0 - m * st * st, 0.0))
+        ds, dd = v * root, amp * k * st
+        u = np.column_stack([np.sin(psi0), np.cos(psi0), np.zeros(sel.size)])
+        lateral = (plane == LATERAL)[:, None]
+        n = np.where(lateral, np.column_stack([np.cos(psi0), -np.sin(psi0),
+                                               np.zeros(sel.size)]), [0.0, 0.0, 1.0])
+        pos[sel] += along[:, None] * u + off[:, None] * n
+        vel[sel] = ds[:, None] * u + dd[:, None] * n
+        if accel:
+            dds = -v * m * k * st * ct / np.where(root > 0, root, 1.0)
+            acc[sel] = dds[:, None] * u + (amp * k * k * ct)[:, None] * n
+    return pos, vel, acc
+
+
+def linear_pieces(track: np.ndarray) -> list[Piece]:
+    """Constant-velocity pieces between the waypoints of a ``(W, 4)`` track (one
+    zero-length piece for a single waypoint)."""
+    if len(track) == 1:
+        return [Piece(float(track[0, 0]), 0.0, track[0, 1:].copy(), np.zeros(3))]
+    out = []
+    for i in range(len(track) - 1):
+        dt = float(track[i + 1, 0] - track[i, 0])
+        out.append(Piece(float(track[i, 0]), dt, track[i, 1:].copy(),
+                         (track[i + 1, 1:] - track[i, 1:]) / dt))
+    return out
+
+
 class Trajectories:
-    """Piecewise-linear tracks of N objects, evaluated for all of them at once.
+    """Piecewise-analytic tracks of N objects, evaluated for all of them at once.
 
     Parameters
     ----------
     tracks : list of ndarray
-        One ``(W_i, 4)`` array per object (see :func:`waypoint_enu`).
+        One ``(W_i, 4)`` array per object (see :func:`waypoint_enu`): constant velocity
+        between waypoints.
     hold : bool
         If True (platforms, jammers) an object holds its first/last position outside its
-        waypoint times and is always active; if False (targets) it exists only between its
-        first and last waypoint times.
+        track's times and is always active; if False (targets) it exists only between the
+        start and the end of its track.
+    pieces : list of list of Piece, optional
+        Instead of ``tracks``: each object's consecutive :class:`Piece` list (segments, turns,
+        weaves; :mod:`sim.trajectory` builds them from the scenario).
     """
 
-    def __init__(self, tracks: Sequence[np.ndarray], hold: bool):
-        self.n = len(tracks)
+    def __init__(self, tracks: Sequence[np.ndarray] | None, hold: bool,
+                 pieces: Sequence[Sequence[Piece]] | None = None):
+        ends = None
+        if pieces is None:
+            tracks = [np.asarray(t, dtype=float) for t in tracks]
+            pieces = [linear_pieces(t) for t in tracks]
+            # the last waypoint's own time (t0 + dt could differ from it in the last bit)
+            ends = np.array([t[-1, 0] for t in tracks])
+        self.n = len(pieces)
         self.hold = hold
-        w = max((len(t) for t in tracks), default=1)
+        w = max((len(p) for p in pieces), default=1)
         self.times = np.full((self.n, w), np.inf)
         self.pos = np.zeros((self.n, w, 3))
-        self.count = np.array([len(t) for t in tracks], dtype=int)
-        for i, t in enumerate(tracks):
-            k = len(t)
-            self.times[i, :k] = t[:, 0]
-            self.pos[i, :k] = t[:, 1:]
-            self.pos[i, k:] = t[-1, 1:]
+        self.vel = np.zeros((self.n, w, 3))
+        self.seg_dt = np.zeros((self.n, w))
+        self.kind = np.zeros((self.n, w), dtype=np.int8)
+        self.par = np.zeros((self.n, w, 6))
+        self.count = np.array([len(p) for p in pieces], dtype=int)
+        for i, plist in enumerate(pieces):
+            for j, p in enumerate(plist):
+                self.times[i, j] = p.t0
+                self.pos[i, j] = p.p0
+                self.vel[i, j] = p.vel
+                self.seg_dt[i, j] = p.dt
+                self.kind[i, j] = p.kind
+                self.par[i, j] = p.par
+            # padding holds the last piece's end, so a clamped look-up past it is harmless
+            self.pos[i, len(plist):] = self.pos[i, len(plist) - 1]
+        self.last_seg = np.maximum(self.count - 1, 0)
         self.t_first = self.times[:, 0] if self.n else np.zeros(0)
-        self.t_last = self.times[np.arange(self.n), self.count - 1] if self.n else np.zeros(0)
-        # per-segment start time, duration and velocity (segment i: waypoint i -> i+1);
-        # an object with one waypoint has one segment of zero velocity
-        self.last_seg = np.maximum(self.count - 2, 0)
-        # padding times are +inf: mask them out instead of computing inf - inf
-        real = np.arange(w)[None, :] < (self.count - 1)[:, None]
-        nxt = np.concatenate([self.times[:, 1:], self.times[:, -1:]], axis=1)
-        self.seg_dt = np.where(real, np.where(real, nxt, 0.0) - np.where(real, self.times, 0.0),
-                               0.0)
-        dpos = np.concatenate([self.pos[:, 1:] - self.pos[:, :-1],
-                               np.zeros((self.n, 1, 3))], axis=1)
-        self.vel = np.where(real[:, :, None],
-                            dpos / np.where(real, self.seg_dt, 1.0)[:, :, None], 0.0)
-        # Every object on one segment (at most two waypoints: the usual case): the segment
-        # search of :meth:`state` is skipped, with the first segment's columns kept contiguous.
-        self._one_segment = w <= 2
+        last = self.last_seg
+        self.t_last = (self.times[np.arange(self.n), last] + self.seg_dt[np.arange(self.n), last]
+                       if self.n else np.zeros(0))
+        if ends is not None and self.n:
+            self.t_last = ends
+        self.linear = not bool(np.any(self.kind != LINEAR))
+        # Every object on one linear piece (at most two waypoints: the usual case): the piece
+        # search of :meth:`state` is skipped, with the first piece's columns kept contiguous.
+        self._one_segment = w <= 1 and self.linear
         self._t0 = np.ascontiguousarray(self.times[:, 0]) if self.n else np.zeros(0)
         self._pos0 = np.ascontiguousarray(self.pos[:, 0])
         self._vel0 = np.ascontiguousarray(self.vel[:, 0])
@@ -149,25 +290,39 @@ class Trajectories:
         """
         if self._one_segment:
             return self._state_one_segment(t, rows)
+        pos, vel, _, active = self.state_acc(t, rows, accel=False)
+        return pos, vel, active
+
+    def state_acc(self, t, rows=None, accel: bool = True):
+        """:meth:`state` with the accelerations ``(M, 3)`` [m/s²] (third item; None unless
+        ``accel``): positions, velocities, accelerations, activity."""
         rows = np.arange(self.n) if rows is None else np.asarray(rows, dtype=int)
         t = np.broadcast_to(np.asarray(t, dtype=float), rows.shape)
         times = self.times[rows]
         i = np.count_nonzero(times <= t[:, None], axis=1) - 1
         i = np.minimum(np.maximum(i, 0), self.last_seg[rows])
         t0 = times[np.arange(rows.size), i]
-        vel = self.vel[rows, i]
-        tau = np.minimum(np.maximum(t - t0, 0.0), self.seg_dt[rows, i])
-        pos = self.pos[rows, i] + vel * tau[:, None]
+        dt = self.seg_dt[rows, i]
+        tau = np.minimum(np.maximum(t - t0, 0.0), dt)
+        if self.linear:
+            vel = self.vel[rows, i]
+            pos = self.pos[rows, i] + vel * tau[:, None]
+            acc = np.zeros_like(vel) if accel else None
+        else:
+            pos, vel, acc = piece_state(self.pos[rows, i], self.vel[rows, i], self.kind[rows, i],
+                                        self.par[rows, i], tau, accel=accel)
         inside = (t >= self.t_first[rows]) & (t <= self.t_last[rows])
         if self.hold:
             vel = vel * inside[:, None]
+            if accel:
+                acc = acc * inside[:, None]
             active = np.ones(rows.shape, dtype=bool)
         else:
             active = inside
-        return pos, vel, active
+        return pos, vel, acc, active
 
     def _state_one_segment(self, t, rows):
-        """:meth:`state` when every object has at most two waypoints (same arithmetic)."""
+        """:meth:`state` when every object has one linear piece (same arithmetic)."""
         if rows is None:
             t0, p0, v0, dt0 = self._t0, self._pos0, self._vel0, self._dt0
             first, last = self.t_first, self.t_last

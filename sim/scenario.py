@@ -11,6 +11,7 @@ Symbols of the seed (DREV-R-9429, "list of symbols") are given in each field's d
 from __future__ import annotations
 
 import datetime as dt
+import math
 import re
 from pathlib import Path
 from typing import Annotated, Any, Literal
@@ -79,6 +80,255 @@ def _check_waypoint_times(waypoints: list[Waypoint]) -> list[Waypoint]:
                 f"waypoint times must increase strictly, got {times[i - 1]} then {times[i]}"
             )
     return waypoints
+
+
+# --------------------------------------------------------------------------- manoeuvres
+#: Standard gravity [m/s²], the unit of the turn and acceleration loads (scipy.constants.g).
+STANDARD_GRAVITY = 9.80665
+#: Sharpest waypoint corner that smoothing rounds [deg] (a reversal has no tangent arc).
+MAX_SMOOTHED_CORNER_DEG = 175.0
+
+
+class StraightSegment(_Model):
+    """Straight and level at the current speed and heading."""
+
+    type: Literal["straight"] = "straight"
+    duration_s: float = Field(gt=0.0, le=1.0e6, description="duration [s]")
+
+
+class TurnSegment(_Model):
+    """Coordinated level turn at constant speed: radius v²/(g n), rate g n / v.
+
+    Give the load (``turn_g``, the horizontal acceleration in g; the bank angle's load factor
+    is √(1 + n²)) or the rate, and where to stop (a heading or a duration).
+    """
+
+    type: Literal["turn"] = "turn"
+    turn_g: float | None = Field(
+        None, gt=0.0, le=60.0, description="n, horizontal acceleration v²/R in g [g]")
+    turn_rate_deg_s: float | None = Field(
+        None, gt=0.0, le=180.0, description="turn rate [deg/s] (instead of turn_g)")
+    to_heading_deg: float | None = Field(
+        None, ge=0.0, lt=360.0, description="heading at the end of the turn (true north) [deg]")
+    duration_s: float | None = Field(
+        None, gt=0.0, le=1.0e6, description="duration [s] (instead of to_heading_deg)")
+    direction: Literal["shortest", "left", "right"] = Field(
+        "shortest", description="turn direction; 'shortest' needs to_heading_deg")
+
+    @model_validator(mode="after")
+    def _one_of_each(self) -> TurnSegment:
+        if (self.turn_g is None) == (self.turn_rate_deg_s is None):
+            raise ValueError("give one of turn_g or turn_rate_deg_s")
+        if (self.to_heading_deg is None) == (self.duration_s is None):
+            raise ValueError("give one of to_heading_deg or duration_s")
+        if self.duration_s is not None and self.direction == "shortest":
+            raise ValueError("a turn for a duration needs direction: left or right")
+        return self
+
+
+class AccelerateSegment(_Model):
+    """Straight and level, speed changing at a constant rate to a new speed."""
+
+    type: Literal["accelerate"] = "accelerate"
+    to_speed_mps: float = Field(ge=0.0, le=3000.0, description="speed at the end [m/s]")
+    accel_g: float | None = Field(
+        None, gt=0.0, le=100.0, description="|acceleration| [g] (or duration_s)")
+    duration_s: float | None = Field(None, gt=0.0, le=1.0e6, description="duration [s]")
+
+    @model_validator(mode="after")
+    def _one_of(self) -> AccelerateSegment:
+        if (self.accel_g is None) == (self.duration_s is None):
+            raise ValueError("give one of accel_g or duration_s")
+        return self
+
+
+class ClimbSegment(_Model):
+    """Climb or dive on a straight course at constant path speed, the altitude following
+    half a cosine (vertical speed zero at both ends, so joins stay smooth)."""
+
+    type: Literal["climb"] = "climb"
+    to_altitude_m: float = Field(ge=0.0, le=30_000.0, description="altitude at the end [m]")
+    duration_s: float = Field(gt=0.0, le=1.0e5, description="duration [s]")
+
+
+class WeaveSegment(_Model):
+    """Sinusoidal weave at constant speed: lateral offset A (1 - cos 2πτ/P) from the entry
+    course, first to ``first_side``; back on the entry line and course after whole periods."""
+
+    type: Literal["weave"] = "weave"
+    amplitude_m: float = Field(gt=0.0, le=10_000.0, description="A, half the peak-to-peak "
+                               "lateral excursion [m]")
+    period_s: float = Field(gt=0.2, le=3600.0, description="P, weave period [s]")
+    duration_s: float = Field(gt=0.0, le=1.0e6, description="duration [s] (whole periods "
+                              "end on the entry course)")
+    first_side: Literal["right", "left"] = "right"
+
+
+class PopupSegment(_Model):
+    """Terminal pop-up and dive: a half-cosine climb to the apex then a half-cosine dive,
+    on a straight course at constant path speed."""
+
+    type: Literal["popup"] = "popup"
+    peak_altitude_m: float = Field(gt=0.0, le=30_000.0, description="apex altitude [m]")
+    climb_s: float = Field(gt=0.0, le=1000.0, description="climb duration [s]")
+    dive_s: float = Field(gt=0.0, le=1000.0, description="dive duration [s]")
+    to_altitude_m: float | None = Field(
+        None, ge=0.0, le=30_000.0,
+        description="altitude at the end of the dive [m]; default the altitude before it")
+
+
+Segment = Annotated[
+    StraightSegment | TurnSegment | AccelerateSegment | ClimbSegment | WeaveSegment
+    | PopupSegment, Field(discriminator="type")]
+
+
+class Smoothing(_Model):
+    """Round waypoint corners with coordinated turns instead of jumping."""
+
+    turn_g: float = Field(gt=0.0, le=60.0, description="n, horizontal acceleration of the "
+                          "corner turns and of the speed changes between legs [g]")
+
+
+def _leg_length_m(a: Waypoint, b: Waypoint) -> float | None:
+    """Horizontal distance between two waypoints of the same form [m] (haversine on the mean
+    sphere for latitude/longitude, within 0.5 % of the ellipsoid); None for mixed forms."""
+    if a.east_m is not None and b.east_m is not None:
+        return math.hypot(b.east_m - a.east_m, b.north_m - a.north_m)
+    if a.lat_deg is not None and b.lat_deg is not None:
+        p1, p2 = math.radians(a.lat_deg), math.radians(b.lat_deg)
+        dl = math.radians(b.lon_deg - a.lon_deg)
+        h = math.sin(0.5 * (p2 - p1)) ** 2 + math.cos(p1) * math.cos(p2) * math.sin(0.5 * dl) ** 2
+        return 2.0 * 6_371_008.8 * math.asin(min(1.0, math.sqrt(h)))
+    return None
+
+
+def _leg_course(a: Waypoint, b: Waypoint) -> float | None:
+    """Course from a to b [rad, clockwise from north] (initial bearing for lat/lon)."""
+    if a.east_m is not None and b.east_m is not None:
+        return math.atan2(b.east_m - a.east_m, b.north_m - a.north_m)
+    if a.lat_deg is not None and b.lat_deg is not None:
+        p1, p2 = math.radians(a.lat_deg), math.radians(b.lat_deg)
+        dl = math.radians(b.lon_deg - a.lon_deg)
+        return math.atan2(math.sin(dl) * math.cos(p2),
+                          math.cos(p1) * math.sin(p2) - math.sin(p1) * math.cos(p2) * math.cos(dl))
+    return None
+
+
+def corner_needs(waypoints: list[Waypoint], turn_g: float) -> list[tuple[float, float]]:
+    """Horizontal distance [m] that rounding each waypoint corner takes (before it on the
+    incoming leg, after it on the outgoing leg), one pair per waypoint (0 at the ends).
+
+    A corner between legs of horizontal speeds s1, s2 and courses differing by Δψ is a turn at
+    s1 of radius R = s1²/(g n), tangent to both legs at R tan(|Δψ|/2) from the waypoint,
+    followed by a speed change at n g on the outgoing leg (|s2² - s1²|/(2 n g)); a leg that
+    stops or starts from rest has only the speed change (on the moving leg); the same
+    geometry as :mod:`sim.trajectory`, which builds the pieces.
+    """
+    g = STANDARD_GRAVITY * turn_g
+    w = waypoints
+    out = [(0.0, 0.0)] * len(w)
+    for j in range(1, len(w) - 1):
+        l1, l2 = _leg_length_m(w[j - 1], w[j]), _leg_length_m(w[j], w[j + 1])
+        if l1 is None or l2 is None:
+            continue
+        s1 = l1 / (w[j].time_s - w[j - 1].time_s)
+        s2 = l2 / (w[j + 1].time_s - w[j].time_s)
+        before = after = 0.0
+        if s1 > 0 and s2 > 0:
+            c1 = _leg_course(w[j - 1], w[j])
+            c2 = _leg_course(w[j], w[j + 1])
+            dpsi = abs(math.remainder(c2 - c1, 2 * math.pi))
+            d = s1 * s1 / g * math.tan(0.5 * dpsi)
+            before, after = d, d
+        speed_change = abs(s2 * s2 - s1 * s1) / (2.0 * g)
+        if s2 > 0:
+            after += speed_change
+        else:
+            before += speed_change
+        out[j] = (before, after)
+    return out
+
+
+def _check_motion(obj, prefix: str = "") -> None:
+    """Segments and smoothing of a target or platform: consistent, and flyable at every
+    point (weave and climb slopes below the speed, loads only when moving, corners that fit
+    their legs).  Messages start with the field's path relative to the object."""
+    segs, smooth = obj.segments, obj.smoothing
+    if smooth is not None and segs:
+        raise ValueError(".smoothing: rounds waypoint corners; segments are smooth already "
+                         "(remove one)")
+    if smooth is not None:
+        wps = obj.waypoints
+        for j in range(len(wps)):
+            if j == 0 or j >= len(wps) - 1:
+                continue
+            c1 = _leg_course(wps[j - 1], wps[j])
+            c2 = _leg_course(wps[j], wps[j + 1])
+            if c1 is not None and c2 is not None and _leg_length_m(wps[j - 1], wps[j]) and \
+                    _leg_length_m(wps[j], wps[j + 1]):
+                turn = abs(math.degrees(math.remainder(c2 - c1, 2 * math.pi)))
+                if turn > MAX_SMOOTHED_CORNER_DEG:
+                    raise ValueError(
+                        f".waypoints[{j}]: smoothing rounds corners up to "
+                        f"{MAX_SMOOTHED_CORNER_DEG:g}° (a reversal has no tangent turn), "
+                        f"got {turn:.1f}°")
+        needs = corner_needs(wps, smooth.turn_g)
+        for j in range(len(wps) - 1):
+            length = _leg_length_m(wps[j], wps[j + 1])
+            need = needs[j][1] + needs[j + 1][0]
+            if length is None or need <= length * (1.0 + 1e-9):
+                continue
+            n_min = smooth.turn_g * need / length if length > 0 else math.inf
+            raise ValueError(
+                f".smoothing.turn_g: rounding the corners of leg waypoints[{j}] -> "
+                f"waypoints[{j + 1}] takes {need:.0f} m, the leg is {length:.0f} m; must be "
+                f">= {n_min:.3g} g (or space the waypoints), got {smooth.turn_g:g}")
+        return
+    if not segs:
+        return
+    if len(obj.waypoints) != 1:
+        raise ValueError(f".waypoints: with segments, give exactly 1 waypoint (the start), "
+                         f"got {len(obj.waypoints)}")
+    if obj.speed_mps is None:
+        raise ValueError(".speed_mps: is required with segments (the start speed [m/s])")
+    v, z = obj.speed_mps, obj.waypoints[0].altitude_m
+    for j, s in enumerate(segs):
+        where = f".segments[{j}]"
+        if s.type == "turn" and s.turn_g is not None and v <= 0.0:
+            raise ValueError(f"{where}.turn_g: a turn by load needs a speed > 0 m/s (use "
+                             f"turn_rate_deg_s to pivot), got speed {v:g} m/s")
+        elif s.type == "accelerate":
+            v = s.to_speed_mps
+        elif s.type == "weave":
+            lateral = s.amplitude_m * 2.0 * math.pi / s.period_s
+            if lateral >= v:
+                raise ValueError(
+                    f"{where}.amplitude_m: a weave of period {s.period_s:g} s at "
+                    f"{v:g} m/s must have amplitude < {v * s.period_s / (2 * math.pi):.4g} m "
+                    f"(lateral speed 2πA/P below the speed), got {s.amplitude_m:g}")
+        elif s.type in ("climb", "popup"):
+            legs = ([(s.to_altitude_m, s.duration_s, "duration_s")] if s.type == "climb" else
+                    [(s.peak_altitude_m, s.climb_s, "climb_s"),
+                     (z if s.to_altitude_m is None else s.to_altitude_m, s.dive_s, "dive_s")])
+            for z_to, dur, name in legs:
+                vz = 0.5 * abs(z_to - z) * math.pi / dur
+                if vz >= v:
+                    raise ValueError(
+                        f"{where}.{name}: changing altitude {z:g} -> {z_to:g} m at {v:g} m/s "
+                        f"must take > {0.5 * abs(z_to - z) * math.pi / v:.4g} s (peak "
+                        f"vertical speed πΔh/2T below the speed), got {dur:g}")
+                z = z_to
+
+
+def _max_altitude(obj) -> float:
+    """Highest altitude an object reaches [m]: its waypoints, climbs and pop-up apexes."""
+    top = max(w.altitude_m for w in obj.waypoints)
+    for s in getattr(obj, "segments", ()):
+        if s.type == "climb":
+            top = max(top, s.to_altitude_m)
+        elif s.type == "popup":
+            top = max(top, s.peak_altitude_m)
+    return top
 
 
 # --------------------------------------------------------------------------- radar
@@ -304,9 +554,30 @@ class Target(_Model):
     swerling: int | None = Field(
         None, ge=0, le=4, description="Swerling case 0-4; default 3 for a missile model, else 1"
     )
+    heading_deg: float | None = Field(
+        None, ge=0.0, lt=360.0, description="start heading of the segments (true north) [deg]")
+    speed_mps: float | None = Field(
+        None, ge=0.0, le=3000.0, description="start speed of the segments [m/s]")
+    segments: list[Segment] = Field(
+        default_factory=list, max_length=10_000,
+        description="manoeuvres flown in order from the (single) waypoint; empty: waypoints")
+    smoothing: Smoothing | None = Field(
+        None, description="round waypoint corners with coordinated turns; None: jumps")
 
     _check_times = field_validator("waypoints")(
         classmethod(lambda cls, v: _check_waypoint_times(v)))
+
+    @model_validator(mode="after")
+    def _motion(self) -> Target:
+        if self.segments and self.heading_deg is None:
+            raise ValueError(".heading_deg: is required with segments (the start heading)")
+        _check_motion(self)
+        return self
+
+    @property
+    def max_altitude_m(self) -> float:
+        """Highest altitude the target reaches [m] (waypoints, climbs, pop-ups)."""
+        return _max_altitude(self)
 
     @property
     def swerling_case(self) -> int:
@@ -322,12 +593,31 @@ class Platform(_Model):
     id: str = Field(min_length=1, max_length=64, pattern=r"^[A-Za-z0-9_.-]+$")
     waypoints: list[Waypoint] = Field(min_length=1, max_length=10_000)
     heading_deg: float = Field(
-        0.0, ge=0.0, lt=360.0, description="heading when stationary (true north) [deg]"
+        0.0, ge=0.0, lt=360.0,
+        description="heading when stationary, and the start heading of segments (true north) "
+        "[deg]; a moving ship heads along its velocity"
     )
     radars: list[Radar] = Field(min_length=1, max_length=8)
+    speed_mps: float | None = Field(
+        None, ge=0.0, le=100.0, description="start speed of the segments [m/s]")
+    segments: list[Segment] = Field(
+        default_factory=list, max_length=10_000,
+        description="manoeuvres sailed in order from the (single) waypoint; empty: waypoints")
+    smoothing: Smoothing | None = Field(
+        None, description="round waypoint corners with coordinated turns; None: jumps")
 
     _check_times = field_validator("waypoints")(
         classmethod(lambda cls, v: _check_waypoint_times(v)))
+
+    @model_validator(mode="after")
+    def _motion(self) -> Platform:
+        _check_motion(self)
+        return self
+
+    @property
+    def max_altitude_m(self) -> float:
+        """Highest altitude the platform reaches [m]."""
+        return _max_altitude(self)
 
 
 class Jammer(_Model):
@@ -341,6 +631,11 @@ class Jammer(_Model):
 
     _check_times = field_validator("waypoints")(
         classmethod(lambda cls, v: _check_waypoint_times(v)))
+
+    @property
+    def max_altitude_m(self) -> float:
+        """Highest altitude of the jammer's waypoints [m]."""
+        return _max_altitude(self)
 
 
 # --------------------------------------------------------------------------- environment
@@ -650,6 +945,8 @@ def _message(err: dict) -> str:
 
 #: A whole-scenario check that names its own field path starts its message with it.
 _OWN_PATH = re.compile(r"^[A-Za-z_][\w.\[\]]*: ")
+#: An object's check that names a field inside it starts with ``.field[i].sub: ``.
+_REL_PATH = re.compile(r"^\.[A-Za-z_][\w.\[\]]*: ")
 
 
 def format_validation_error(exc: ValidationError, data: Any) -> list[str]:
@@ -658,6 +955,9 @@ def format_validation_error(exc: ValidationError, data: Any) -> list[str]:
     for e in exc.errors():
         path, message = _path(tuple(e["loc"]), data), _message(e)
         own = path == "(top level)" and _OWN_PATH.match(message)
+        if _REL_PATH.match(message):  # a check of an object naming a field inside it
+            lines.append(f"{path}{message}")
+            continue
         lines.append(message if own else f"{path}: {message}")
     return lines
 
