@@ -25,6 +25,12 @@ from pathlib import Path
 import numpy as np
 
 from shipradar.sensors.detection import probability_of_detection, required_snr_db
+from shipradar.tables.pd import PdTable, build_pd_table
+
+#: P_fa of the table measurements (the example radars' Giraffe, [68]-[72]).
+TABLE_PFA = 3.6e-8
+#: Points of the table-against-exact error measurement per case.
+TABLE_ERROR_POINTS = 20_000
 
 ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / "docs" / "accuracy.md"
@@ -52,6 +58,25 @@ def throughput(
     dt = time.perf_counter() - t0
     assert np.all(np.isfinite(p))
     return points / dt
+
+
+def table_case(swerling: int, points: int, max_pulses: int, seed: int) -> dict[str, float]:
+    """Build time, evaluations per second and error against the exact method of the P_d
+    table (tables/pd.py) for one Swerling case at P_fa = TABLE_PFA, N_e in 1..max_pulses."""
+    c0 = time.process_time()
+    reader = PdTable(build_pd_table(TABLE_PFA, swerling, float(max_pulses)))
+    build = time.process_time() - c0
+    rng = np.random.default_rng(seed)
+    snr_db = rng.uniform(-10.0, 30.0, points)
+    n = rng.uniform(1.0, max_pulses, points)
+    t0 = time.perf_counter()
+    p = reader(snr_db, n)
+    rate = points / (time.perf_counter() - t0)
+    assert np.all(np.isfinite(p))
+    m = TABLE_ERROR_POINTS
+    err = np.abs(p[:m] - probability_of_detection(snr_db[:m], TABLE_PFA, n[:m], swerling))
+    return {"table_rate": rate, "table_build_s": build, "table_max_dpd": float(err.max()),
+            "table_rms_dpd": float(np.sqrt(np.mean(err**2)))}
 
 
 def accuracy(swerling: int) -> dict[str, float]:
@@ -101,6 +126,30 @@ def markdown(rows: list[dict], points: int, max_pulses: int) -> str:
             f"{r['bias_db']:+.2f} | {r['max_pd']:.3f} | ({w[0]:.1f}, {w[1]:.0e}, {w[2]:g}) |"
         )
     lines += [
+        "",
+        "P_d table (`fidelity.pd_method: table`, tables/pd.py): the exact method tabulated per",
+        f"radar P_fa and Swerling case against (ln N_e, S/I dB), here at P_fa = {TABLE_PFA:g}",
+        f"and N_e in 1..{max_pulses} (default grid: S/I -40..100 dB by 0.1 dB, 12 points per",
+        "e-fold of N_e, bilinear in z = Φ⁻¹(P_d)). Speed over the same random points (P_fa",
+        "fixed, as in a run); error against the exact method at "
+        f"{TABLE_ERROR_POINTS:,} of them.",
+        "",
+        "| Swerling | table [eval/s] | table/exact speed | build [s CPU] | max abs ΔP_d | "
+        "rms ΔP_d |",
+        "|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        lines.append(
+            f"| {r['swerling']} | {r['table_rate']:.3g} | "
+            f"{r['table_rate'] / r['exact_rate']:.0f} | {r['table_build_s']:.1f} | "
+            f"{r['table_max_dpd']:.1e} | {r['table_rms_dpd']:.1e} |")
+    lines += [
+        "",
+        "The table is monotone in S/I by construction and within 1e-3 of the exact P_d",
+        "(`tests/test_pd_table.py` checks both, with the exact method as the oracle); the",
+        "raid's detections over 5 seeds × 600 s were identical with either method. Its",
+        "rows are built once per radar and case and cached in the table store (Swerling 4",
+        "at real N dominates the build: the exact method's slowest case, once per grid point).",
         "",
         "Reading: the seed method keeps within its stated 0.7 dB of the exact one inside its",
         "validity range, at integer and non-integer N; a fraction of a dB of S/I moves P_d by",
@@ -158,12 +207,14 @@ def main() -> None:
         )
         row["seed_rate"] = throughput("seed", sw, args.points, args.max_pulses, seed=sw)
         row.update(accuracy(sw))
+        row.update(table_case(sw, args.points, args.max_pulses, seed=sw))
         rows.append(row)
         print(
             f"{sw:>2} {row['exact_rate']:>10.3g} {row['exact_int_rate']:>10.3g} "
             f"{row['seed_rate']:>10.3g} "
             f"{row['seed_rate'] / row['exact_rate']:>6.2f} {row['max_db']:>6.2f} "
-            f"{row['rms_db']:>6.2f} {row['bias_db']:>+7.2f} {row['max_pd']:>7.3f}",
+            f"{row['rms_db']:>6.2f} {row['bias_db']:>+7.2f} {row['max_pd']:>7.3f} "
+            f"table {row['table_rate']:.3g}/s max dPd {row['table_max_dpd']:.1e}",
             flush=True,
         )
     if not args.no_write:
