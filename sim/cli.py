@@ -653,8 +653,8 @@ def main(argv: list[str] | None = None) -> int:
                                                        "fidelity": cmd_fidelity}[argv[0]])
     else:
         args = build_parser().parse_args(argv)  # argparse exits with 2 on bad options
-    from shipradar.sim.bus import EndpointError, PublisherStalledError, SubscriberTimeoutError
     from shipradar.sim.asterix.encode import AsterixError
+    from shipradar.sim.bus import EndpointError, PublisherStalledError, SubscriberTimeoutError
     from shipradar.sim.recording import RecordingError, RecordingExistsError
     from shipradar.sim.security import CurveKeyError
     from shipradar.tables.budget import MemoryBudgetError
