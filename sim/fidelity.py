@@ -959,7 +959,7 @@ def format_report(study: Study) -> str:
         rows.append((
             label, f"{t['mean_abs_dpd']:.4f}", f"{t['max_abs_dpd']:.3f}",
             f"{t['worst_target_mean_abs_dpd']:.4f}", f"{t['d_expected_detections']:+.2f}",
-            f"{t['d_detections']:+g}",
+            f"{t['d_detections']:+.1f}",
             "inf" if math.isinf(t["max_abs_dfirst_m"]) else f"{t['max_abs_dfirst_m']:.0f}",
             ("inf" if math.isinf(t["max_realized_abs_dfirst_m"])
              else f"{t['max_realized_abs_dfirst_m']:.0f}"),
