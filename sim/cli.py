@@ -391,10 +391,16 @@ def cmd_view(args) -> int:
     for ep in args.tracks or []:
         if "://" not in ep:
             raise BadInput(f"--tracks {ep!r} is not a ZeroMQ endpoint (tcp://HOST:PORT)")
+    from shipradar.sim.security import curve_from_args
+
+    curve = curve_from_args(args, "client")
+    if curve is not None and "://" not in source:
+        raise BadInput(f"--curve-secret-key/--curve-server-key secure a live endpoint; "
+                       f"{source!r} is a recording")
     try:
         server = ViewerServer(source, host=args.host, port=args.port,
                               allow_remote=args.allow_remote, tracks=args.tracks,
-                              speed=args.speed, max_queue=args.max_queue)
+                              speed=args.speed, max_queue=args.max_queue, curve=curve)
         run_viewer(server, open_browser=args.open)
     except HostError as exc:
         raise BadInput(str(exc)) from None
@@ -616,6 +622,7 @@ def build_parser() -> argparse.ArgumentParser:
     vw.add_argument("--max-queue", type=_int_range("--max-queue", 16, 1_000_000),
                     default=4096, help="messages queued per page before the oldest are "
                                        "dropped [default 4096]")
+    add_curve_arguments(vw, "client")
     vw.set_defaults(func=cmd_view)
 
     pl = sub.add_parser("plot", help="render figures of a scenario's tables as PNG")

@@ -278,3 +278,41 @@ def test_example_tracker_publishes_tracks_that_reach_the_page(demo_recording):
     row = by_time[round(last["t"], 6)]
     assert row["tracks"] == len(last["ids"])
     assert last["e"].shape == last["n"].shape == (len(last["ids"]),)
+
+
+# ----------------------------------------------------------------------------- CurveZMQ
+def test_view_subscribes_to_a_curve_stream_only_with_authorised_keys(tmp_path):
+    """shipradar view --curve-secret-key/--curve-server-key: a viewer with an authorised key
+    reads the CURVE publisher's stream; one whose key is not authorised reads nothing."""
+    from shipradar.sim.security import CurveClient, CurveServer, generate_keys
+
+    keys = tmp_path / "keys"
+    generate_keys(keys, clients=["alice", "mallory"])
+    (keys / "authorized" / "mallory.key").unlink()
+    server_keys = CurveServer.from_files(keys / "server.key_secret", keys / "authorized")
+    frames = [protocol.encode(protocol.TOPIC_EOS, float(i), {"sensor": "r", "scan": i})
+              for i in range(20)]
+    with Publisher("tcp://127.0.0.1:*", curve=server_keys, wait_subscribers=1,
+                   wait_timeout_s=20) as pub:
+        views = {name: ViewerServer(pub.endpoint, port=0, curve=CurveClient.from_files(
+            keys / f"{name}.key_secret", keys / "server.key")) for name in ("alice", "mallory")}
+        with ViewerThread(views["alice"]) as alice, ViewerThread(views["mallory"]) as mallory:
+            pub.wait_for_subscribers()  # only an authorised key completes the handshake
+            for f in frames:
+                pub.send(f)
+            seen = lambda v, th: th.call(lambda: v.live.received)  # noqa: E731
+            wait_until(lambda: seen(views["alice"], alice) == len(frames),
+                       what="the authorised viewer to read every frame")
+            assert seen(views["mallory"], mallory) == 0
+    assert pub.stats["subscribers"] == 1
+
+
+def test_view_curve_options_refused_on_a_recording(demo_recording, tmp_path, capsys):
+    from shipradar.sim.security import generate_keys
+
+    generate_keys(tmp_path / "k", clients=["alice"])
+    code = main(["view", str(demo_recording["path"]), "--port", "0",
+                 "--curve-secret-key", str(tmp_path / "k" / "alice.key_secret"),
+                 "--curve-server-key", str(tmp_path / "k" / "server.key")])
+    assert code == 2
+    assert "secure a live endpoint" in capsys.readouterr().err

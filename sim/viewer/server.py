@@ -189,6 +189,9 @@ class LiveSource:
         The stream's endpoint first, then any tracker endpoints publishing ``tracks``.
     context : zmq.asyncio.Context or None, optional
         Context (needed for ``inproc://``); default a private one.
+    curve : sim.security.CurveClient or None, optional
+        CurveZMQ keys for the subscription (every endpoint of this source is then a CURVE
+        publisher holding the matching server key).
 
     Notes
     -----
@@ -198,9 +201,10 @@ class LiveSource:
 
     live = True
 
-    def __init__(self, endpoints: list[str], context=None) -> None:
+    def __init__(self, endpoints: list[str], context=None, curve=None) -> None:
         self.endpoints = endpoints
         self._context = context
+        self._curve = curve
         self._ctx = None
         self._sock = None
         self.clients: set[Client] = set()
@@ -294,6 +298,8 @@ class LiveSource:
         # The reader never waits for a page, so this queue only absorbs bursts of the
         # stream itself; the publisher's own rules apply beyond it (docs/protocol.md §8).
         sock.setsockopt(zmq.RCVHWM, 100_000)
+        if self._curve is not None:
+            self._curve.apply(sock)
         for ep in self.endpoints:
             try:
                 sock.connect(ep)
@@ -623,12 +629,15 @@ class ViewerServer:
         A recording starts playing when a page opens (else it waits for play).
     zmq_context : zmq.asyncio.Context or None, optional
         For ``inproc://`` sources.
+    curve : sim.security.CurveClient or None, optional
+        CurveZMQ keys for a live source (``--curve-*``); tracker endpoints are then read on
+        a socket of their own, without CURVE.
     """
 
     def __init__(self, source: str, *, host: str = "127.0.0.1", port: int = DEFAULT_PORT,
                  allow_remote: bool = False, tracks: list[str] | None = None,
                  speed: float = 1.0, max_queue: int = DEFAULT_MAX_QUEUE,
-                 autoplay: bool = True, zmq_context=None) -> None:
+                 autoplay: bool = True, zmq_context=None, curve=None) -> None:
         check_http_host(host, allow_remote=allow_remote)
         if not MIN_SPEED <= speed <= MAX_SPEED:
             raise ValueError(f"speed must be in [{MIN_SPEED:g}, {MAX_SPEED:g}], got {speed}")
@@ -644,6 +653,7 @@ class ViewerServer:
         self.recording = None if self.is_live else RecordingSource(source)
         self.source_name = source
         self._zmq_context = zmq_context
+        self._curve = curve
         self.live: LiveSource | None = None
         self.clients: set[Client] = set()
         self.url: str | None = None
@@ -755,12 +765,15 @@ class ViewerServer:
     # -- life cycle -------------------------------------------------------------------------
     async def start(self) -> str:
         """Listen and start reading the source; returns the page's URL."""
+        # a CURVE stream needs its own socket: the keys apply to every connection of one
+        separate_tracks = bool(self.tracks) and (not self.is_live or self._curve is not None)
         if self.is_live:
-            self.live = LiveSource([self.source_name, *self.tracks], self._zmq_context)
+            shared = [] if separate_tracks else self.tracks
+            self.live = LiveSource([self.source_name, *shared], self._zmq_context, self._curve)
             self.live.open()
             self._tasks += [asyncio.create_task(self.live.run()),
                             asyncio.create_task(self.live.run_clock())]
-        elif self.tracks:
+        if separate_tracks:
             # tracks from a tracker beside a replay go to every page as they come; the page
             # draws each when its replay reaches the track's time
             self._tracks_source = LiveSource(self.tracks, self._zmq_context)
