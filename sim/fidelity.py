@@ -26,10 +26,11 @@ What is measured per setting, per (radar, target) and in total
 
 Tolerances (the recommendation keeps every (radar, target) inside all of them): mean |ΔP_d|
 per look ≤ ``--tolerance-pd``; |Δ expected first-detection range| ≤ ``--tolerance-range-m``,
-and a target detected (probability ≥ 5 %) under one setting but not the other is outside; expected false alarms per scan of each radar and origin within
-``--tolerance-fa`` (relative to the reference's count, or to 5 per scan if fewer); the
-latency added by fewer sectors per scan (one sector, the scan period over
-``sectors_per_scan``) ≤ ``--max-latency-s`` (default: the scene's own).
+and a target detected (probability ≥ 5 %) under one setting but not the other is outside;
+expected false alarms per scan of each radar and origin within ``--tolerance-fa``
+(relative to the reference's count, or to 5 per scan if fewer); the latency added by fewer
+sectors per scan (one sector, the scan period over ``sectors_per_scan``) ≤
+``--max-latency-s`` (default: the scene's own).
 
 Recommendation: each choice takes the cheapest admissible value (its one-at-a-time run's
 measured cost: run CPU time plus the time of the tables it reads, each timed once per
@@ -944,8 +945,8 @@ def format_report(study: Study) -> str:
     out = [f"shipradar fidelity: {s.name}, {study.duration_s:g} s simulated x "
            f"{len(study.seeds)} run(s); reference {_diff_label(study.reference, {})}",
            f"tolerances: mean |ΔP_d| per look <= {tol.pd:g} per target; |Δ expected "
-           f"first-detection range| <= {tol.range_m:g} m; expected FA/scan within {tol.fa_rel:.0%}; latency <= "
-           f"{tol.latency_s:.3g} s", ""]
+           f"first-detection range| <= {tol.range_m:g} m; expected FA/scan within "
+           f"{tol.fa_rel:.0%}; latency <= {tol.latency_s:.3g} s", ""]
     head = ("setting", "mean|ΔPd|", "max|ΔPd|", "worst tgt", "ΔE[det]", "Δdet",
             "max|ΔE[R1]|m", "max|ΔR1|m", "FA/scan n+c", "tables s", "run s", "cpu s", "RT x",
             "ok")

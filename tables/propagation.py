@@ -860,8 +860,9 @@ class PropagationLookup:
     complex64 array (the field with its smooth phase removed, ``field_re``/``field_im``)
     and F is the modulus of their bilinear combination, which keeps the interference nulls
     between nodes (a table without the field: float32 |F|, bilinear).  Against a NaN
-    corner of positive weight the sentinel -1e30 drives the real part below -_FIELD_LIMIT.  NaN outside the table's domain (range outside the axis, height < 0 or
-    above ``max_height_m``) and where any corner of positive weight is NaN (steep angles):
+    corner of positive weight the sentinel -1e30 drives the real part below -_FIELD_LIMIT.
+    NaN outside the table's domain (range outside the axis, height < 0 or above
+    ``max_height_m``) and where any corner of positive weight is NaN (steep angles):
     the caller falls back to :func:`sensors.propagation.two_ray_factor` and counts it.
     """
 
