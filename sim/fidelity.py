@@ -21,8 +21,8 @@ What is measured per setting, per (radar, target) and in total
 * false alarms per scan by origin: the model's expected count per scan (noise: cells × P_fa
   [90]; sea clutter: Σ η of the P_fac map, seed 7.2), exact and dice-free, and the counts the
   run drew;
-* the tables' time (built or loaded, and whether any was built), the run's wall and CPU time,
-  and its real-time factor.
+* the tables' time (built or loaded, and whether any was built), the run's wall and CPU time
+  (best of the runs), and its real-time factor.
 
 Tolerances (the recommendation keeps every (radar, target) inside all of them): mean |ΔP_d|
 per look ≤ ``--tolerance-pd``; |Δ expected first-detection range| ≤ ``--tolerance-range-m``,
@@ -34,7 +34,7 @@ sectors per scan (one sector, the scan period over ``sectors_per_scan``) ≤
 
 Recommendation: each choice takes the cheapest admissible value (its one-at-a-time run's
 measured cost: run CPU time plus the time of the tables it reads, each timed once per
-command, built or loaded; a value must save 5 % of the reference's run CPU time to displace
+command, built or loaded; a value must save 10 % of the reference's run CPU time to displace
 a more accurate one, against timing noise); the combination is then run and checked, and while it
 is outside a tolerance the change with the largest error of its own goes back to the
 reference value. Cost of the command: one run per setting (the reference, each alternative,
@@ -81,7 +81,7 @@ CHOICES = ("pd_method", "propagation", "pe_grid", "improvement_grid", "clutter_f
 SECTOR_CHOICES = (4, 12, 36)
 #: A cheaper value must save this fraction of the reference's run CPU time to displace a
 #: more accurate one (timing noise).
-COST_MARGIN = 0.05
+COST_MARGIN = 0.10
 #: The false-alarm tolerance is relative to at least this many per scan [1/scan], so that a
 #: radar expecting almost none is not held to a fraction of a false alarm.
 FA_REL_FLOOR = 5.0
@@ -536,7 +536,8 @@ def run_setting(scenario: Scenario, setting: Setting, seeds: Sequence[int], dura
     cols: dict[str, list[np.ndarray]] = {k: [] for k in
                                          ("run", "radar", "target", "scan", "pd", "hit",
                                           "range_m")}
-    wall = cpu = 0.0
+    # best of the runs (the usual benchmark reading: the others were slowed by the machine)
+    wall = cpu = math.inf
     fa = {"noise": 0.0, "sea_clutter": 0.0}
     scans = 0
     expected: dict[tuple[str, str], float] = {}
@@ -554,8 +555,8 @@ def run_setting(scenario: Scenario, setting: Setting, seeds: Sequence[int], dura
                 expected[(proc.radar.id, "sea_clutter")] = _clutter_fa_per_scan(model)
         w0, c0 = time.perf_counter(), time.process_time()
         sim.run()
-        wall += time.perf_counter() - w0
-        cpu += time.process_time() - c0
+        wall = min(wall, time.perf_counter() - w0)
+        cpu = min(cpu, time.process_time() - c0)
         fa["noise"] += sim.stats.noise_false_alarms
         fa["sea_clutter"] += sim.stats.clutter_false_alarms
         scans += sim.stats.scans
@@ -564,7 +565,7 @@ def run_setting(scenario: Scenario, setting: Setting, seeds: Sequence[int], dura
     n = len(seeds)
     return RunResult(setting, looks, expected,
                      {o: c / max(scans, 1) for o, c in fa.items()}, table_s, built,
-                     wall / n, cpu / n, duration_s, fallbacks // n)
+                     wall, cpu, duration_s, fallbacks // n)
 
 
 def _probe(cols: dict[str, list[np.ndarray]], run: int, radar: int, period: float):
