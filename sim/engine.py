@@ -102,6 +102,11 @@ class Simulation:
     realtime : None for as fast as possible, or a speed factor (1 = wall clock, 10 = 10x)
     tables : scene tables (``tables.scene.SceneTables``) or None to load what is cached
     progress : show a progress bar on stderr
+    processes : run the radars in this many processes (fast mode only; ``sim.parallel``):
+        the same messages in the same order, byte for byte, as one process
+    only_radars : indices (in ``scenario.radars()`` order) of the radars to simulate, the
+        others left out (a worker of ``sim.parallel``); every radar keeps its own random
+        stream, so a radar's messages do not depend on which others run beside it
     """
 
     def __init__(
@@ -114,6 +119,8 @@ class Simulation:
         realtime: float | None = None,
         tables=None,
         progress: bool = False,
+        processes: int = 1,
+        only_radars=None,
     ):
         from shipradar.sensors.dwell import DwellModel  # the on-line radar model
         from shipradar.tables.scene import load_scene_tables
@@ -124,6 +131,13 @@ class Simulation:
         self.duration = float(scenario.duration_s if duration_s is None else duration_s)
         self.realtime = realtime
         self.progress = progress
+        self.processes = int(processes)
+        if self.processes < 1:
+            raise ValueError(f"processes must be >= 1, got {processes}")
+        if self.processes > 1 and realtime:
+            raise ValueError("processes > 1 is for fast mode (no --realtime)")
+        #: index of the radar whose process is running (sim.parallel tags messages with it)
+        self.active_radar = 0
         self.stats = RunStats()
         origin = scenario.origin
         self.frame = LocalFrame(origin)
@@ -137,10 +151,14 @@ class Simulation:
         seeds = np.random.SeedSequence(self.seed).spawn(len(scenario.radars()))
         self.radars = []
         for k, (platform, radar) in enumerate(scenario.radars()):
+            if only_radars is not None and k not in only_radars:
+                continue
             p_index = scenario.platforms.index(platform)
             model = DwellModel(scenario, platform, radar, self.tables)
             rng = np.random.default_rng(seeds[k])
-            self.radars.append(_RadarProcess(self, p_index, platform, radar, model, rng))
+            process = _RadarProcess(self, p_index, platform, radar, model, rng)
+            process.index = k
+            self.radars.append(process)
 
     # ------------------------------------------------------------------ running
     def _environment(self):
@@ -154,6 +172,10 @@ class Simulation:
 
     def run(self) -> dict[str, Any]:
         """Run to the end; returns the summary (the JSON line ``shipradar run`` prints)."""
+        if self.processes > 1 and len(self.radars) > 1:
+            from shipradar.sim.parallel import run_parallel
+
+            return run_parallel(self)
         env = self._environment()
         bar = None
         if self.progress:
@@ -266,6 +288,10 @@ class _RadarProcess:
         self._cursor = 0
         self._plan_rows = np.zeros(0, dtype=int)
         self._frames: dict[int, tuple[int, bytes, bytes]] | None = None
+        #: position in scenario.radars(); env.now at each resumption of run() (the order of
+        #: the messages between radars in sim.parallel)
+        self.index = 0
+        self.resume_times: list[float] = []
         self.target_ids = [t.id for t in sim.scenario.targets]
         self._eos_cache: dict[float, tuple[float, float]] = {}
         # revolutions computed ahead (see _compute_block), consumed one per scan
@@ -307,6 +333,8 @@ class _RadarProcess:
     # ------------------------------------------------------------------ process
     def run(self, env: simpy.Environment):
         sim = self.sim
+        sim.active_radar = self.index
+        self.resume_times.append(env.now)
         self._emit_meta(0.0, scan=0)
         k = 0
         while True:
@@ -324,6 +352,8 @@ class _RadarProcess:
                 self._frames = self._encode_scan(scan) if sim.encodes_ahead else None
             t_b = min((k + 1) * self.sector_s, sim.duration)
             yield env.timeout(t_b - env.now)
+            sim.active_radar = self.index
+            self.resume_times.append(env.now)
             self._emit_sector(t_a, t_b, scan, last=sector == self.n_sectors - 1, sector=sector)
             sim.stats.sectors += 1
             if sector == self.n_sectors - 1 or t_b >= sim.duration:

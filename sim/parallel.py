@@ -1,0 +1,197 @@
+"""Radars of one scene in parallel processes, merged into the one stream (issue 16, item 6).
+
+A scene's radars share nothing on the on-line level but the (read-only) trajectories and
+tables: each has its own random generator (spawned from the seed in scenario order), its own
+dwells, false alarms and frames.  :func:`run_parallel` therefore runs groups of radars in
+forked worker processes (and one group in this process), each encoding its own messages, and
+merges them into the run's bus in exactly the order the single-process run gives them, so the
+recording is byte-identical for a given seed (``tests/test_parallel.py``).
+
+The order
+---------
+In one process the messages leave from the radars' SimPy processes, one batch per
+resumption (a sector's frames, an end of scan, the next metadata).  SimPy orders resumptions
+by (time, priority, event id), the id counting events in the order they were *scheduled*,
+and a radar schedules its next timeout while it runs.  So the order is reproduced from the
+times alone: every worker records ``env.now`` at each resumption of each radar, and
+:func:`merge_order` replays SimPy's heap on those times: the processes start in radar order
+(urgent initialisation events at t = 0), and each popped resumption schedules that radar's
+next one with the next id.  Ties between radars at one instant (common sector ends) are
+broken exactly as SimPy breaks them, with no assumption about the radars' timings.
+
+Fast mode only (a wall-clock run is paced by one clock); ``Simulation.messages`` stays in one
+process.  Workers are forked (``fork`` start method: the scene's tables are inherited, not
+pickled); where fork is unavailable the run stays in one process.
+"""
+
+from __future__ import annotations
+
+import heapq
+import multiprocessing
+import pickle
+import time
+from collections.abc import Sequence
+from dataclasses import fields
+from typing import Any
+
+from shipradar.sim import protocol
+
+#: SimPy's priorities: process initialisation (URGENT) before timeouts (NORMAL).
+_URGENT, _NORMAL = 0, 1
+
+# What a forked worker needs, set by the parent just before it forks (not pickled).
+_FORK_STATE: dict[str, Any] = {}
+
+
+class FrameCollector:
+    """A bus that keeps every message encoded, tagged with its radar and resumption.
+
+    The engine encodes ahead for it (``encodes_ahead``), as for :class:`sim.bus.Bus`.
+    """
+
+    encodes_ahead = True
+
+    def __init__(self, sim) -> None:
+        self.sim = sim
+        self.messages: list[tuple[int, int, float, bytes, bytes]] = []
+        self._resumes = {r.index: r.resume_times for r in sim.radars}
+
+    def emit(self, topic: bytes, t_sim: float, payload: dict) -> None:
+        self.emit_frames(t_sim, protocol.encode(topic, t_sim, payload))
+
+    def emit_frames(self, t_sim: float, frames: Sequence[bytes]) -> None:
+        r = self.sim.active_radar
+        self.messages.append((r, len(self._resumes[r]) - 1, t_sim, bytes(frames[0]),
+                              bytes(frames[1])))
+
+    def flush(self, fsync: bool = False) -> None:
+        """Nothing to hand on: the parent's bus flushes at each end of scan."""
+
+
+def _stats_dict(stats) -> dict[str, Any]:
+    return {f.name: getattr(stats, f.name) for f in fields(stats)}
+
+
+def _run_group(indices: Sequence[int]) -> dict[str, Any]:
+    """Run the radars ``indices`` of the scene in _FORK_STATE; their messages and times."""
+    st = _FORK_STATE
+    # the class from the parent's instance: no import of the engine here (no import circle)
+    sim = st["cls"](st["scenario"], seed=st["seed"], duration_s=st["duration"],
+                     tables=st["tables"], only_radars=set(indices))
+    sim.bus = FrameCollector(sim)
+    sim.run()
+    return {"stats": _stats_dict(sim.stats), "messages": sim.bus.messages,
+            "resume_times": {r.index: r.resume_times for r in sim.radars}}
+
+
+def _worker(indices: Sequence[int], conn) -> None:
+    try:
+        out = _run_group(indices)
+        conn.send_bytes(pickle.dumps(out, protocol=pickle.HIGHEST_PROTOCOL))
+    except BaseException as exc:  # reported by the parent
+        conn.send_bytes(pickle.dumps({"error": repr(exc)}))
+    finally:
+        conn.close()
+
+
+def merge_order(resume_times: dict[int, list[float]]) -> list[tuple[int, int]]:
+    """(radar, resumption) pairs in the order one SimPy environment runs them.
+
+    Parameters
+    ----------
+    resume_times : dict[int, list[float]]
+        For each radar index (``scenario.radars()`` order), ``env.now`` at each resumption
+        of its process [s], the first being its start at 0.
+
+    Returns
+    -------
+    list[tuple[int, int]]
+        Every (radar, k) once, in the single-process order (module notes).
+    """
+    radars = sorted(resume_times)
+    heap = [(0.0, _URGENT, eid, r, 0) for eid, r in enumerate(radars) if resume_times[r]]
+    heapq.heapify(heap)
+    eid = len(radars)
+    order = []
+    while heap:
+        _, _, _, r, k = heapq.heappop(heap)
+        order.append((r, k))
+        times = resume_times[r]
+        if k + 1 < len(times):
+            heapq.heappush(heap, (times[k + 1], _NORMAL, eid, r, k + 1))
+            eid += 1
+    return order
+
+
+def groups(n_radars: int, processes: int) -> list[list[int]]:
+    """Radar indices per process, round robin (at most ``processes`` groups)."""
+    n = max(1, min(processes, n_radars))
+    return [list(range(i, n_radars, n)) for i in range(n)]
+
+
+def run_parallel(sim) -> dict[str, Any]:
+    """Run ``sim`` (a :class:`sim.engine.Simulation` with ``processes`` > 1) with its radars
+    in worker processes; publish and record the merged stream on ``sim.bus``.
+
+    Returns
+    -------
+    dict
+        The summary, as :meth:`Simulation.run` (counts summed over the radars).
+    """
+    try:
+        ctx = multiprocessing.get_context("fork")
+    except ValueError:  # no fork on this platform: one process
+        sim.processes = 1
+        return sim.run()
+    wall0 = time.perf_counter()
+    parts = groups(len(sim.radars), sim.processes)
+    _FORK_STATE.update(cls=type(sim), scenario=sim.scenario, seed=sim.seed, duration=sim.duration,
+                       tables=sim.tables)
+    workers = []
+    try:
+        for indices in parts[1:]:
+            recv, send = ctx.Pipe(duplex=False)
+            proc = ctx.Process(target=_worker, args=(indices, send), daemon=True)
+            proc.start()
+            send.close()
+            workers.append((proc, recv))
+        results = [_run_group(parts[0])]  # this process works too
+        for proc, recv in workers:
+            out = pickle.loads(recv.recv_bytes())
+            proc.join()
+            if "error" in out:
+                raise RuntimeError(f"radar worker failed: {out['error']}")
+            results.append(out)
+    finally:
+        _FORK_STATE.clear()
+        for proc, _ in workers:
+            if proc.is_alive():
+                proc.terminate()
+    resume_times: dict[int, list[float]] = {}
+    batches: dict[tuple[int, int], list[tuple[float, bytes, bytes]]] = {}
+    for out in results:
+        resume_times.update(out["resume_times"])
+        for r, k, t, topic, body in out["messages"]:
+            batches.setdefault((r, k), []).append((t, topic, body))
+        for name, value in out["stats"].items():
+            if isinstance(value, dict):
+                for key, v in value.items():
+                    getattr(sim.stats, name)[key] += v
+            else:
+                setattr(sim.stats, name, getattr(sim.stats, name) + value)
+    bus = sim.bus
+    if bus is not None:
+        takes_frames = hasattr(bus, "emit_frames")
+        for key in merge_order(resume_times):
+            for t, topic, body in batches.get(key, ()):
+                if takes_frames:
+                    bus.emit_frames(t, [topic, body])
+                else:
+                    bus.emit(*protocol.decode([topic, body]))
+                if topic == protocol.TOPIC_EOS:
+                    bus.flush()  # as the engine does at each end of scan
+        bus.flush()
+    return sim.summary(time.perf_counter() - wall0)
+
+
+__all__ = ["FrameCollector", "groups", "merge_order", "run_parallel"]
