@@ -183,8 +183,99 @@ class DwellModel:
         from shipradar.tables.scene import ship_motion
 
         speed, course = ship_motion(platform)
+        self._table_motion = (speed, course)
         self._compensation = (speed, course) if (
             radar.processor.motion_compensated and speed > 0.0) else None
+
+    def _platform_doppler_hz(self, speed, course, azimuth, ground_range=None):
+        """f1 [34] of the clutter patch along each beam [Hz] for a ship at ``speed`` [m/s] on
+        ``course`` [rad]; at the sea patch's depression angle at ``ground_range`` [m], or
+        horizontal (the weather map's convention) when None."""
+        depression = 0.0 if ground_range is None else sea_clutter.depression_angle_rad(
+            ground_range, self.radar.antenna_height_m)
+        return sea_clutter.platform_doppler_hz(speed, azimuth - course, depression,
+                                               self.wavelength)
+
+    def _instantaneous_f1(self, geom, platform_vel, sea=True):
+        """f1 [34] from the platform's instantaneous velocity (N, 3) [m/s] (a turning or
+        accelerating ship), and the same from the clutter tables' motion, to swap one for
+        the other in the clutter mean [35] and in the motion compensation."""
+        speed = np.hypot(platform_vel[:, 0], platform_vel[:, 1])
+        course = np.arctan2(platform_vel[:, 0], platform_vel[:, 1])
+        rng = geom.ground_range if sea else None
+        return (self._platform_doppler_hz(speed, course, geom.azimuth, rng),
+                self._platform_doppler_hz(*self._table_motion, geom.azimuth, rng))
+
+    @property
+    def has_doppler_bank(self) -> bool:
+        """True for a DFT/FIR bank (alone or behind an MTI): plots carry a range rate."""
+        return self.radar.processor.type in ("dft_bank", "fir_bank", "mti_bank")
+
+    @property
+    def n_doppler_filters(self) -> int:
+        """Filters of the bank (as :meth:`_doppler_filter` counts them); 1 without a bank."""
+        proc = self.radar.processor
+        if not self.has_doppler_bank:
+            return 1
+        taps = proc.n_coherent - (proc.mti_order if proc.type == "mti_bank" else 0)
+        return proc.n_filters if proc.n_filters is not None else taps
+
+    @property
+    def range_rate_sigma_mps(self) -> float:
+        """Expected 1σ of the reported range rate [m/s]: the filter spacing f_r/N as a
+        uniform quantisation, (λ/2) f_r / (N √12); NaN without a bank."""
+        if not self.has_doppler_bank:
+            return math.nan
+        return 0.5 * self.wavelength * self.radar.prf_hz / (self.n_doppler_filters
+                                                            * math.sqrt(12.0))
+
+    def range_rate_from_filter(self, filter_index, reference_hz):
+        """Measured range rate [m/s] (positive receding) of contacts detected in bank filters
+        ``filter_index``: the filter centre i f_r/N [60], folded into [-f_r/2, f_r/2) (the
+        Doppler ambiguity: blind and ambiguous speeds beyond ±f_r λ/4), plus the bank's
+        reference ``reference_hz`` [Hz] (the clutter mean μ_c the filters are indexed from,
+        and f1 [34] when motion-compensated: both known to the processor), as -λ f/2.
+
+        Staggered PRFs: the filters are on the nominal ``prf_hz`` grid (as the model picks
+        them), so the fold is by ``prf_hz``; the stagger moves the blind speeds of the
+        improvement factor, not the ambiguity of one coherent dwell's filter centre.
+        """
+        n = self.n_doppler_filters
+        prf = self.radar.prf_hz
+        centre = (np.mod(np.asarray(filter_index) / n + 0.5, 1.0) - 0.5) * prf
+        return -0.5 * self.wavelength * (centre + reference_hz)
+
+    def _doppler_draw_rng(self, rng: np.random.Generator) -> np.random.Generator:
+        """A child of the radar's generator for the false alarms' Doppler draws (spawned
+        once: the parent's stream, hence every other draw, is unchanged)."""
+        child = self.__dict__.get("_doppler_rng")
+        if child is None:
+            child = self._doppler_rng = rng.spawn(1)[0]
+        return child
+
+    def _false_alarm_range_rate(self, range_m, azimuth_rad, rng, clutter: bool) -> dict:
+        """Range-rate columns of false alarms: the filter of a noise alarm is uniform over the
+        bank; a sea-clutter alarm's Doppler is drawn from the clutter spectrum [33] at its
+        cell (Gaussian about μ_c with σ_s), then reported as a target's would be."""
+        n = np.size(range_m)
+        if not self.has_doppler_bank or n == 0:
+            nan = np.full(n, np.nan)
+            return {"range_rate_mps": nan, "sigma_range_rate_mps": nan.copy()}
+        draw = self._doppler_draw_rng(rng)
+        reference = np.zeros(n)
+        spread = np.zeros(n)
+        if self._sea_reader is not None:
+            v = np.nan_to_num(self._sea_reader(np.asarray(range_m), np.asarray(azimuth_rad)))
+            reference, spread = v[:, 1], v[:, 2]
+        if self._compensation is not None:
+            reference = reference + self._platform_doppler_hz(*self._compensation,
+                                                              azimuth_rad, range_m)
+        if clutter:
+            index = self._doppler_filter(draw.normal(0.0, 1.0, n) * spread)
+        else:
+            index = draw.integers(0, self.n_doppler_filters, n)
+        return {"range_rate_mps": self.range_rate_from_filter(index, reference),
+                "sigma_range_rate_mps": np.full(n, self.range_rate_sigma_mps)}
 
     def _prepare_propagation(self, scenario: Scenario) -> None:
         self.propagation_mode = scenario.fidelity.propagation
@@ -296,7 +387,7 @@ class DwellModel:
             l_atm=l_atm[None, :], sidelobe_floor=self.jam_sidelobe_floor)
         return p.sum(axis=1)
 
-    def target_doppler_hz(self, geom):
+    def target_doppler_hz(self, geom, platform_vel=None):
         """Target Doppler after the processor [Hz]: f_d = -2 v_r/λ, minus f1 when compensated.
 
         A motion-compensated processor ([35]: μ_c = 0) shifts everything it receives in the
@@ -311,8 +402,13 @@ class DwellModel:
         geom : Geometry
             Targets seen from the antenna (``radial_velocity`` [m/s], ``azimuth`` [rad],
             ``ground_range`` [m]).
+        platform_vel : (N, 3) ndarray, optional
+            The platform's instantaneous velocity [m/s] at each look: f1 then follows a
+            turning or accelerating ship; None: the clutter tables' (first-leg) motion.
         """
         fd = -2.0 * geom.radial_velocity / self.wavelength
+        if platform_vel is not None and self.radar.processor.motion_compensated:
+            return fd - self._instantaneous_f1(geom, platform_vel)[0]
         if self._compensation is None:
             return fd
         speed, course = self._compensation
@@ -321,7 +417,7 @@ class DwellModel:
         return fd - sea_clutter.platform_doppler_hz(speed, geom.azimuth - course, depression,
                                                     self.wavelength)
 
-    def clutter_at(self, geom, tpos, antenna_en):
+    def clutter_at(self, geom, tpos, antenna_en, platform_vel=None):
         """Clutter at each target's cell and what the processor does to it.
 
         Returns None when the scene has no clutter tables; otherwise a dict of arrays:
@@ -345,10 +441,19 @@ class DwellModel:
             v = np.nan_to_num(self._wx_reader(geom.ground_range, geom.azimuth))
             p_wc = self._inside_rain(tpos) * v[:, 0]
             mean_wc, spread_wc = v[:, 1], v[:, 2]
+        if platform_vel is not None and not self.radar.processor.motion_compensated:
+            # the tables' μ_c [35] holds f1 [34] of the first leg: swap in the ship's
+            # instantaneous velocity (a turning frigate sweeps its clutter Doppler)
+            if self._sea_reader is not None:
+                f1, f1_table = self._instantaneous_f1(geom, platform_vel)
+                mean_sc = mean_sc + (f1 - f1_table)
+            if self._wx_reader is not None:
+                f1, f1_table = self._instantaneous_f1(geom, platform_vel, sea=False)
+                mean_wc = mean_wc + (f1 - f1_table)
         sea_dom = p_sc >= p_wc
         mean = np.where(sea_dom, mean_sc, mean_wc)
         spread = np.where(sea_dom, spread_sc, spread_wc)
-        relative = self.target_doppler_hz(geom) - mean
+        relative = self.target_doppler_hz(geom, platform_vel) - mean
         from shipradar.tables.improvement import improvement_factor_db
 
         prf = self.radar.prf_hz
@@ -411,7 +516,8 @@ class DwellModel:
         return si, code
 
     def process_targets(self, geom, rows, t, tpos, rng: np.random.Generator, *,
-                        antenna_en=None, jam_geom=None, jam_power_w=None, batch=None) -> dict:
+                        antenna_en=None, jam_geom=None, jam_power_w=None, batch=None,
+                        platform_vel=None) -> dict:
         """Plots of the targets ``rows`` crossed by the beam at times ``t`` [s].
 
         ``geom`` is their :class:`sim.kinematics.Geometry`, ``tpos`` their origin-frame
@@ -423,7 +529,13 @@ class DwellModel:
         ``jam_power_w`` (N,) [W], when given, replaces the jamming computed from ``jam_geom``
         (the engine computes it per revolution when it processes several at once), and
         ``batch`` (N,) integers keep targets of different batches (revolutions) from ever
-        being merged as unresolved; contacts come out ordered by batch.
+        being merged as unresolved; contacts come out ordered by batch.  ``platform_vel``
+        (N, 3) [m/s], the platform's instantaneous velocity at each look, moves the clutter
+        mean and the motion compensation with a manoeuvring ship ([33]-[38]).
+
+        With a Doppler bank each plot carries ``range_rate_mps``, the centre of the filter
+        its strongest target is detected in, folded by the PRF
+        (:meth:`range_rate_from_filter`), and ``sigma_range_rate_mps``; both NaN otherwise.
         """
         sigma = self.cross_section(rows, geom.los_enu, geom.velocity_enu)
         f, fallbacks = self.propagation_factor(geom.ground_range, tpos[:, 2], geom.elevation)
@@ -432,7 +544,7 @@ class DwellModel:
                                       tpos[:, 2])
         p_r = noise.received_power(self.k_r0 / l_atm**2, sigma, f, geom.slant_range)
         n = rows.size
-        clutter = self.clutter_at(geom, tpos, radar_en)
+        clutter = self.clutter_at(geom, tpos, radar_en, platform_vel)
         clutter_w = np.zeros(n) if clutter is None else clutter["power_w"]
         improvement = np.ones(n) if clutter is None else clutter["improvement"]
         dist_loss = np.ones(n) if clutter is None else clutter["distribution_loss"]
@@ -440,7 +552,7 @@ class DwellModel:
         jam_w = (self.jamming_power(geom.azimuth, jam_geom) if jam_power_w is None
                  else np.asarray(jam_power_w, dtype=float))
         # unresolved targets (2.2.1): one contact per range cell, beam and Doppler filter
-        group, n_groups = self._resolution_groups(geom, clutter, batch)
+        group, n_groups = self._resolution_groups(geom, clutter, batch, platform_vel)
         p_sum = np.bincount(group, weights=p_r, minlength=n_groups)
         lead = _argmax_by_group(group, p_r, n_groups)
         si, code = self.signal_to_interference(
@@ -492,6 +604,7 @@ class DwellModel:
             "sigma_range_m": meas["sigma_range_m"],
             "sigma_azimuth_rad": meas["sigma_azimuth_rad"],
             "interference": code[sel],
+            **self._range_rate_columns(geom, clutter, lead[sel], platform_vel),
             "target": rows[lead[sel]].astype(np.int32),
             "contrib_offsets": c_off,
             "contrib_targets": rows[order[gather]].astype(np.int32),
@@ -501,14 +614,29 @@ class DwellModel:
             "fallbacks": fallbacks,
         }
 
-    def _resolution_groups(self, geom, clutter, batch=None):
+    def _range_rate_columns(self, geom, clutter, lead, platform_vel=None) -> dict:
+        """``range_rate_mps`` and ``sigma_range_rate_mps`` of the contacts led by targets
+        ``lead`` (NaN without a Doppler bank): the filter the model picks for the lead target
+        (:meth:`_doppler_filter` of its Doppler relative to the clutter mean), reported at
+        its centre plus the bank's reference f_d - (f_d' - μ_c)."""
+        if not self.has_doppler_bank:
+            nan = np.full(lead.size, np.nan)
+            return {"range_rate_mps": nan, "sigma_range_rate_mps": nan.copy()}
+        rel = (self.target_doppler_hz(geom, platform_vel) if clutter is None
+               else clutter["doppler_relative_hz"])[lead]
+        fd = -2.0 * geom.radial_velocity[lead] / self.wavelength
+        return {"range_rate_mps": self.range_rate_from_filter(self._doppler_filter(rel),
+                                                              fd - rel),
+                "sigma_range_rate_mps": np.full(lead.size, self.range_rate_sigma_mps)}
+
+    def _resolution_groups(self, geom, clutter, batch=None, platform_vel=None):
         """Group index of each target: same batch, range cell, beam and Doppler filter."""
         n = geom.slant_range.size
         if n == 1:
             return np.zeros(1, dtype=np.int64), 1
         rc = np.floor(geom.slant_range / self.range_cell).astype(np.int64)
         ac = np.floor(geom.azimuth / self.theta_b).astype(np.int64)
-        fc = self._doppler_filter(self.target_doppler_hz(geom) if clutter is None
+        fc = self._doppler_filter(self.target_doppler_hz(geom, platform_vel) if clutter is None
                                   else clutter["doppler_relative_hz"])
         # One integer per (range cell, azimuth cell, filter), ordered as the triples are
         # lexicographically (all three are >= 0), so the groups are numbered as
@@ -591,6 +719,7 @@ class DwellModel:
             "sigma_range_m": errs[0] / 3.0,
             "sigma_azimuth_rad": errs[1] / 3.0,
             "interference": np.zeros(n, dtype=np.uint8),
+            **self._false_alarm_range_rate(range_m, azimuth_rad, rng, clutter=False),
         }
 
     def clutter_false_alarms(self, t_a, t_b, beam_start, omega, rng):
@@ -610,7 +739,11 @@ class DwellModel:
                 self.tables.pfac, pfa=self.pfa, n_channels=self.radar.n_channels,
                 n_pulses=self.n_pulses, h_range=self.radar.h_range,
                 h_azimuth=self.radar.h_azimuth)
-        return gen.scan(t_a, t_b, beam_start, omega, rng)
+        out = gen.scan(t_a, t_b, beam_start, omega, rng)
+        if out is not None:
+            out.update(self._false_alarm_range_rate(out["range_m"], out["azimuth_rad"], rng,
+                                                    clutter=True))
+        return out
 
 
 class _TwoRayFallback:

@@ -36,13 +36,12 @@ from shipradar.sim import protocol
 from shipradar.sim.kinematics import (
     TWO_PI,
     LocalFrame,
-    Trajectories,
     antenna_azimuth,
     antenna_geometry,
     beam_crossing_times,
-    waypoint_enu,
 )
 from shipradar.sim.scenario import Platform, Radar, Scenario
+from shipradar.sim.trajectory import trajectories
 
 #: Plot origin codes on the truth topic.
 ORIGIN_TARGET, ORIGIN_NOISE, ORIGIN_SEA_CLUTTER = 0, 1, 2
@@ -141,12 +140,10 @@ class Simulation:
         self.stats = RunStats()
         origin = scenario.origin
         self.frame = LocalFrame(origin)
-        self.targets = Trajectories(
-            [waypoint_enu(t.waypoints, self.frame) for t in scenario.targets], hold=False)
-        self.platforms = Trajectories(
-            [waypoint_enu(p.waypoints, self.frame) for p in scenario.platforms], hold=True)
-        self.jammers = Trajectories(
-            [waypoint_enu(j.waypoints, self.frame) for j in scenario.jammers], hold=True)
+        # waypoints (as before), segments or rounded corners: analytic pieces (sim.trajectory)
+        self.targets = trajectories(scenario.targets, self.frame, hold=False)
+        self.platforms = trajectories(scenario.platforms, self.frame, hold=True)
+        self.jammers = trajectories(scenario.jammers, self.frame, hold=True)
         self.tables = tables if tables is not None else load_scene_tables(scenario)
         seeds = np.random.SeedSequence(self.seed).spawn(len(scenario.radars()))
         self.radars = []
@@ -297,6 +294,10 @@ class _RadarProcess:
         # revolutions computed ahead (see _compute_block), consumed one per scan
         self._block: list[dict] = []
         self.scans_per_block = max(1, int(_BLOCK_S // radar.scan_period_s))
+        # a ship whose velocity changes (several legs, turns): the clutter spectrum's platform
+        # terms [33]-[38] follow its instantaneous velocity, not the tables' first leg
+        plat = sim.platforms
+        self._platform_manoeuvres = bool(plat.count[p_index] > 1 or not plat.linear)
 
     # ------------------------------------------------------------------ helpers
     def beam_azimuth(self, t: float) -> float:
@@ -427,7 +428,7 @@ class _RadarProcess:
         """
         sim = self.sim
         geom, active, tpos = self.geometry(tc, rows)
-        ppos, _ = self.platform_state(tc)
+        ppos, pvel = self.platform_state(tc)
         ok = active & (geom.ground_range <= self.radar.instrumented_range_m)
         ok &= geom.slant_range > 0.0
         if not ok.any():
@@ -444,7 +445,8 @@ class _RadarProcess:
                         geom.azimuth[sel], *self.jammer_geometry(0.5 * (t_a + t_b)))
         res = self.model.process_targets(
             geom, rows[idx], tc[idx], tpos[idx], self.rng,
-            antenna_en=ppos[idx, :2], jam_power_w=jam_w, batch=scan_of)
+            antenna_en=ppos[idx, :2], jam_power_w=jam_w, batch=scan_of,
+            platform_vel=pvel[idx] if self._platform_manoeuvres else None)
         sim.stats.dwells += idx.size
         sim.stats.missed_detections += res.pop("missed")
         sim.stats.merged_targets += res.pop("merged")
@@ -680,7 +682,7 @@ class _RadarProcess:
         }
         sim.emit(protocol.TOPIC_EOS, t, eos)
         if sim.targets.n:
-            tpos, tvel, active = sim.targets.state(t)
+            tpos, tvel, tacc, active = sim.targets.state_acc(t)
             sim.emit(protocol.TOPIC_TRUTH, t, {
                 "sensor": self.radar.id,
                 "scan": scan,
@@ -688,6 +690,7 @@ class _RadarProcess:
                 "time_s": t,
                 "east_m": tpos[:, 0], "north_m": tpos[:, 1], "up_m": tpos[:, 2],
                 "v_east_mps": tvel[:, 0], "v_north_mps": tvel[:, 1], "v_up_mps": tvel[:, 2],
+                "a_east_mps2": tacc[:, 0], "a_north_mps2": tacc[:, 1], "a_up_mps2": tacc[:, 2],
                 "active": active,
             })
         if sim.bus is not None:
@@ -703,7 +706,7 @@ _EOS_BATCH = 256
 
 #: Plot-topic columns, in the order they are published.
 PLOT_COLUMNS = ("time_s", "range_m", "azimuth_rad", "snr_db", "sigma_range_m",
-                "sigma_azimuth_rad", "interference")
+                "sigma_azimuth_rad", "interference", "range_rate_mps", "sigma_range_rate_mps")
 
 
 def _merge_parts(parts: list[dict]) -> dict:
