@@ -939,6 +939,22 @@ def fidelity_yaml(fid: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def format_per_target(study: Study) -> str:
+    """One line per setting and (radar, target): the per-target columns of the CSV."""
+    out = ["per target (mean|ΔPd|, max|ΔPd|, E[det] ref -> setting, |ΔE[R1]| m, "
+           "realized detections ref -> setting):"]
+    for c in study.comparisons:
+        label = c.result.setting.label
+        for r in c.rows:
+            out.append(
+                f"  {label:28.28s} {r['radar'] + '/' + r['target']:24.24s} "
+                f"{r['mean_abs_dpd']:.4f} {r['max_abs_dpd']:.3f}  "
+                f"{r['expected_detections_ref']:6.1f} -> {r['expected_detections']:6.1f}  "
+                f"{'inf' if math.isinf(r['abs_dfirst_m']) else format(r['abs_dfirst_m'], '.0f'):>6}"
+                f"  {r['detections_ref']:5.1f} -> {r['detections']:5.1f}")
+    return "\n".join(out)
+
+
 def format_report(study: Study) -> str:
     """The stdout table, the skipped choices and the recommendation."""
     s = study.scenario
@@ -1255,6 +1271,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="write the scenario with the recommended fidelity block")
     p.add_argument("--overwrite", action="store_true",
                    help="let --apply replace an existing file (kept as OUT.yaml.bak)")
+    p.add_argument("--per-target", action="store_true",
+                   help="also print one line per setting and (radar, target)")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     return p
 
@@ -1315,6 +1333,9 @@ def cli_main(argv: Sequence[str]) -> int:
                 os.environ["SHIPRADAR_TABLES"] = old_env
             tmpdir.cleanup()
     print(format_report(study))
+    if args.per_target:
+        print()
+        print(format_per_target(study))
     if out_dir is not None:
         out_dir.mkdir(parents=True, exist_ok=True)
         write_csv(study, out_dir / "fidelity.csv")

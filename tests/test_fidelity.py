@@ -279,6 +279,8 @@ def test_report_csv_png(lit_study, tmp_path):
     block = text[text.index("fidelity:\n"):].split("\n\n")[0]
     assert fi.Fidelity(**yaml.safe_load(block)["fidelity"]).model_dump() == \
         fi.Fidelity(**lit_study.recommended).model_dump()
+    per = fi.format_per_target(lit_study)
+    assert "xr/high" in per and per.count("\n") == sum(len(c.rows) for c in lit_study.comparisons)
     fi.write_csv(lit_study, tmp_path / "f.csv")
     import csv
 
