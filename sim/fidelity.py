@@ -1121,7 +1121,7 @@ def plot_pareto(study: Study, path: Path) -> None:
     for ax, err, tol, name in ((axes[0], err_pd, study.tolerances.pd,
                                 "worst target's mean |ΔP_d| per look"),
                                (axes[1], err_r, study.tolerances.range_m,
-                                "largest |Δ first-detection range| [m]")):
+                                "largest |Δ expected first-detection range| [m]")):
         finite = [e for e in err if 0 < e < math.inf]
         floor = min([tol, *finite]) / 3 if tol > 0 else min(finite, default=1.0) / 3
         ceiling = 3 * max([tol, *finite])
