@@ -326,8 +326,7 @@ def reference_fidelity(scenario: Scenario) -> dict[str, Any]:
     }
 
 
-def plan_settings(scenario: Scenario, *, include_unexercised: bool = False,
-                  max_latency_s: float | None = None
+def plan_settings(scenario: Scenario, *, include_unexercised: bool = False
                   ) -> tuple[dict[str, Any], list[Setting], list[tuple[str, str]]]:
     """The reference, the one-at-a-time alternatives and the choices skipped with reasons.
 
@@ -337,10 +336,9 @@ def plan_settings(scenario: Scenario, *, include_unexercised: bool = False,
         The scene.
     include_unexercised : bool
         Also run the alternatives of choices the scene does not exercise (they must then
-        show zero differences; a test of the common random numbers).
-    max_latency_s : float, optional
-        Largest plot latency [s] (one sector) allowed; sectors-per-scan values above it are
-        still run and reported, but not recommended. Default: the scene's own.
+        show zero differences; a test of the common random numbers). Sectors-per-scan
+        values below the scene's are always run (their latency is judged by
+        :class:`Tolerances`).
 
     Returns
     -------
