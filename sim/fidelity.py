@@ -1213,8 +1213,10 @@ def apply_fidelity(scenario_path: Path, fid: dict[str, Any], out: Path, *,
             while backup.exists():
                 backup = out.with_name(f"{out.name}.bak.{n}")
                 n += 1
-            os.link(out, backup) if hasattr(os, "link") else backup.write_bytes(
-                out.read_bytes())
+            try:
+                os.link(out, backup)  # the old file itself, kept under the new name
+            except OSError:  # a file system without hard links
+                backup.write_bytes(out.read_bytes())
         os.replace(tmp, out)
     finally:
         if os.path.exists(tmp):
