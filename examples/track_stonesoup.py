@@ -74,10 +74,14 @@ from stonesoup.metricgenerator.ospametric import OSPAMetric
 from stonesoup.models.transition.linear import (
     CombinedLinearGaussianTransitionModel,
     ConstantVelocity,
+    KnownTurnRate,
 )
 from stonesoup.predictor.kalman import ExtendedKalmanPredictor
 from stonesoup.types.array import CovarianceMatrix, StateVector
+from stonesoup.types.hypothesis import SingleHypothesis
+from stonesoup.types.prediction import GaussianStatePrediction
 from stonesoup.types.state import GaussianState, State
+from stonesoup.types.update import GaussianStateUpdate
 from stonesoup.updater.kalman import ExtendedKalmanUpdater
 
 from shipradar.sim.stonesoup_reader import ShipradarDetectionReader
@@ -162,6 +166,107 @@ class _MapPDAHypothesiser(PDAHypothesiser):
         return super().hypothesise(track, detections, timestamp, **kwargs)
 
 
+# --------------------------------------------------------------------------- IMM (--imm)
+class IMMPredictor:
+    """Interacting multiple model prediction (Blom & Bar-Shalom 1988) over M Kalman modes.
+
+    The track's state carries its mode means/covariances and probabilities
+    (``imm_modes``, ``imm_mu``) when it came from this predictor or :class:`IMMUpdater`; a
+    plain Gaussian (a new track) starts every mode from it with ``mode_priors``.  The modes
+    are mixed with the Markov ``transition`` matrix (row: from, column: to), each predicted
+    by its own model, and the moment-matched mixture is returned (the hypothesiser gates and
+    scores on it) with the per-mode predictions attached for the update.
+    """
+
+    def __init__(self, models, transition, mode_priors):
+        self.transition_model = models[0]
+        self._predictors = [ExtendedKalmanPredictor(m) for m in models]
+        self._pi = np.asarray(transition, dtype=float)
+        self._mu0 = np.asarray(mode_priors, dtype=float)
+        self._cache: dict = {}
+
+    def predict(self, prior, timestamp=None, **kwargs):
+        state = getattr(prior, "state", prior)  # a Track or a state
+        # the pre-gate, the hypothesiser and the initiator predict the same state to the
+        # same time: once is enough
+        key = (id(state), timestamp)
+        hit = self._cache.get(key)
+        if hit is not None and hit[0] is state:
+            return hit[1]
+        if len(self._cache) > 4096:
+            self._cache.clear()
+        out = self._predict(state, timestamp)
+        self._cache[key] = (state, out)
+        return out
+
+    def _predict(self, state, timestamp):
+        modes = getattr(state, "imm_modes", None)
+        mu = getattr(state, "imm_mu", None)
+        if modes is None:
+            modes = [(np.asarray(state.state_vector, float), np.asarray(state.covar, float))
+                     ] * len(self._predictors)
+            mu = self._mu0
+        c = mu @ self._pi  # predicted mode probabilities
+        w = self._pi * mu[:, None] / np.maximum(c[None, :], 1e-300)  # mixing weights w[i, j]
+        preds = []
+        for j, predictor in enumerate(self._predictors):
+            x0 = sum(w[i, j] * modes[i][0] for i in range(len(modes)))
+            p0 = sum(w[i, j] * (modes[i][1] + (modes[i][0] - x0) @ (modes[i][0] - x0).T)
+                     for i in range(len(modes)))
+            pr = predictor.predict(GaussianState(StateVector(x0), CovarianceMatrix(p0),
+                                                 timestamp=state.timestamp),
+                                   timestamp=timestamp)
+            preds.append((np.asarray(pr.state_vector, float), np.asarray(pr.covar, float)))
+        out = _moment_match(preds, c, timestamp, GaussianStatePrediction)
+        out.imm_modes, out.imm_mu = preds, c
+        return out
+
+
+def _moment_match(modes, mu, timestamp, cls, **kwargs):
+    x = sum(m * xm for m, (xm, _) in zip(mu, modes, strict=True))
+    p = sum(m * (pm + (xm - x) @ (xm - x).T) for m, (xm, pm) in zip(mu, modes, strict=True))
+    return cls(StateVector(x), CovarianceMatrix(p), timestamp=timestamp, **kwargs)
+
+
+class IMMUpdater(ExtendedKalmanUpdater):
+    """IMM update: each mode updated by the EKF with the detection's own bearing-range model,
+    mode probabilities from the modes' Gaussian likelihoods (bearing innovation wrapped)."""
+
+    def update(self, hypothesis, **kwargs):
+        pred = hypothesis.prediction
+        modes = getattr(pred, "imm_modes", None)
+        if modes is None:
+            return super().update(hypothesis, **kwargs)
+        z = hypothesis.measurement
+        model = z.measurement_model
+        ups, lik = [], []
+        for xm, pm in modes:
+            mp = GaussianStatePrediction(StateVector(xm), CovarianceMatrix(pm),
+                                         timestamp=pred.timestamp)
+            mz = self.predict_measurement(mp, measurement_model=model)
+            up = super().update(SingleHypothesis(mp, z, measurement_prediction=mz))
+            ups.append((np.asarray(up.state_vector, float), np.asarray(up.covar, float)))
+            nu = (np.asarray(z.state_vector, float) - np.asarray(mz.state_vector, float)).ravel()
+            nu[0] = (nu[0] + math.pi) % (2 * math.pi) - math.pi  # bearing first
+            s_cov = np.asarray(mz.covar, float)
+            lik.append(math.exp(-0.5 * nu @ np.linalg.solve(s_cov, nu))
+                       / math.sqrt(np.linalg.det(2 * math.pi * s_cov)))
+        mu = pred.imm_mu * np.asarray(lik)
+        mu = mu / mu.sum() if mu.sum() > 0 else pred.imm_mu
+        out = _moment_match(ups, mu, pred.timestamp, GaussianStateUpdate, hypothesis=hypothesis)
+        out.imm_modes, out.imm_mu = ups, mu
+        return out
+
+
+def imm_models(q_m2_s3: float, turn_rate_rad_s: float, q_turn_m2_s3: float):
+    """Constant velocity and coordinated turns at ±ω (Stone Soup's ``KnownTurnRate``) on the
+    same (east, v_east, north, v_north) state."""
+    cv = CombinedLinearGaussianTransitionModel(
+        [ConstantVelocity(q_m2_s3), ConstantVelocity(q_m2_s3)])
+    return [cv] + [KnownTurnRate(turn_noise_diff_coeffs=[q_turn_m2_s3, q_turn_m2_s3],
+                                 turn_rate=w) for w in (turn_rate_rad_s, -turn_rate_rad_s)]
+
+
 def _cartesian(dets: list) -> np.ndarray:
     """(N, 2) east/north of detections from their bearing, range and model offset."""
     out = np.empty((len(dets), 2))
@@ -226,6 +331,10 @@ def track(
     out=None,
     publish_tracks: str | None = None,
     curve=None,
+    imm: bool = False,
+    imm_turn_rate_rad_s: float = 0.2,
+    imm_q_turn_m2_s3: float = 50.0,
+    imm_stay: float = 0.9,
 ) -> dict[str, Any]:
     """Track one sensor of a stream and score it at every end of scan.
 
@@ -265,6 +374,11 @@ def track(
         Keys for a CURVE publisher (``--curve-secret-key``, ``--curve-server-key``).
     out : TextIO or None
         Print one JSON line per scan there.
+    imm : bool
+        Interacting multiple models (:class:`IMMPredictor`, :class:`IMMUpdater`): constant
+        velocity (``q_m2_s3``) and coordinated turns at ±``imm_turn_rate_rad_s`` [rad/s]
+        (``imm_q_turn_m2_s3`` [m²/s³]), staying in a mode with probability ``imm_stay`` per
+        step; False: the constant-velocity EKF alone.
     publish_tracks : str or None
         Publish the confirmed tracks at every end of scan on this ZeroMQ endpoint (topic
         ``tracks``, :func:`tracks_payload`; loopback only). Published with
@@ -293,7 +407,9 @@ def track(
                      ospa_p=ospa_p,
                      max_initiation_clutter_per_km2=max_initiation_clutter_per_km2,
                      pregate_m=pregate_m, idle_timeout_s=idle_timeout_s, context=context,
-                     out=out, publisher=publisher, curve=curve)
+                     out=out, publisher=publisher, curve=curve, imm=imm,
+                     imm_turn_rate_rad_s=imm_turn_rate_rad_s,
+                     imm_q_turn_m2_s3=imm_q_turn_m2_s3, imm_stay=imm_stay)
     finally:
         if publisher is not None:
             stats = publisher.stats
@@ -305,7 +421,8 @@ def track(
 def _track(source, *, sensor, q_m2_s3, prob_detect, confirm, delete_after,
            prior_speed_sigma_mps, min_false_alarms_per_scan, ospa_c, ospa_p,
            max_initiation_clutter_per_km2, pregate_m, idle_timeout_s, context, out,
-           publisher, curve=None) -> dict[str, Any]:
+           publisher, curve=None, imm=False, imm_turn_rate_rad_s=0.2, imm_q_turn_m2_s3=50.0,
+           imm_stay=0.9) -> dict[str, Any]:
     reader = ShipradarDetectionReader(source=source, sensor=sensor, truth=True,
                                       idle_timeout_s=idle_timeout_s, context=context,
                                       curve=curve)
@@ -313,6 +430,13 @@ def _track(source, *, sensor, q_m2_s3, prob_detect, confirm, delete_after,
         [ConstantVelocity(q_m2_s3), ConstantVelocity(q_m2_s3)])
     predictor = ExtendedKalmanPredictor(transition)
     updater = ExtendedKalmanUpdater(measurement_model=None)  # each detection has its own
+    if imm:
+        models = imm_models(q_m2_s3, imm_turn_rate_rad_s, imm_q_turn_m2_s3)
+        m = len(models)
+        pi = np.full((m, m), (1.0 - imm_stay) / (m - 1))
+        np.fill_diagonal(pi, imm_stay)
+        predictor = IMMPredictor(models, pi, np.full(m, 1.0 / m))
+        updater = IMMUpdater(measurement_model=None)
     hypothesiser = _MapPDAHypothesiser(predictor, updater, clutter_spatial_density=1e-9,
                                        prob_detect=prob_detect, prob_gate=0.9999)
     associator = GNNWith2DAssignment(hypothesiser)
@@ -426,6 +550,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--publish-tracks", default=None, metavar="ENDPOINT",
                     help="publish the confirmed tracks there every scan (topic 'tracks', "
                          "for shipradar view --tracks ENDPOINT)")
+    ap.add_argument("--imm", action="store_true",
+                    help="IMM: constant velocity + coordinated turns at +-omega")
+    ap.add_argument("--imm-turn-rate", type=float, default=0.2, help="omega [rad/s]")
     add_curve_arguments(ap, "client")
     a = ap.parse_args(argv)
     try:
@@ -435,7 +562,7 @@ def main(argv: list[str] | None = None) -> int:
     res = track(a.source, sensor=a.sensor, q_m2_s3=a.q, confirm=a.confirm,
                 delete_after=a.delete_after, ospa_c=a.ospa_c, idle_timeout_s=a.timeout,
                 out=None if a.quiet else sys.stdout, publish_tracks=a.publish_tracks,
-                curve=curve)
+                curve=curve, imm=a.imm, imm_turn_rate_rad_s=a.imm_turn_rate)
     print(json.dumps({"scans": len(res["scans"]), "confirmed_tracks": len(res["tracks"]),
                       "mean_ospa_m": res["mean_ospa"]}))
     return 0
