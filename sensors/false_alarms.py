@@ -779,6 +779,15 @@ class ClutterFalseAlarms:
         self._normal = (self.eta >= NORMAL_MIN_ETA) & ~self._bern
         self._pois = ~self._bern & ~self._normal
         self._pois_cdf = poisson_cdf_table(self.eta[self._pois]) if self._pois.any() else None
+        self._eta_bern = self.eta[self._bern]
+        # uniform_positions' spans, formed once: r0 + (r1 - r0) U is the same number whether
+        # the difference is taken before or after selecting the sector
+        self._r_span = self.r_max_m - self.r_min_m
+        self._az_span = self.az_max_rad - self.az_min_rad
+        if np.any(~((self.r_min_m >= 0) & (self._r_span >= 0))) or np.any(
+                ~((self._az_span >= 0) & (self._az_span <= TWO_PI))):
+            raise ValueError("ClutterFalseAlarms: need 0 <= r_min <= r_max and "
+                             "az_min <= az_max <= az_min + 2 pi")
 
     @property
     def expected_per_scan(self) -> float:
@@ -788,20 +797,29 @@ class ClutterFalseAlarms:
     def draw(self, rng: np.random.Generator) -> tuple[NDArray[np.int64], NDArray, NDArray]:
         """One revolution's counts per active sector and the positions (ground range [m],
         azimuth [rad]), sector after sector."""
+        counts, _, r, az = self._draw(rng)
+        return counts, r, az
+
+    def _draw(self, rng: np.random.Generator):
+        """:meth:`draw`, with the active-sector index of every false alarm."""
         # false_alarm_count's draw (one uniform per sector, same counts) with the regimes
         # and the Poisson CDF rows prepared in the constructor
         u = rng.random(self.eta.shape)
         counts = np.zeros(self.eta.shape, dtype=np.int64)
-        counts[self._bern] = u[self._bern] < self.eta[self._bern]
+        counts[self._bern] = u[self._bern] < self._eta_bern
         if self._normal.any():
             e = self.eta[self._normal]
             x = e + np.sqrt(e) * special.ndtri(u[self._normal])
             counts[self._normal] = np.rint(np.maximum(x, 0.0)).astype(np.int64)
         if self._pois_cdf is not None:
             counts[self._pois] = poisson_quantile(u[self._pois], cdf=self._pois_cdf)
-        r, az = uniform_positions(counts, self.r_min_m, self.r_max_m, self.az_min_rad,
-                                  self.az_max_rad, rng)
-        return counts, r, az
+        # uniform_positions of these counts (same draws, same numbers), with the sector of
+        # every plot found once instead of repeating each bound array over the counts
+        sector = np.repeat(np.arange(counts.size), counts)
+        r = self.r_min_m[sector] + self._r_span[sector] * rng.random(sector.size)
+        az = self.az_min_rad[sector] + self._az_span[sector] * rng.random(sector.size)
+        az = np.mod(az, TWO_PI)
+        return counts, sector, r, np.where(az >= TWO_PI, 0.0, az)
 
     def scan(self, t_scan: float, t_end: float, beam_start_rad: float, omega_rad_s: float,
              rng: np.random.Generator) -> dict[str, NDArray] | None:
@@ -829,10 +847,10 @@ class ClutterFalseAlarms:
         """
         if self.eta.size == 0:
             return None
-        counts, ground, az = self.draw(rng)
+        _, sector, ground, az = self._draw(rng)
         t = t_scan + np.mod(az - beam_start_rad, TWO_PI) / omega_rad_s
         keep = t < t_end
-        a = np.repeat(self.weibull_a, counts)[keep]
+        a = self.weibull_a[sector[keep]]
         ground, az, t = ground[keep], az[keep], t[keep]
         x = spike_excess(self.threshold_ratio, a, rng, self.clutter_fa_model)
         si = np.maximum(x - 1.0, 1e-3)
