@@ -94,8 +94,10 @@ def cmd_validate(args) -> int:
           f"{s.duration_s:g} s)")
     if getattr(args, "explain", False):
         from shipradar.sim.fidelity import explain_lines
+        from shipradar.sim.trajectory import resolved_scene_lines
 
         print("\n".join(explain_lines(s)))
+        print("\n".join(resolved_scene_lines(s)))
     return EXIT_OK
 
 
@@ -448,7 +450,13 @@ def cmd_plot(args) -> int:
     from shipradar.sim.figures.scene import render
 
     s = _load(args.scenario)
-    written = render(s, args.what, Path(args.out), radar_id=args.radar, height_m=args.height)
+    if args.what == "geometry":  # the scene's map, no tables needed
+        from shipradar.sim.figures.geometry import render_geometry
+
+        written = render_geometry(s, Path(args.out), height_m=args.height, radar_id=args.radar)
+    else:
+        written = render(s, args.what, Path(args.out), radar_id=args.radar,
+                         height_m=args.height)
     for p in written:
         print(p)
     return EXIT_OK
@@ -630,7 +638,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     pl = sub.add_parser("plot", help="render figures of a scenario's tables as PNG")
     pl.add_argument("scenario")
-    pl.add_argument("what", choices=("propagation", "coverage", "clutter", "improvement", "all"))
+    pl.add_argument("what", choices=("propagation", "coverage", "clutter", "improvement", "all",
+                                     "geometry"),
+                    help="geometry: the trajectories on a map with time ticks and each "
+                         "radar's coverage contour at --height")
     pl.add_argument("--out", default="out/figures")
     pl.add_argument("--radar", default=None, help="radar id (default: every radar)")
     pl.add_argument("--height", type=float, default=10.0, help="target height for F vs range [m]")

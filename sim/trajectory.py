@@ -240,3 +240,71 @@ def trajectories(objects: Sequence, frame: LocalFrame, hold: bool) -> Trajectori
                for o in objects):
         return Trajectories([waypoint_enu(o.waypoints, frame) for o in objects], hold=hold)
     return Trajectories(None, hold=hold, pieces=[object_pieces(o, frame) for o in objects])
+
+
+# --------------------------------------------------------------------------- explain
+_UNIT = __import__("re").compile(r"\[([^\[\]]+)\]\s*$")
+
+
+def _unit(field) -> str:
+    """The unit at the end of a field's description (``[m/s]``), or the field name's suffix."""
+    m = _UNIT.search(field.description or "")
+    if m:
+        return m.group(1)
+    return ""
+
+
+def _walk(model, indent: int, lines: list[str]) -> None:
+    pad = "  " * indent
+    for name, field in type(model).model_fields.items():
+        value = getattr(model, name)
+        unit = _unit(field)
+        if hasattr(value, "model_fields"):
+            lines.append(f"{pad}{name}:")
+            _walk(value, indent + 1, lines)
+        elif isinstance(value, list) and value and hasattr(value[0], "model_fields"):
+            lines.append(f"{pad}{name}:")
+            for i, item in enumerate(value):
+                lines.append(f"{pad}  - [{i}]")
+                _walk(item, indent + 2, lines)
+        else:
+            shown = "null" if value is None else value
+            if hasattr(shown, "isoformat"):
+                shown = shown.isoformat()
+            lines.append(f"{pad}{name}: {shown}" + (f"  [{unit}]" if unit else ""))
+
+
+def motion_summary(scenario) -> list[str]:
+    """One line per platform and target: how it moves, when, how far, how hard (the pieces
+    the engine will fly: segments, rounded corners or plain waypoints)."""
+    frame = LocalFrame(scenario.origin)
+    lines = []
+    for label, objs, hold in (("platforms", scenario.platforms, True),
+                              ("targets", scenario.targets, False)):
+        for i, o in enumerate(objs):
+            pieces = object_pieces(o, frame)
+            tr = Trajectories(None, hold=hold, pieces=[pieces])
+            t0, t1 = float(tr.t_first[0]), float(tr.t_last[0])
+            t = np.linspace(t0, t1, max(2, min(20_000, int((t1 - t0) * 10) + 2)))
+            pos, vel, acc, _ = tr.state_acc(t, np.zeros(t.size, dtype=int))
+            length = float(np.sum(np.linalg.norm(np.diff(pos, axis=0), axis=1)))
+            how = ("segments" if getattr(o, "segments", None) else
+                   f"waypoints rounded at {o.smoothing.turn_g:g} g"
+                   if getattr(o, "smoothing", None) is not None else "waypoints (straight legs)")
+            a = float(np.linalg.norm(acc, axis=1).max())
+            lines.append(
+                f"{label}[{i}] {o.id}: {how}, {len(pieces)} piece(s), {t0:g}-{t1:.1f} s, path "
+                f"{length / 1e3:.2f} km, speed <= {np.linalg.norm(vel, axis=1).max():.1f} m/s, "
+                f"|a| <= {a:.1f} m/s² ({a / STANDARD_GRAVITY:.1f} g), altitude "
+                f"{pos[:, 2].min():.0f}-{pos[:, 2].max():.0f} m")
+    return lines
+
+
+def resolved_scene_lines(scenario) -> list[str]:
+    """The scene as the simulator will use it (``shipradar validate --explain``): every field
+    with its default filled in and its unit, then how each object moves."""
+    lines = ["resolved scene (every default filled in, units in brackets):"]
+    _walk(scenario, 1, lines)
+    lines.append("motion:")
+    lines += ["  " + s for s in motion_summary(scenario)]
+    return lines

@@ -82,3 +82,36 @@ def test_imm_holds_the_weaving_missile(recording):
     err = np.array([d for d in dist if d is not None and d < HOLD_M])
     assert np.sqrt(np.mean(err**2)) < 100.0
     assert res["mean_ospa"] < 450.0
+
+
+def _cli(*argv, cwd=ROOT):
+    return subprocess.run([sys.executable, "-m", "shipradar.sim.cli", *argv], cwd=cwd,
+                          capture_output=True, text=True, timeout=300)
+
+
+def test_authoring_aids_explain_and_geometry(tmp_path):
+    proc = _cli("validate", "--explain", "scenarios/manoeuvres.yaml")
+    assert proc.returncode == 0, proc.stderr
+    out = proc.stdout
+    assert "resolved scene (every default filled in, units in brackets):" in out
+    # defaults the file does not write, with their units
+    assert "      cfar_db: 1.5  [dB]" in out
+    assert "    sectors_per_scan: 36" in out
+    assert "targets[0] skimmer: segments, 5 piece(s), 0-75.0 s" in out
+    assert "altitude 5-250 m" in out
+    proc = _cli("plot", "scenarios/manoeuvres.yaml", "geometry", "--out", str(tmp_path),
+                "--height", "5")
+    assert proc.returncode == 0, proc.stderr
+    png = tmp_path / "geometry.png"
+    assert proc.stdout.strip() == str(png) and png.read_bytes()[:4] == b"\x89PNG"
+
+
+def test_bad_manoeuvre_is_one_line_naming_the_field(tmp_path):
+    text = (ROOT / "scenarios" / "manoeuvres.yaml").read_text()
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(text.replace("{type: weave, amplitude_m: 120, period_s: 8",
+                                "{type: weave, amplitude_m: 500, period_s: 8"))
+    proc = _cli("validate", str(bad))
+    assert proc.returncode == 2
+    assert ("targets[0].segments[1].amplitude_m: a weave of period 8 s at 290 m/s must have "
+            "amplitude < 369.2 m (lateral speed 2πA/P below the speed), got 500") in proc.stderr
