@@ -23,6 +23,7 @@ from shipradar.sim.asterix.encode import (
     cat048_records,
     encode_cat034_north_marker,
     encode_cat034_sector_crossings,
+    encode_cat048_slices,
     seconds_of_day,
     time_of_day_counts,
 )
@@ -305,6 +306,68 @@ def test_blocks_respect_the_size_and_the_bytes_are_deterministic(run):
     assert body(again, 48) == body(blocks, 48)
     same = AsterixStream()
     assert [b for m in msgs for b in same.feed(*m)] == blocks
+
+
+def test_revolution_at_once_equals_message_by_message():
+    """encode_cat048_slices (a run's revolution at once) gives each slice exactly the blocks
+    of encode_cat048 on it: clutter and plain records mixed, blocks split, empty slices."""
+    rng = np.random.default_rng(3)
+    n = 200
+    cols = {"time_s": np.sort(rng.uniform(0.0, 4.0, n)),
+            "range_m": rng.uniform(0.0, 250 * NM, n),
+            "azimuth_rad": rng.uniform(-1.0, 7.0, n), "snr_db": rng.normal(10.0, 30.0, n),
+            "interference": rng.integers(0, 3, n).astype(np.uint8)}
+    cols["snr_db"][:3] = (np.nan, np.inf, -np.inf)
+    cols["interference"][100:150] = 0  # a stretch without clutter
+    cuts = [0, 0, 1, 17, 17, 100, 150, 151, 200]
+    starts, stops = cuts[:-1], cuts[1:]
+    for kw in ({"prl_deg": 1.2, "noise_power_dbm": -95.0}, {}):
+        for mb in (64, 200, 1400):
+            got = encode_cat048_slices(cols, starts, stops, sac=7, sic=9, start_sod_s=86000.0,
+                                       max_block_bytes=mb, **kw)
+            want = [encode_cat048({k: v[a:b] for k, v in cols.items()}, sac=7, sic=9,
+                                  start_sod_s=86000.0, max_block_bytes=mb, **kw)
+                    for a, b in zip(starts, stops, strict=True)]
+            assert got == want
+    # the CAT034 crossings: plain integers up to 64 records, numpy beyond, same blocks
+    t = np.arange(70) * 0.1
+    az = np.mod(t * 2.0, 2 * math.pi)
+    many = encode_cat034_sector_crossings(t, az, sac=1, sic=2, start_sod_s=3.0,
+                                          max_block_bytes=64)
+    few = encode_cat034_sector_crossings(t[:63].tolist(), az[:63].tolist(), sac=1, sic=2,
+                                         start_sod_s=3.0, max_block_bytes=64)
+    assert few == many[:9] and len(many) == 10
+
+
+def test_run_encoding_ahead_sends_what_the_stream_gives(run):
+    """The engine hands the ASTERIX bus each revolution's plots ahead (plots_ahead) and its
+    encoded frames: the datagrams are those of the stream fed message by message."""
+    from shipradar.sim.asterix.udp import AsterixBus
+
+    s, msgs, _, _ = run
+
+    class Sender:
+        url, datagrams, bytes, sent = "memory", 0, 0, []
+
+        def send(self, b):
+            self.sent.append(b)
+
+        def close(self):
+            pass
+
+    sender = Sender()
+    bus = AsterixBus(None, sender)
+    made = []
+    encode_ahead = bus.stream.encode_ahead
+    bus.stream.encode_ahead = lambda *a: made.append(encode_ahead(*a)) or made[-1]
+    sim = Simulation(s, bus=bus)
+    assert sim.encodes_ahead
+    sim.run()
+    assert sum(len(m) for m in made if m) > 5  # the revolutions' records were made ahead
+    stream = AsterixStream()
+    want = [d for m in msgs for _, d in datagrams(stream.feed(*m), 1400)]
+    assert sender.sent == want and bus.stream.stats == stream.stats
+    assert not bus._ahead  # every sector made ahead was sent
 
 
 # ----------------------------------------------------------------- UDP, CLI

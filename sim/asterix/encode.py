@@ -22,8 +22,10 @@ Bit numbering follows the standard: bit 8 is an octet's most significant bit.
 from __future__ import annotations
 
 import datetime as dt
+import functools
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -38,6 +40,7 @@ __all__ = [
     "encode_cat034_north_marker",
     "encode_cat034_sector_crossings",
     "encode_cat048",
+    "encode_cat048_slices",
     "pack_blocks",
     "seconds_of_day",
     "time_of_day_counts",
@@ -85,6 +88,8 @@ _FS3_030 = 0x40
 _I130_PRL, _I130_PAM = 0x10, 0x08
 # CAT034 message types (I034/000).
 MSG_NORTH_MARKER, MSG_SECTOR_CROSSING = 1, 2
+# Up to this many sector crossings are encoded with plain integers (numpy beyond).
+_CROSSINGS_IN_PYTHON = 64
 
 
 class AsterixError(ValueError):
@@ -144,6 +149,153 @@ def _check_sac_sic(sac: int, sic: int) -> None:
         if not (isinstance(v, (int, np.integer)) and 0 <= v <= 255):
             raise AsterixError(f"I048/010, I034/010: {name} must be an integer in [0, 255], "
                                f"got {v!r}")
+
+
+# ----------------------------------------------------------------- CAT048 record layout
+# Every plot field is computed into one float64 matrix (one row per plot, one column per
+# field), rounded once, converted once to big-endian int64, and its bytes picked by one
+# gather with the byte positions of the record variant: a handful of numpy calls per batch,
+# whatever its size (a raid sector holds ~15 plots, where per-call overhead is everything).
+# Columns of that matrix:
+_COL_TOD, _COL_RHO, _COL_THETA, _COL_PAM, _COL_X, _COL_Y, _COL_FS2, _COL_CONST = range(8)
+_NCOL = 8
+
+
+def _byte(col: int, k: int, nbytes: int) -> int:
+    """Position, in a row of big-endian int64 columns, of byte k (0: most significant) of
+    the low ``nbytes`` bytes of column ``col``."""
+    return 8 * col + 8 - nbytes + k
+
+
+# the constant column's 8 bytes: FSPEC octet 1, FSPEC octet 3, SAC, SIC, I048/020, I048/130
+# primary subfield, PRL, I048/030
+_K_FS1, _K_FS3, _K_SAC, _K_SIC, _K_020, _K_130, _K_PRL, _K_030 = (
+    _byte(_COL_CONST, k, 8) for k in range(8))
+
+
+@functools.lru_cache(maxsize=64)
+def _cat048_layout(sac: int, sic: int, prl: int | None, has_pam: bool):
+    """Constant bytes (as a signed int64) and byte gathers of a CAT048 record variant.
+
+    Returns ``(const, plain, full, keep, width)``: ``plain`` picks the ``width`` bytes of a
+    record without I048/030; ``full`` the ``width + 2`` bytes of one with it (FSPEC octet 3
+    and the item); ``keep[c]`` which of ``full``'s bytes a record keeps (``c``: in clutter).
+    """
+    i130 = (_I130_PRL if prl is not None else 0) | (_I130_PAM if has_pam else 0)
+    const = bytes((_FS1_BASE | (_FS1_130 if i130 else 0), _FS3_030, sac, sic, _I048_020,
+                   i130, 0 if prl is None else prl, _I048_030_CLUTTER))
+    head = [_K_FS1, _byte(_COL_FS2, 0, 1)]
+    items = [_K_SAC, _K_SIC, *(_byte(_COL_TOD, k, 3) for k in range(3)), _K_020,
+             _byte(_COL_RHO, 0, 2), _byte(_COL_RHO, 1, 2),
+             _byte(_COL_THETA, 0, 2), _byte(_COL_THETA, 1, 2)]
+    if i130:
+        items.append(_K_130)
+        if prl is not None:
+            items.append(_K_PRL)
+        if has_pam:
+            items.append(_byte(_COL_PAM, 0, 1))
+    items += [_byte(_COL_X, 0, 2), _byte(_COL_X, 1, 2), _byte(_COL_Y, 0, 2),
+              _byte(_COL_Y, 1, 2)]
+    plain = np.array(head + items, dtype=np.intp)
+    full = np.array(head + [_K_FS3] + items + [_K_030], dtype=np.intp)
+    width = plain.size
+    keep = np.ones((2, width + 2), dtype=bool)
+    keep[0, 2] = keep[0, width + 1] = False
+    return int.from_bytes(const, "big", signed=True), plain, full, keep, width
+
+
+def _cat048_bytes(time_s, range_m, azimuth_rad, *, sac, sic, start_sod_s, snr_db=None,
+                  clutter=None, prl_deg=None, noise_power_dbm=None, sensor="?"):
+    """The records of :func:`cat048_records` back to back, the per-record clutter flags
+    (None: no record has I048/030) and the width of a record without I048/030."""
+    if not (type(sac) is int and type(sic) is int and 0 <= sac <= 255 and 0 <= sic <= 255):
+        _check_sac_sic(sac, sic)
+        sac, sic = int(sac), int(sic)
+    r = np.asarray(range_m, dtype=float)
+    az = np.asarray(azimuth_rad, dtype=float)
+    t = np.asarray(time_s, dtype=float)
+    n = r.size
+    has_pam = noise_power_dbm is not None and snr_db is not None
+    prl = None if prl_deg is None else int(min(max(round(float(prl_deg) * PRL_PER_DEG), 0),
+                                              255))
+    const, plain, full, keep, w = _cat048_layout(sac, sic, prl, has_pam)
+    in_clutter = None
+    if clutter is not None:
+        in_clutter = np.asarray(clutter, dtype=bool)
+        if not np.count_nonzero(in_clutter):
+            in_clutter = None
+    # one contiguous row per field (fast whatever n), transposed by the integer conversion
+    v = np.empty((_NCOL, n))
+    tod = v[_COL_TOD]
+    np.add(t, start_sod_s, out=tod)
+    tod *= TOD_PER_S
+    rho = v[_COL_RHO]
+    np.multiply(r, 256.0 / NM_M, out=rho)
+    np.multiply(az, THETA_COUNTS / (2.0 * math.pi), out=v[_COL_THETA])
+    # one test, before anything else is computed from them, for NaN, inf and out of range:
+    # NaN compares False and a NaN or inf among times, ranges and azimuths makes the sum so
+    # (rint(x) is in [0, 2^16) exactly when x is in [-0.5, 65535.5)); the rare bad plot is
+    # then found and named
+    if n and not (np.minimum.reduce(rho) >= -0.5 and np.maximum.reduce(rho) < 65535.5
+                  and math.isfinite(np.add.reduce(v[:_COL_THETA + 1], axis=None))):
+        _cat048_refuse(t, r, az, sensor)
+    if has_pam:
+        # S/I of -inf (no signal) or NaN reads as the item's floor, +inf as its ceiling
+        pam = v[_COL_PAM]
+        np.add(np.asarray(snr_db, dtype=float), float(noise_power_dbm), out=pam)
+        np.fmax(pam, -128.0, out=pam)
+        np.fmin(pam, 127.0, out=pam)
+    else:
+        v[_COL_PAM] = 0.0
+    # I048/042 in the radar's own frame: X east, Y north of the antenna, from the slant
+    # range (the radar measures no elevation); |X|, |Y| < 256 NM, so at most 32767 counts
+    xy = v[_COL_X:_COL_Y + 1]
+    np.sin(az, out=v[_COL_X])
+    np.cos(az, out=v[_COL_Y])
+    xy *= r * (XY_PER_NM / NM_M)
+    if in_clutter is None:
+        v[_COL_FS2] = _FS2_042
+    else:
+        np.add(in_clutter, float(_FS2_042), out=v[_COL_FS2])  # FX of FSPEC octet 2
+    v[_COL_CONST] = 0.0
+    np.rint(v, out=v)
+    np.minimum(xy, 32767.0, out=xy)
+    np.mod(tod, TOD_PER_DAY, out=tod)
+    vi = v.T.astype(">i8", order="C")
+    vi[:, _COL_CONST] = const
+    b = vi.view(np.uint8)
+    if in_clutter is None:
+        return b.take(plain, axis=1).reshape(-1), None, w
+    # clutter-dominated plots: FSPEC octet 3 (FRN16) and I048/030 code 13 at the end
+    rows = b.take(full, axis=1)
+    return rows[keep[in_clutter.view(np.uint8)]], in_clutter, w
+
+
+def _cat048_refuse(t, r, az, sensor) -> None:
+    """Raise for the first plot that I048/040 or I048/140 cannot carry (if any)."""
+    bad = ~(np.isfinite(r) & np.isfinite(az))
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise AsterixError(f"radar {sensor}: plot {i} has a non-finite range or azimuth "
+                           f"({r[i]!r} m, {az[i]!r} rad); I048/040 cannot carry it")
+    rho = np.rint(r * (256.0 / NM_M))
+    out = (rho >= THETA_COUNTS) | (rho < 0.0)
+    if out.any():
+        i = int(np.flatnonzero(out)[0])
+        raise AsterixError(
+            f"radar {sensor}: plot {i} at range {r[i]:.0f} m ({r[i] / NM_M:.2f} NM) is outside "
+            f"I048/040 RHO's range [0, {RHO_MAX_NM:g}) NM (16 bits of 1/256 NM); ASTERIX "
+            f"CAT048 cannot carry it (refused, not wrapped)")
+    if not np.isfinite(t).all():
+        raise AsterixError("time of day (I048/140, I034/030): times must be finite")
+
+
+def _offsets(n: int, in_clutter: np.ndarray | None, w: int) -> np.ndarray:
+    if in_clutter is None:
+        return np.arange(n + 1, dtype=np.int64) * w
+    offsets = np.zeros(n + 1, dtype=np.int64)
+    np.cumsum(w + 2 * in_clutter.view(np.uint8).astype(np.int64), out=offsets[1:])
+    return offsets
 
 
 def cat048_records(
@@ -207,74 +359,11 @@ def cat048_records(
     I048/040 and I048/042; I048/130 when ``prl_deg`` or PAM is known; I048/030 on
     clutter-dominated plots. I048/170 and the other track items are absent: these are plots.
     """
-    _check_sac_sic(sac, sic)
-    r = np.asarray(range_m, dtype=float)
-    az = np.asarray(azimuth_rad, dtype=float)
-    n = r.size
-    rho = np.rint(r * (256.0 / NM_M))
-    # one test for NaN, inf and out of range (NaN compares False): the rare bad plot is
-    # then found and named
-    if n and not (rho.min() >= 0.0 and rho.max() < THETA_COUNTS and np.isfinite(az).all()):
-        bad = ~(np.isfinite(r) & np.isfinite(az))
-        if bad.any():
-            i = int(np.flatnonzero(bad)[0])
-            raise AsterixError(f"radar {sensor}: plot {i} has a non-finite range or azimuth "
-                               f"({r[i]!r} m, {az[i]!r} rad); I048/040 cannot carry it")
-        i = int(np.flatnonzero((rho >= THETA_COUNTS) | (r < 0.0))[0])
-        raise AsterixError(
-            f"radar {sensor}: plot {i} at range {r[i]:.0f} m ({r[i] / NM_M:.2f} NM) is outside "
-            f"I048/040 RHO's range [0, {RHO_MAX_NM:g}) NM (16 bits of 1/256 NM); ASTERIX "
-            f"CAT048 cannot carry it (refused, not wrapped)")
-    theta = np.rint(az * (THETA_COUNTS / (2.0 * math.pi))).astype(np.int64) & 0xFFFF
-    tod = time_of_day_counts(time_s, start_sod_s)
-    rho_nm = r * (XY_PER_NM / NM_M)
-    # I048/042 in the radar's own frame: X east, Y north of the antenna, from the slant
-    # range (the radar measures no elevation); |X|, |Y| < 256 NM, so at most 32767 counts
-    x = np.minimum(np.rint(rho_nm * np.sin(az)), 32767.0).astype(">i2")
-    y = np.minimum(np.rint(rho_nm * np.cos(az)), 32767.0).astype(">i2")
-    has_pam = noise_power_dbm is not None and snr_db is not None
-    i130 = (_I130_PRL if prl_deg is not None else 0) | (_I130_PAM if has_pam else 0)
-    # the record without I048/030: a constant template, then the plot fields as big-endian
-    # views written column blocks at a time
-    template = [_FS1_BASE | (_FS1_130 if i130 else 0), _FS2_042, sac, sic, 0, 0, 0, _I048_020,
-                0, 0, 0, 0]
-    if i130:
-        template.append(i130)
-        if prl_deg is not None:
-            template.append(int(min(max(round(float(prl_deg) * PRL_PER_DEG), 0), 255)))
-        if has_pam:
-            template.append(0)
-    c_xy = len(template)
-    template += [0, 0, 0, 0]
-    w = len(template)
-    mat = np.empty((n, w), dtype=np.uint8)
-    mat[:] = np.array(template, dtype=np.uint8)
-    mat[:, 4:7] = tod.astype(">u4").view(np.uint8).reshape(n, 4)[:, 1:]
-    mat[:, 8:10] = rho.astype(">u2").view(np.uint8).reshape(n, 2)
-    mat[:, 10:12] = theta.astype(">u2").view(np.uint8).reshape(n, 2)
-    if has_pam:
-        # S/I of -inf (no signal) or NaN reads as the item's floor, +inf as its ceiling
-        pam = np.fmin(np.fmax(np.asarray(snr_db, dtype=float) + float(noise_power_dbm),
-                              -128.0), 127.0)
-        mat[:, c_xy - 1] = np.rint(pam).astype(np.int8).view(np.uint8)
-    mat[:, c_xy:c_xy + 2] = x.view(np.uint8).reshape(n, 2)
-    mat[:, c_xy + 2:c_xy + 4] = y.view(np.uint8).reshape(n, 2)
-    in_clutter = None if clutter is None else np.asarray(clutter, dtype=bool)
-    if in_clutter is None or not in_clutter.any():
-        return mat.reshape(-1), np.arange(n + 1, dtype=np.int64) * w
-    # clutter-dominated plots: FSPEC octet 3 (FRN16) and I048/030 code 13 at the end
-    full = np.empty((n, w + 2), dtype=np.uint8)
-    full[:, :2] = mat[:, :2]
-    full[:, 1] |= in_clutter  # FX of FSPEC octet 2
-    full[:, 2] = _FS3_030
-    full[:, 3:w + 1] = mat[:, 2:]
-    full[:, w + 1] = _I048_030_CLUTTER
-    keep = np.ones(full.shape, dtype=bool)
-    keep[:, 2] = in_clutter
-    keep[:, w + 1] = in_clutter
-    offsets = np.zeros(n + 1, dtype=np.int64)
-    np.cumsum(w + 2 * in_clutter, out=offsets[1:])
-    return full[keep], offsets
+    buf, in_clutter, w = _cat048_bytes(
+        time_s, range_m, azimuth_rad, sac=sac, sic=sic, start_sod_s=start_sod_s,
+        snr_db=snr_db, clutter=clutter, prl_deg=prl_deg, noise_power_dbm=noise_power_dbm,
+        sensor=sensor)
+    return buf, _offsets(int(np.size(range_m)), in_clutter, w)
 
 
 def pack_blocks(category: int, buf: np.ndarray, offsets: np.ndarray,
@@ -351,12 +440,93 @@ def encode_cat048(plots: dict, *, sac: int, sic: int, start_sod_s: float,
         Data blocks in plot order (see :func:`cat048_records` for the items).
     """
     interference = plots.get("interference")
-    buf, offsets = cat048_records(
+    buf, in_clutter, w = _cat048_bytes(
         plots["time_s"], plots["range_m"], plots["azimuth_rad"], sac=sac, sic=sic,
         start_sod_s=start_sod_s, snr_db=plots.get("snr_db"),
         clutter=None if interference is None else np.asarray(interference) == clutter_code,
         prl_deg=prl_deg, noise_power_dbm=noise_power_dbm, sensor=str(plots.get("sensor", "?")))
-    return pack_blocks(CAT048, buf, offsets, max_block_bytes)
+    total = buf.size
+    if 0 < total <= max_block_bytes - 3 and max_block_bytes <= MAX_BLOCK_BYTES:
+        # the usual sector: one block
+        return [bytes((CAT048, (total + 3) >> 8, (total + 3) & 0xFF)) + buf.tobytes()]
+    n = total // w if in_clutter is None else in_clutter.size
+    return pack_blocks(CAT048, buf, _offsets(n, in_clutter, w), max_block_bytes)
+
+
+def encode_cat048_slices(plots: Mapping[str, Any], starts: Sequence[int],
+                         stops: Sequence[int], *, sac: int, sic: int, start_sod_s: float,
+                         prl_deg: float | None = None, noise_power_dbm: float | None = None,
+                         max_block_bytes: int = DEFAULT_MAX_BLOCK_BYTES,
+                         clutter_code: int = 1) -> list[list[bytes]]:
+    """CAT048 data blocks of many ``plots`` messages that slice the same columns at once.
+
+    Message ``j`` holds the plots ``starts[j]:stops[j]`` of the columns of ``plots``; its
+    blocks are exactly ``encode_cat048`` of that slice. For the engine's sectors, which are
+    the slices of one revolution's arrays: the records of the whole revolution are built by
+    one pass of :func:`cat048_records`'s numpy calls, and a sector costs a bytes slice.
+
+    Parameters
+    ----------
+    plots : Mapping
+        The columns (``time_s``, ``range_m``, ``azimuth_rad``, optionally ``snr_db`` and
+        ``interference``) and optionally ``sensor``, as in :func:`encode_cat048`.
+    starts, stops : Sequence[int]
+        The slice of each message (ascending, not overlapping).
+    sac, sic, start_sod_s, prl_deg, noise_power_dbm, max_block_bytes, clutter_code
+        As :func:`encode_cat048`.
+
+    Returns
+    -------
+    list[list[bytes]]
+        The data blocks of each message.
+
+    Raises
+    ------
+    AsterixError
+        As :func:`encode_cat048`, for any plot of the slices' span.
+    """
+    if not MIN_BLOCK_BYTES <= max_block_bytes <= MAX_BLOCK_BYTES:
+        raise AsterixError(f"block size must be in [{MIN_BLOCK_BYTES}, {MAX_BLOCK_BYTES}] "
+                           f"bytes, got {max_block_bytes}")
+    if not len(starts):
+        return []
+    lo, hi = min(starts), max(stops)
+
+    def span(key):
+        col = plots.get(key)
+        return None if col is None else np.asarray(col)[lo:hi]
+
+    interference = span("interference")
+    buf, in_clutter, w = _cat048_bytes(
+        span("time_s"), span("range_m"), span("azimuth_rad"), sac=sac, sic=sic,
+        start_sod_s=start_sod_s, snr_db=span("snr_db"),
+        clutter=None if interference is None else interference == clutter_code,
+        prl_deg=prl_deg, noise_power_dbm=noise_power_dbm, sensor=str(plots.get("sensor", "?")))
+    data = buf.tobytes()
+    if in_clutter is None:
+        bounds = None
+    else:
+        offsets = _offsets(hi - lo, in_clutter, w)
+        bounds = offsets.tolist()
+    room = max_block_bytes - 3
+    out: list[list[bytes]] = []
+    for i0, i1 in zip(starts, stops, strict=True):
+        i0 -= lo
+        i1 -= lo
+        if bounds is None:
+            a, b = i0 * w, i1 * w
+        else:
+            a, b = bounds[i0], bounds[i1]
+        total = b - a
+        if total <= 0:
+            out.append([])
+        elif total <= room:
+            out.append([bytes((CAT048, (total + 3) >> 8, (total + 3) & 0xFF)) + data[a:b]])
+        else:
+            off = (np.arange(i0, i1 + 1, dtype=np.int64) * w if bounds is None
+                   else offsets[i0:i1 + 1]) - a
+            out.append(pack_blocks(CAT048, buf[a:b], off, max_block_bytes))
+    return out
 
 
 def _azimuth_counts(azimuth_rad: np.ndarray) -> np.ndarray:
@@ -392,21 +562,28 @@ def encode_cat034_sector_crossings(
         Data blocks; records are FSPEC 0xF0 (010, 000, 030, 020), 8 octets each.
     """
     _check_sac_sic(sac, sic)
-    if len(time_s) <= 4:
-        # the usual call (one boundary per plots message): plain integers beat numpy's
-        # per-call overhead here; same rounding (half to even) as the vectorized path
+    if len(time_s) <= _CROSSINGS_IN_PYTHON:
+        # the usual call (one boundary per plots message, a few after quiet sectors): plain
+        # integers beat numpy's per-call overhead here; same rounding (half to even) and
+        # the same blocks (as many whole records as fit) as the vectorized path
+        if not MIN_BLOCK_BYTES <= max_block_bytes <= MAX_BLOCK_BYTES:
+            raise AsterixError(f"block size must be in [{MIN_BLOCK_BYTES}, {MAX_BLOCK_BYTES}] "
+                               f"bytes, got {max_block_bytes}")
+        head = bytes((0xF0, sac, sic, MSG_SECTOR_CROSSING))
         recs = []
         for t, az in zip(time_s, azimuth_rad, strict=True):
             if not (math.isfinite(t) and math.isfinite(az)):
                 raise AsterixError("I034/030, I034/020: times and azimuths must be finite")
             c = round((start_sod_s + t) * TOD_PER_S) % TOD_PER_DAY
             sector = (round(az * (THETA_COUNTS / (2.0 * math.pi))) % THETA_COUNTS) >> 8
-            recs.append(bytes((0xF0, sac, sic, MSG_SECTOR_CROSSING, c >> 16, (c >> 8) & 0xFF,
-                               c & 0xFF, sector)))
-        if not recs:
-            return []
-        size = 3 + 8 * len(recs)
-        return [bytes((CAT034, size >> 8, size & 0xFF)) + b"".join(recs)]
+            recs.append(head + bytes((c >> 16, (c >> 8) & 0xFF, c & 0xFF, sector)))
+        per_block = (max_block_bytes - 3) // 8
+        blocks = []
+        for i in range(0, len(recs), per_block):
+            part = recs[i:i + per_block]
+            size = 3 + 8 * len(part)
+            blocks.append(bytes((CAT034, size >> 8, size & 0xFF)) + b"".join(part))
+        return blocks
     tod = time_of_day_counts(time_s, start_sod_s)
     n = tod.size
     # 16-bit count first, then its top byte: the rounding happens once, at the LSB
@@ -465,7 +642,10 @@ def encode_cat034_north_marker(
         raise AsterixError("I034/120: the position must be finite")
     if not -32768 <= round(height_m) <= 32767:
         raise AsterixError(f"I034/120: height must be in [-32768, 32767] m, got {height_m}")
-    tod = int(time_of_day_counts(t_s, start_sod_s))
+    if not math.isfinite(t_s):
+        raise AsterixError("time of day (I048/140, I034/030): times must be finite")
+    # time_of_day_counts with plain numbers (Python's round is numpy's rint: half to even)
+    tod = round((start_sod_s + t_s) * TOD_PER_S) % TOD_PER_DAY
     period = round(rotation_period_s * PERIOD_PER_S)
     lat = round(lat_deg * LATLON_PER_DEG)
     # +180° is -180°: the same meridian, and the only value past the signed 24-bit range

@@ -22,20 +22,25 @@ from __future__ import annotations
 
 import datetime as dt
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-import numpy as np
-
 from shipradar.sim.asterix.encode import (
+    CAT034,
     DEFAULT_MAX_BLOCK_BYTES,
     MAX_BLOCK_BYTES,
     MIN_BLOCK_BYTES,
+    MSG_SECTOR_CROSSING,
+    THETA_COUNTS,
+    TOD_PER_DAY,
+    TOD_PER_S,
     AsterixError,
+    _check_sac_sic,
     encode_cat034_north_marker,
     encode_cat034_sector_crossings,
     encode_cat048,
+    encode_cat048_slices,
     seconds_of_day,
 )
 
@@ -45,6 +50,8 @@ __all__ = ["AsterixStream", "datagrams", "scenario_problems"]
 _A, _E2 = 6378137.0, 6.69437999014e-3
 # Events within this of a message's time belong to it [s] (sector times are k * period / n).
 _EPS_S = 1e-9
+# CAT, LEN of a data block of one sector crossing record (8 octets)
+_CROSSING_BLOCK_HEAD = bytes((CAT034, 0, 11))
 
 
 @dataclass
@@ -65,19 +72,14 @@ class _Source:
     next_north: int = 0
     eos: Mapping[str, Any] | None = None
 
-    @property
-    def sector_s(self) -> float:
-        return self.period_s / self.n_sectors
-
-    @property
-    def first_north_s(self) -> float:
+    def __post_init__(self) -> None:
+        self.sector_s = self.period_s / self.n_sectors
         # the antenna is at beam0 at t = 0 and turns clockwise at 2π/period; starting at
         # north is not a crossing, so the first one is then a revolution later
         frac = ((2.0 * math.pi - self.beam0_rad) % (2.0 * math.pi)) / (2.0 * math.pi)
-        return (frac if frac > 0.0 else 1.0) * self.period_s
-
-    def azimuth(self, t: np.ndarray) -> np.ndarray:
-        return np.mod(self.beam0_rad + 2.0 * math.pi * t / self.period_s, 2.0 * math.pi)
+        self.first_north_s = (frac if frac > 0.0 else 1.0) * self.period_s
+        # I034/010 + I034/000 of a sector crossing record, after its FSPEC
+        self.crossing_head = bytes((0xF0, self.sac, self.sic, MSG_SECTOR_CROSSING))
 
 
 class AsterixStream:
@@ -154,18 +156,93 @@ class AsterixStream:
                                    noise_power_dbm=src.noise_power_dbm,
                                    max_block_bytes=self.max_block_bytes,
                                    clutter_code=src.clutter_code)
-            self.stats["cat048_records"] += len(payload["range_m"])
-            out.extend((t_sim, b) for b in blocks)
-            self._due(src, t_sim, out)
+            return self._plots(src, t_sim, len(payload["range_m"]), blocks)
         elif topic == "eos":
             src = self._sources.get(payload["sensor"])
             if src is not None:
                 src.eos = payload
                 self._due(src, t_sim, out)
-        for _, block in out:
-            self.stats["blocks"] += 1
-            self.stats["bytes"] += len(block)
+        self._count(out)
         return out
+
+    def encode_ahead(self, sensor: str, plots: Mapping[str, Any], starts: Sequence[int],
+                     stops: Sequence[int]) -> list[list[bytes]] | None:
+        """The CAT048 blocks of radar ``sensor``'s coming ``plots`` messages, made at once.
+
+        For a producer that knows a revolution's sectors in advance (the engine): message
+        ``j`` holds the plots ``starts[j]:stops[j]`` of ``plots``' columns. Nothing is sent
+        or counted: hand each message's blocks to :meth:`feed_encoded` at its time, in
+        stream order, which then returns exactly what :meth:`feed` would.
+
+        Parameters
+        ----------
+        sensor : str
+            Radar id (its ``meta`` must have been fed).
+        plots : Mapping
+            The revolution's plot columns (``time_s``, ``range_m``, ``azimuth_rad``,
+            ``snr_db``, ``interference``).
+        starts, stops : Sequence[int]
+            Each message's slice.
+
+        Returns
+        -------
+        list[list[bytes]] or None
+            Each message's CAT048 blocks; None when the radar's ``meta`` was not seen.
+
+        Raises
+        ------
+        AsterixError
+            A plot that the CAT048 items cannot carry.
+        """
+        src = self._sources.get(sensor)
+        if src is None:
+            return None
+        return encode_cat048_slices(
+            {**plots, "sensor": sensor}, starts, stops, sac=src.sac, sic=src.sic,
+            start_sod_s=src.start_sod_s, prl_deg=src.prl_deg,
+            noise_power_dbm=src.noise_power_dbm, max_block_bytes=self.max_block_bytes,
+            clutter_code=src.clutter_code)
+
+    def feed_encoded(self, sensor: str, t_sim: float, n_plots: int,
+                     blocks: list[bytes]) -> list[tuple[float, bytes]]:
+        """:meth:`feed` of a ``plots`` message whose CAT048 blocks :meth:`encode_ahead` made.
+
+        Parameters
+        ----------
+        sensor : str
+            Radar id.
+        t_sim : float
+            Message time [s since scenario start].
+        n_plots : int
+            Plots in the message.
+        blocks : list[bytes]
+            Its CAT048 blocks.
+
+        Returns
+        -------
+        list[tuple[float, bytes]]
+            As :meth:`feed`.
+        """
+        src = self._sources.get(sensor)
+        if src is None:
+            self.stats["plots_without_meta"] += n_plots
+            return []
+        return self._plots(src, t_sim, n_plots, blocks)
+
+    def _plots(self, src: _Source, t_sim: float, n_plots: int,
+               blocks: list[bytes]) -> list[tuple[float, bytes]]:
+        stats = self.stats
+        stats["cat048_records"] += n_plots
+        out = [(t_sim, b) for b in blocks]
+        self._due(src, t_sim, out)
+        stats["blocks"] += len(out)
+        stats["bytes"] += sum([len(b) for _, b in out])
+        return out
+
+    def _count(self, out: list[tuple[float, bytes]]) -> None:
+        stats = self.stats
+        stats["blocks"] += len(out)
+        stats["bytes"] += sum([len(b) for _, b in out])
 
     def _meta(self, m: Mapping[str, Any]) -> None:
         sensor = m["sensor"]
@@ -177,6 +254,7 @@ class AsterixStream:
             # a recording made before SAC/SIC existed: the scenario's default rule
             taken = {c for s, c in self._codes if s == 0}
             pair = (0, next(c for c in range(1, 256) if c not in taken))
+        _check_sac_sic(pair[0], pair[1])
         sac, sic = int(pair[0]), int(pair[1])
         other = self._codes.get((sac, sic))
         if other is not None and other != sensor:
@@ -204,34 +282,58 @@ class AsterixStream:
 
     # ------------------------------------------------------------------ CAT034
     def _due(self, src: _Source, t: float, out: list[tuple[float, bytes]]) -> None:
-        """Append the north markers and sector crossings of ``src`` up to time ``t``."""
-        events: list[tuple[float, int, Any]] = []
-        k = src.next_sector
-        last = math.floor((t + _EPS_S) / src.sector_s)
-        if last >= k:
-            ks = np.arange(k, last + 1)
-            times = ks * src.sector_s
-            src.next_sector = last + 1
-            events.append((float(times[0]), 1, times))
+        """Append the north markers and sector crossings of ``src`` up to time ``t``.
+
+        North markers come before the sector crossings that they coincide with; the
+        crossings due at once travel together, placed by the first one's time.
+        """
+        horizon = t + _EPS_S
+        north: list[float] = []
         if src.eos is not None:
             while True:
                 tn = src.first_north_s + src.next_north * src.period_s
-                if tn > t + _EPS_S:
+                if tn > horizon:
                     break
                 src.next_north += 1
-                events.append((tn, 0, None))
-        # north markers before the sector crossings they coincide with
-        events.sort(key=lambda e: (e[0], e[1]))
-        for t_ev, kind, times in events:
-            if kind == 0:
-                out.append((t_ev, self._north_marker(src, t_ev)))
-                self.stats["north_markers"] += 1
-            else:
-                blocks = encode_cat034_sector_crossings(
-                    times.tolist(), src.azimuth(times).tolist(), sac=src.sac, sic=src.sic,
-                    start_sod_s=src.start_sod_s, max_block_bytes=self.max_block_bytes)
-                out.extend((float(times[-1]), b) for b in blocks)
-                self.stats["sector_crossings"] += times.size
+                north.append(tn)
+        k = src.next_sector
+        last = math.floor(horizon / src.sector_s)
+        if last < k:
+            if not north:
+                return
+            for tn in north:
+                self._add_north_marker(src, tn, out)
+            return
+        src.next_sector = last + 1
+        t0 = k * src.sector_s
+        i = 0
+        while i < len(north) and north[i] <= t0:
+            self._add_north_marker(src, north[i], out)
+            i += 1
+        if last == k:
+            # the usual case, one crossing: plain integers (numpy's per-call overhead is
+            # the whole cost here); the same arithmetic as encode_cat034_sector_crossings
+            az = (src.beam0_rad + 2.0 * math.pi * t0 / src.period_s) % (2.0 * math.pi)
+            c = round((src.start_sod_s + t0) * TOD_PER_S) % TOD_PER_DAY
+            sector = (round(az * (THETA_COUNTS / (2.0 * math.pi))) % THETA_COUNTS) >> 8
+            out.append((t0, _CROSSING_BLOCK_HEAD + src.crossing_head
+                        + bytes((c >> 16, (c >> 8) & 0xFF, c & 0xFF, sector))))
+            self.stats["sector_crossings"] += 1
+        else:
+            times = [j * src.sector_s for j in range(k, last + 1)]
+            turn = 2.0 * math.pi
+            azimuths = [(src.beam0_rad + turn * tj / src.period_s) % turn for tj in times]
+            blocks = encode_cat034_sector_crossings(
+                times, azimuths, sac=src.sac, sic=src.sic, start_sod_s=src.start_sod_s,
+                max_block_bytes=self.max_block_bytes)
+            out.extend((times[-1], b) for b in blocks)
+            self.stats["sector_crossings"] += len(times)
+        for tn in north[i:]:
+            self._add_north_marker(src, tn, out)
+
+    def _add_north_marker(self, src: _Source, t: float, out: list[tuple[float, bytes]]) -> None:
+        out.append((t, self._north_marker(src, t)))
+        self.stats["north_markers"] += 1
 
     def _north_marker(self, src: _Source, t: float) -> bytes:
         e = src.eos

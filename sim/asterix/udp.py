@@ -104,11 +104,12 @@ class UdpSender:
         self.url = url
         self.datagrams = 0
         self.bytes = 0
+        self._dest = (self.host, self.port)
 
     def send(self, block: bytes) -> None:
         """Send one data block as one datagram (blocking while the socket buffer is full,
         so a fast run never drops a datagram on this side)."""
-        self._sock.sendto(block, (self.host, self.port))
+        self._sock.sendto(block, self._dest)
         self.datagrams += 1
         self.bytes += len(block)
 
@@ -137,6 +138,42 @@ class AsterixBus:
         self.sender = sender
         self.stream = AsterixStream(max_block_bytes)
         self.max_block_bytes = max_block_bytes
+        # CAT048 blocks made ahead (plots_ahead), by the id of the msgpack body of their
+        # plots message (held here, so the id is that body's): (body, sensor, plots,
+        # blocks); and each radar's bodies, to drop unsent ones
+        self._ahead: dict[int, tuple[bytes, str, int, list[bytes]]] = {}
+        self._ahead_bodies: dict[str, Sequence[bytes]] = {}
+
+    @property
+    def encodes_ahead(self) -> bool:
+        """True when the engine may hand this bus encoded frames (:meth:`emit_frames`) and
+        a revolution's plots ahead (:meth:`plots_ahead`): when the inner bus is a
+        :class:`sim.bus.Bus` (which only moves frames) or there is none."""
+        from shipradar.sim.bus import Bus
+
+        return self.inner is None or type(self.inner) is Bus
+
+    def plots_ahead(self, sensor: str, bodies: Sequence[bytes], plots: Mapping[str, Any],
+                    starts: Sequence[int], stops: Sequence[int]) -> None:
+        """A revolution's ``plots`` messages of radar ``sensor``, before they are emitted.
+
+        ``bodies[j]`` is the msgpack body of the message that holds the plots
+        ``starts[j]:stops[j]`` of ``plots``' columns. Their CAT048 blocks are made now, at
+        once (:meth:`AsterixStream.encode_ahead`); each message's datagrams are still sent
+        when the message is emitted (:meth:`emit_frames`), at its time. Nothing is made
+        ahead when a plot cannot be encoded: that message then raises when it is emitted.
+        """
+        for body in self._ahead_bodies.pop(sensor, ()):
+            self._ahead.pop(id(body), None)  # sectors the run did not reach
+        try:
+            blocks = self.stream.encode_ahead(sensor, plots, starts, stops)
+        except AsterixError:
+            return
+        if blocks is None:
+            return
+        for body, i0, i1, b in zip(bodies, starts, stops, blocks, strict=True):
+            self._ahead[id(body)] = (body, sensor, i1 - i0, b)
+        self._ahead_bodies[sensor] = bodies
 
     def emit(self, topic: bytes, t_sim: float, payload: Mapping[str, Any]) -> None:
         """Pass the message on to ``inner``, then send its ASTERIX blocks."""
@@ -144,20 +181,36 @@ class AsterixBus:
             self.inner.emit(topic, t_sim, payload)
         if topic == b"truth":
             return  # never sent, and the bulk of the messages
-        blocks = self.stream.feed(topic, t_sim, payload)
-        if blocks:
-            for _, payload_bytes in datagrams(blocks, self.max_block_bytes):
-                self.sender.send(payload_bytes)
+        self._send(self.stream.feed(topic, t_sim, payload))
 
     def emit_frames(self, t_sim: float, frames: Sequence[bytes]) -> None:
-        """Same as :meth:`emit` for an already encoded message (replay)."""
+        """Same as :meth:`emit` for an already encoded message (the engine's sector frames,
+        a replay)."""
         if self.inner is not None:
             self.inner.emit_frames(t_sim, frames)
-        if bytes(frames[0]) == b"truth":
+        topic = bytes(frames[0])
+        if topic == b"truth":
+            return
+        body = frames[1]
+        ahead = self._ahead.pop(id(body), None) if self._ahead else None
+        if ahead is not None and ahead[0] is body:
+            self._send(self.stream.feed_encoded(ahead[1], t_sim, ahead[2], ahead[3]))
             return
         topic, t, payload = protocol.decode(frames)
-        blocks = self.stream.feed(topic, t, payload)
-        if blocks:
+        self._send(self.stream.feed(topic, t, payload))
+
+    def _send(self, blocks: list[tuple[float, bytes]]) -> None:
+        n = len(blocks)
+        if n == 1:
+            self.sender.send(blocks[0][1])
+        elif n == 2:  # the usual sector: its CAT048 block and the sector crossing after it
+            a, b = blocks[0][1], blocks[1][1]
+            if len(a) + len(b) <= self.max_block_bytes:
+                self.sender.send(a + b)  # as datagrams() packs them
+            else:
+                self.sender.send(a)
+                self.sender.send(b)
+        elif n:
             for _, payload_bytes in datagrams(blocks, self.max_block_bytes):
                 self.sender.send(payload_bytes)
 
