@@ -57,7 +57,10 @@ from typing import Any
 import numpy as np
 from stonesoup.base import Property
 from stonesoup.buffered_generator import BufferedGenerator
-from stonesoup.models.measurement.nonlinear import CartesianToBearingRange
+from stonesoup.models.measurement.nonlinear import (
+    CartesianToBearingRange,
+    CartesianToBearingRangeRate2D,
+)
 from stonesoup.reader.base import DetectionReader
 from stonesoup.types.angle import Bearing
 from stonesoup.types.array import CovarianceMatrix, StateVector
@@ -104,6 +107,41 @@ def measurement_model(east_m: float, north_m: float, sigma_azimuth_rad: float,
         noise_covar=CovarianceMatrix(np.diag([sigma_azimuth_rad**2, sigma_range_m**2])),
         translation_offset=StateVector([east_m, north_m]),
     )
+
+
+def range_rate_detection(detection: Detection, sensor_velocity=(0.0, 0.0)) -> Detection | None:
+    """The plot as a bearing, range and range-rate measurement, or None without a range rate
+    (an MTI-only radar, or a recording made before plots carried it).
+
+    The range rate is the Doppler bank's filter centre folded by the PRF (docs/protocol.md,
+    ``range_rate_mps``): ambiguous beyond ±f_r λ/4, so a tracker either unfolds it (adds the
+    multiple of f_r λ/2 nearest its prediction) or uses it only for slow targets.  Its noise
+    is ``sigma_range_rate_mps`` (the filter width / √12).
+
+    Parameters
+    ----------
+    detection : Detection
+        A detection of :class:`ShipradarDetectionReader` (bearing-range).
+    sensor_velocity : (2,) sequence
+        The sensor's east/north velocity [m/s] (the ``eos`` topic's ``velocity_enu_mps``):
+        the range rate is relative to the ship.
+    """
+    rr = detection.metadata.get("range_rate_mps")
+    sig = detection.metadata.get("sigma_range_rate_mps")
+    if rr is None or not math.isfinite(rr) or sig is None or not math.isfinite(sig):
+        return None
+    base = detection.measurement_model
+    cov = np.zeros((3, 3))
+    cov[:2, :2] = np.asarray(base.noise_covar, dtype=float)
+    cov[2, 2] = sig**2
+    model = CartesianToBearingRangeRate2D(
+        ndim_state=base.ndim_state, mapping=base.mapping,
+        velocity_mapping=tuple(m + 1 for m in base.mapping), noise_covar=CovarianceMatrix(cov),
+        translation_offset=base.translation_offset,
+        velocity=StateVector([float(v) for v in sensor_velocity[:2]]))
+    sv = detection.state_vector
+    return Detection(StateVector([sv[0], sv[1], float(rr)]), timestamp=detection.timestamp,
+                     measurement_model=model, metadata=detection.metadata)
 
 
 def _is_endpoint(source: Any) -> bool:
@@ -256,6 +294,12 @@ class ShipradarDetectionReader(DetectionReader):
         if not frames:
             return set()
         cols = {c: np.concatenate([np.asarray(f[c]) for f in frames]) for c in _PLOT_COLUMNS}
+        n_plots = cols["plot_id"].size
+        # range rate (Doppler bank, folded; NaN for MTI-only radars, absent from old streams)
+        for c in ("range_rate_mps", "sigma_range_rate_mps"):
+            cols[c] = np.concatenate([np.asarray(f.get(c, np.full(np.size(f["plot_id"]),
+                                                                   np.nan))) for f in frames]
+                                     ) if n_plots else np.zeros(0)
         east, north = sensor_positions(cols["time_s"], before, after)
         bearing = azimuth_to_bearing(cols["azimuth_rad"])
         heading = None if after is None and before is None else (after or before).get(
@@ -276,6 +320,8 @@ class ShipradarDetectionReader(DetectionReader):
                     "snr_db": float(cols["snr_db"][i]),
                     "scan": int(frames[0]["scan"]),
                     "heading_deg": heading,
+                    "range_rate_mps": float(cols["range_rate_mps"][i]),
+                    "sigma_range_rate_mps": float(cols["sigma_range_rate_mps"][i]),
                 },
             ))
         return out

@@ -162,3 +162,37 @@ def test_clutter_motion_terms_follow_the_instantaneous_platform_velocity():
     fd = -2.0 * geom.radial_velocity / m.wavelength
     want = fd - 2.0 * 10.0 / m.wavelength * np.cos(az - np.pi / 2) * np.cos(dep)
     assert m.target_doppler_hz(geom, east) == pytest.approx(want, rel=1e-12, abs=1e-9)
+
+
+def test_stonesoup_reader_exposes_a_range_rate_model():
+    from stonesoup.types.array import StateVector
+    from stonesoup.types.state import State
+
+    from shipradar.sim.stonesoup_reader import ShipradarDetectionReader, range_rate_detection
+
+    from .test_stonesoup_reader import synthetic_stream
+
+    frames = []
+    for f in synthetic_stream(scans=2, other_sensor=False):
+        from shipradar.sim import protocol
+
+        topic, t, p = protocol.decode(f)
+        if topic == protocol.TOPIC_PLOTS:
+            n = p["range_m"].size
+            p = dict(p, range_rate_mps=np.full(n, -12.5), sigma_range_rate_mps=np.full(n, 0.8))
+        frames.append(protocol.encode(topic, t, p))
+    dets = [d for _, ds in ShipradarDetectionReader(source=frames) for d in ds]
+    assert dets and all(d.metadata["range_rate_mps"] == -12.5 for d in dets)
+    d3 = range_rate_detection(dets[0])
+    assert d3.state_vector.shape == (3, 1) and float(d3.state_vector[2, 0]) == -12.5
+    assert np.asarray(d3.measurement_model.noise_covar)[2, 2] == pytest.approx(0.64)
+    # the model's range rate of a state closing on the sensor along the line of sight
+    off = np.asarray(d3.measurement_model.translation_offset, float).ravel()
+    x = State(StateVector([off[0] + 3000.0, -20.0, off[1] + 4000.0, 0.0]))
+    z = d3.measurement_model.function(x, noise=False)
+    assert float(z[2, 0]) == pytest.approx(-20.0 * 0.6, rel=1e-9)
+    # an MTI-only plot (NaN) has no range-rate measurement
+    nan = dets[0].__class__(dets[0].state_vector, timestamp=dets[0].timestamp,
+                            measurement_model=dets[0].measurement_model,
+                            metadata=dict(dets[0].metadata, range_rate_mps=math.nan))
+    assert range_rate_detection(nan) is None
