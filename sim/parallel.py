@@ -34,6 +34,8 @@ from collections.abc import Sequence
 from dataclasses import fields
 from typing import Any
 
+import numpy as np
+
 from shipradar.sim import protocol
 
 #: SimPy's priorities: process initialisation (URGENT) before timeouts (NORMAL).
@@ -84,10 +86,35 @@ def _run_group(indices: Sequence[int]) -> dict[str, Any]:
             "resume_times": {r.index: r.resume_times for r in sim.radars}}
 
 
+def _pack(out: dict[str, Any]) -> bytes:
+    """A worker's result as one pickle in which the frame bodies are one bytes object and
+    an array of lengths (pickling 10^5 small bytes objects one by one costs more than the
+    simulation saves)."""
+    msgs = out.pop("messages")
+    out["index"] = np.array([(r, k) for r, k, _, _, _ in msgs], dtype=np.int64).reshape(-1, 2)
+    out["times"] = np.array([t for _, _, t, _, _ in msgs], dtype=float)
+    out["topics"] = [topic for _, _, _, topic, _ in msgs]
+    out["lengths"] = np.array([len(body) for _, _, _, _, body in msgs], dtype=np.int64)
+    out["bodies"] = b"".join(body for _, _, _, _, body in msgs)
+    return pickle.dumps(out, protocol=pickle.HIGHEST_PROTOCOL)
+
+
+def _unpack(data: bytes) -> dict[str, Any]:
+    out = pickle.loads(data)
+    if "error" in out:
+        return out
+    ends = np.cumsum(out.pop("lengths")).tolist()
+    starts = [0, *ends[:-1]]
+    blob = out.pop("bodies")
+    out["messages"] = [(r, k, t, topic, blob[a:b]) for (r, k), t, topic, a, b in zip(
+        out.pop("index").tolist(), out.pop("times").tolist(), out.pop("topics"), starts, ends,
+        strict=True)]
+    return out
+
+
 def _worker(indices: Sequence[int], conn) -> None:
     try:
-        out = _run_group(indices)
-        conn.send_bytes(pickle.dumps(out, protocol=pickle.HIGHEST_PROTOCOL))
+        conn.send_bytes(_pack(_run_group(indices)))
     except BaseException as exc:  # reported by the parent
         conn.send_bytes(pickle.dumps({"error": repr(exc)}))
     finally:
@@ -124,9 +151,18 @@ def merge_order(resume_times: dict[int, list[float]]) -> list[tuple[int, int]]:
 
 
 def groups(n_radars: int, processes: int) -> list[list[int]]:
-    """Radar indices per process, round robin (at most ``processes`` groups)."""
+    """Radar indices per process, the first group for the parent process.
+
+    The parent also merges, records and publishes every radar's messages, so it takes half
+    a worker's share of the radars (at least one when there are radars to spare); the
+    workers share the rest round robin.  At most ``processes`` groups, none empty.
+    """
     n = max(1, min(processes, n_radars))
-    return [list(range(i, n_radars, n)) for i in range(n)]
+    if n == 1:
+        return [list(range(n_radars))]
+    own = max(1, min(n_radars - (n - 1), round(n_radars * 0.5 / (n - 0.5))))
+    rest = list(range(own, n_radars))
+    return [list(range(own)), *(rest[i::n - 1] for i in range(n - 1))]
 
 
 def run_parallel(sim) -> dict[str, Any]:
@@ -157,7 +193,7 @@ def run_parallel(sim) -> dict[str, Any]:
             workers.append((proc, recv))
         results = [_run_group(parts[0])]  # this process works too
         for proc, recv in workers:
-            out = pickle.loads(recv.recv_bytes())
+            out = _unpack(recv.recv_bytes())
             proc.join()
             if "error" in out:
                 raise RuntimeError(f"radar worker failed: {out['error']}")

@@ -40,10 +40,16 @@ def test_merge_order_is_simpys(steps):
     assert parallel.merge_order(times) == seen
 
 
-def test_groups_round_robin():
-    assert parallel.groups(5, 2) == [[0, 2, 4], [1, 3]]
+def test_groups_parent_takes_half_a_share():
+    assert parallel.groups(8, 2) == [[0, 1, 2], [3, 4, 5, 6, 7]]
+    assert parallel.groups(8, 4) == [[0], [1, 4, 7], [2, 5], [3, 6]]
     assert parallel.groups(2, 8) == [[0], [1]]
     assert parallel.groups(3, 1) == [[0, 1, 2]]
+    for r in range(1, 12):
+        for n in range(1, 6):
+            g = parallel.groups(r, n)
+            assert sorted(i for part in g for i in part) == list(range(r))
+            assert all(g) and len(g) <= n
 
 
 def _recording(scenario, tmp_path, name, **kw):
