@@ -99,7 +99,7 @@ def estimate_tables(scenario: Scenario) -> list[TableEstimate]:
                 if profile is None:
                     profile = prop.profile_from_spec(refractivity_profile(scenario))
                 movers = [*scenario.targets, *scenario.jammers]
-                top = max((w.altitude_m for m in movers for w in m.waypoints), default=0.0)
+                top = max((m.max_altitude_m for m in movers), default=0.0)
                 max_height = min(PE_MAX_HEIGHT_M, max(100.0, 1.2 * top + 20.0))
                 steps = grid_steps(
                     radar.frequency_hz,

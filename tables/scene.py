@@ -390,7 +390,7 @@ def _propagation_specs(scenario: Scenario, platform: Platform, radar: Radar) -> 
 
     k = radar_constants(scenario, radar)
     movers = [*scenario.targets, *scenario.jammers]
-    top = max((w.altitude_m for m in movers for w in m.waypoints), default=0.0)
+    top = max((m.max_altitude_m for m in movers), default=0.0)  # climbs, pop-ups too
     max_height = min(PE_MAX_HEIGHT_M, max(100.0, 1.2 * top + 20.0))
     kind, phi_b, sidelobe, tilt = k.pattern_key(radar)
     description = {"kind": kind, "beamwidth_rad": phi_b, "sidelobe_db": sidelobe,
