@@ -255,13 +255,15 @@ class Simulation:
         """True when the bus is a :class:`sim.bus.Bus`, which only moves encoded frames: the
         sector frames of a revolution are then encoded together when it starts
         (:func:`sim.protocol.encode_slices`, the same bytes).  Other buses (the in-process
-        :class:`CallbackSink`, the ASTERIX bus, test doubles) get each payload as a dict."""
+        :class:`CallbackSink`, test doubles) get each payload as a dict, unless they say
+        they take frames (``encodes_ahead`` True: the ASTERIX bus over a ``Bus``, which is
+        also handed each revolution's plots by its ``plots_ahead``)."""
         bus = self.bus
         if bus is None:
             return False
         from shipradar.sim.bus import Bus
 
-        return type(bus) is Bus
+        return type(bus) is Bus or getattr(bus, "encodes_ahead", False) is True
 
 
 class _RadarProcess:
@@ -579,6 +581,9 @@ class _RadarProcess:
         sid = self.radar.id
         plots = protocol.encode_slices(protocol.TOPIC_PLOTS, times,
                                        {"sensor": sid, "scan": scan}, cols)
+        ahead = getattr(sim.bus, "plots_ahead", None)
+        if ahead is not None:  # the ASTERIX bus: its CAT048 records of the revolution at once
+            ahead(sid, plots, {c: scan_plots[c] for c in PLOT_COLUMNS}, s0, s1)
         # each sector's contributor offsets start at 0: one array of every sector's rebased
         # offsets (n + 1 per sector), sliced per sector
         off = scan_plots["contrib_offsets"]
