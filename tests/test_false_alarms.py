@@ -162,3 +162,20 @@ def test_clutter_generator_counts_match_false_alarm_count():
         counts, _, _ = gen.draw(np.random.default_rng(seed))
         ref = false_alarm_count(gen.eta, 2, np.random.default_rng(seed))
         np.testing.assert_array_equal(counts, ref)
+
+
+@pytest.mark.parametrize("eta", [0.0, 0.01, 0.1725, 0.2, 3.0, 8.99, 9.0, 50.0, 1e4])
+def test_scalar_count_and_positions_are_the_array_paths(eta):
+    # the one-count and one-interval fast paths draw and compute as the general ones
+    for seed in range(30):
+        a = false_alarm_count(eta, 2, np.random.default_rng(seed))
+        b = false_alarm_count(np.array([eta]), 2, np.random.default_rng(seed))
+        assert a.shape == () and int(a) == int(b[0])
+    n = int(min(eta, 20))
+    r1, a1 = uniform_positions(n, 5.0, 1.1e5, 1.0, 1.0 + 2 * np.pi, np.random.default_rng(1))
+    r2, a2 = uniform_positions(np.array([n]), 5.0, 1.1e5, 1.0, 1.0 + 2 * np.pi,
+                               np.random.default_rng(1))
+    np.testing.assert_array_equal(r1, r2)
+    np.testing.assert_array_equal(a1, a2)
+    with pytest.raises(ValueError):
+        uniform_positions(1, 10.0, 5.0, 0.0, 1.0, np.random.default_rng(1))
