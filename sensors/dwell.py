@@ -265,8 +265,16 @@ class DwellModel:
         reference = np.zeros(n)
         spread = np.zeros(n)
         if self._sea_reader is not None:
-            v = np.nan_to_num(self._sea_reader(np.asarray(range_m), np.asarray(azimuth_rad)))
-            reference, spread = v[:, 1], v[:, 2]
+            # only the spectrum's mean and spread: a reader of those two arrays alone (the
+            # same bilinear values, column by column) halves the gathers, and a clutter map
+            # is read at every one of a scan's thousands of sea-clutter false alarms
+            reader = self.__dict__.get("_sea_spectrum_reader")
+            if reader is None:
+                reader = self._sea_spectrum_reader = StackedLookup2D(
+                    self.tables.sea_clutter, ("doppler_mean_hz", "doppler_spread_hz"),
+                    periodic1=True)
+            v = np.nan_to_num(reader(np.asarray(range_m), np.asarray(azimuth_rad)))
+            reference, spread = v[:, 0], v[:, 1]
         if self._compensation is not None:
             reference = reference + self._platform_doppler_hz(*self._compensation,
                                                               azimuth_rad, range_m)
