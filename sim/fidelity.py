@@ -170,7 +170,9 @@ def explain(scenario: Scenario) -> list[Part]:
                         choice="propagation"))
     else:
         top = _pe_max_height()
-        heights = {m.id: max(w.altitude_m for w in m.waypoints) for m in movers}
+        # highest altitude including climbs and pop-ups where the schema knows them
+        heights = {m.id: float(getattr(m, "max_altitude_m", None)
+                               or max(w.altitude_m for w in m.waypoints)) for m in movers}
         above = sorted(i for i, h in heights.items() if min(
             w.altitude_m for w in next(m for m in movers if m.id == i).waypoints) > top)
         partly = sorted(i for i, h in heights.items() if h > top and i not in above)
