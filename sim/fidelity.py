@@ -53,6 +53,7 @@ import os
 import sys
 import tempfile
 import time
+import typing
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -363,7 +364,9 @@ def plan_settings(scenario: Scenario, *, include_unexercised: bool = False
 
     has_movers = bool(scenario.targets or scenario.jammers)
     alternatives: dict[str, list[Any]] = {
-        "pd_method": ["seed"] if ref["pd_method"] == "exact" else [],
+        # every other P_d method the schema offers (the seed's; a tabulated exact P_d)
+        "pd_method": ([v for v in typing.get_args(Fidelity.model_fields["pd_method"].annotation)
+                       if v != "exact"] if ref["pd_method"] == "exact" else []),
         "propagation": ["two_ray", "free_space"],
         "pe_grid": ["standard", "coarse"],
         "improvement_grid": ["standard", "coarse"],
