@@ -32,6 +32,8 @@ expected false alarms per scan of each radar and origin within ``--tolerance-fa`
 sectors per scan (one sector, the scan period over ``sectors_per_scan``) ≤
 ``--max-latency-s`` (default: the scene's own).
 
+The reference is timed twice, first and last, and keeps the better time.
+
 Recommendation: each choice takes the cheapest admissible value (its one-at-a-time run's
 measured cost: run CPU time plus the time of the tables it reads, each timed once per
 command, built or loaded; a value must save 10 % of the reference's run CPU time to displace
@@ -873,6 +875,13 @@ def run_fidelity_study(scenario: Scenario, *, duration_s: float | None = None, r
         say(f"fidelity: running {s.label} ...")
         results[s.label] = run_setting(scenario, s, seeds, duration, clock)
     ref = results["reference"]
+    # every cost is compared with the reference's, which was timed first: it is timed again
+    # last and keeps the better time (after a warm-up it still read up to 1.7x slower than
+    # its alternatives on the raid, the first full run of the process)
+    say("fidelity: timing the reference again ...")
+    again = run_setting(scenario, settings[0], seeds, duration, clock)
+    ref.run_wall_s = min(ref.run_wall_s, again.run_wall_s)
+    ref.run_cpu_s = min(ref.run_cpu_s, again.run_cpu_s)
     comps = [compare(ref, results[s.label], scenario, tolerances) for s in settings]
     by_label = {c.result.setting.label: c for c in comps}
     # ---- recommendation: cheapest admissible value per choice, then checked together
