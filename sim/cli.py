@@ -164,6 +164,20 @@ def cmd_run(args) -> int:
         raise BadInput(f"--record: {args.record} exists; pass --overwrite to replace it")
     curve = _curve(args, "server")
     _memory_budget(args, s)
+    # every address is checked before any table is built or loaded
+    if args.publish:
+        from shipradar.sim.bus import check_bind_endpoint
+
+        check_bind_endpoint(args.publish, allow_remote=args.allow_remote,
+                            secured=curve is not None)
+    if args.asterix:
+        from shipradar.sim.asterix.stream import scenario_problems
+        from shipradar.sim.asterix.udp import parse_udp_url
+
+        parse_udp_url(args.asterix, allow_remote=args.allow_remote)
+        problems = scenario_problems(s)
+        if problems:
+            raise BadInput("\n".join(f"--asterix: {p}" for p in problems))
     from shipradar.tables.scene import load_scene_tables
 
     # the tables the scene reads: from the cache, built now if missing (shown on stderr)
@@ -184,12 +198,8 @@ def cmd_run(args) -> int:
         if publisher or recorder:
             bus = core_bus = Bus(publisher, recorder)
         if args.asterix:
-            from shipradar.sim.asterix.stream import scenario_problems
             from shipradar.sim.asterix.udp import AsterixBus, UdpSender
 
-            problems = scenario_problems(s)
-            if problems:
-                raise BadInput("\n".join(f"--asterix: {p}" for p in problems))
             bus = AsterixBus(bus, UdpSender(args.asterix, allow_remote=args.allow_remote),
                              args.asterix_max_datagram)
         sim = Simulation(s, bus=bus, seed=args.seed, duration_s=args.duration,

@@ -153,12 +153,14 @@ def test_remote_bind_needs_curve_or_an_explicit_insecure_opt_in(keys):
         check_bind_endpoint("udp://10.0.0.1:5556", secured=True)
 
 
-def test_cli_refuses_a_remote_bind_without_keys(capsys):
+def test_cli_refuses_a_remote_bind_without_keys(capsys, table_cache):
     assert main(["run", "--example", "single_missile", "--duration", "1",
                  "--publish", "tcp://0.0.0.0:5556"]) == 2
     err = capsys.readouterr().err
     assert err.startswith("refusing to bind tcp://0.0.0.0:5556: it is reachable from other "
                           "machines; bind a loopback address")
+    # refused before any work: no table was built into the empty cache
+    assert not table_cache.exists() or not any(table_cache.iterdir())
 
 
 def test_keys_generate_writes_private_secrets_and_refuses_to_overwrite(tmp_path, capsys):
