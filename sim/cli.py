@@ -428,32 +428,30 @@ def cmd_view(args) -> int:
     return EXIT_OK
 
 
-def _int_range(name: str, lo: int, hi: int):
-    def conv(text: str) -> int:
+def _in_range(name: str, lo, hi, cast=int):
+    """argparse type: ``cast(text)`` within [lo, hi], else a message naming option, range
+    and value."""
+    what, bounds = (("an integer", f"[{lo}, {hi}]") if cast is int
+                    else ("a number", f"[{lo:g}, {hi:g}]"))
+
+    def conv(text: str):
         try:
-            v = int(text)
+            v = cast(text)
         except ValueError:
             v = None
         if v is None or not lo <= v <= hi:
-            raise argparse.ArgumentTypeError(f"{name} must be an integer in [{lo}, {hi}], "
-                                             f"got {text!r}")
+            raise argparse.ArgumentTypeError(f"{name} must be {what} in {bounds}, got {text!r}")
         return v
 
     return conv
+
+
+def _int_range(name: str, lo: int, hi: int):
+    return _in_range(name, lo, hi, int)
 
 
 def _float_range(name: str, lo: float, hi: float):
-    def conv(text: str) -> float:
-        try:
-            v = float(text)
-        except ValueError:
-            v = None
-        if v is None or not lo <= v <= hi:
-            raise argparse.ArgumentTypeError(f"{name} must be a number in [{lo:g}, {hi:g}], "
-                                             f"got {text!r}")
-        return v
-
-    return conv
+    return _in_range(name, lo, hi, float)
 
 
 def cmd_plot(args) -> int:
