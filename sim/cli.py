@@ -164,6 +164,9 @@ def cmd_run(args) -> int:
         raise BadInput(f"--record: {args.record} exists; pass --overwrite to replace it")
     curve = _curve(args, "server")
     _memory_budget(args, s)
+    if args.processes > 1 and args.realtime:
+        raise BadInput(f"--processes {args.processes} is for fast mode; drop --realtime or "
+                       "use --processes 1")
     # every address is checked before any table is built or loaded
     if args.publish:
         from shipradar.sim.bus import check_bind_endpoint
@@ -551,7 +554,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--realtime", nargs="?", const=1.0, default=None,
                    type=_positive("--realtime"), help="pace to the wall clock x FACTOR")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
-    r.add_argument("--processes", type=int, default=1, metavar="N",
+    r.add_argument("--processes", type=_int_range("--processes", 1, 64), default=1,
+                   metavar="N",
                    help="run the radars in N processes (fast mode; same bytes as one)")
     _asterix_arguments(r)
     r.set_defaults(func=cmd_run)

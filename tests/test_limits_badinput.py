@@ -62,6 +62,8 @@ CASES = [
      "{future.srrec} has recording format version 7; this reader supports [1, 2]"),
     (["recording", "verify", "{v99.srrec}"],
      "{v99.srrec} has recording format version 99; this reader supports [1, 2]"),
+    (["run", SCENE, "--processes", "2", "--realtime", "5"],
+     "--processes 2 is for fast mode; drop --realtime or use --processes 1"),
     (["replay", "{nope}"], "replay: recording {nope} does not exist"),
     (["replay", "{junk.srrec}", "--fast"],
      "{junk.srrec} is not a shipradar recording (bad magic)"),
@@ -150,6 +152,9 @@ def test_budget_errors_exact(tmp_path, capsys, monkeypatch):
 @pytest.mark.parametrize("argv,line", [
     (["run", SCENE, "--memory-budget", "0"],
      "shipradar run: error: argument --memory-budget: --memory-budget must be > 0, got 0"),
+    (["run", SCENE, "--processes", "0"],
+     "shipradar run: error: argument --processes: --processes must be an integer in [1, 64], "
+     "got '0'"),
     (["run", SCENE, "--compress", "gzip"],
      "shipradar run: error: argument --compress: invalid choice: 'gzip' (choose from 'none', "
      "'zstd')"),
