@@ -13,11 +13,13 @@ down); the process CPU time of that run is printed too, a better guide than the 
 a loaded machine.  Target: >= 200x real time on a 2-core machine (issue 16: 1000x on the raid,
 300x on the stress scene, with a recording).
 
-Two more cases measure issue 16's levers in the same process: ``legacy paths`` re-enables
+Three more cases measure issue 16's levers in the same process: ``legacy paths`` re-enables
 the code paths it replaced (one ``encode`` call per sector frame instead of the revolution's
-frames encoded together, and scipy's Poisson ``ppf`` for the clutter false-alarm counts
-instead of the precomputed CDF rows; same bytes), and ``N processes`` runs the radars in
-worker processes (``--processes``, same bytes).
+frames encoded together, scipy's Poisson ``ppf`` for the clutter false-alarm counts instead
+of the precomputed CDF rows, SimPy's event loop and one record written per message; same
+bytes), ``SimPy loop`` is today's code under SimPy's event loop with one ``Recorder.write``
+per message instead of the batched fast path (same bytes), and ``N processes`` runs the
+radars in worker processes (``--processes``, same bytes).
 """
 
 from __future__ import annotations
@@ -45,7 +47,14 @@ TARGET_FACTOR = 200.0
 
 class _PerFrameBus(Bus):
     """A Bus the engine does not recognise as one: it encodes every sector frame on its own
-    (the path before issue 16)."""
+    (the path before issue 16), under SimPy's event loop, one record written per message."""
+
+
+class _SimPyLoop(Simulation):
+    """The run under SimPy's event loop with one ``Recorder.write`` per message (the path
+    before the batched fast path; same bytes)."""
+
+    batched = False
 
 
 @contextlib.contextmanager
@@ -70,12 +79,12 @@ def _scipy_poisson_counts():
 
 
 def run_once(scenario, duration, record: bool, tables, legacy: bool = False,
-             processes: int = 1) -> dict:
+             processes: int = 1, simpy_loop: bool = False) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "bench.rec"
         bus = (_PerFrameBus if legacy else Bus)(None, Recorder(path)) if record else None
-        sim = Simulation(scenario, bus=bus, duration_s=duration, tables=tables,
-                         processes=processes)
+        sim = (_SimPyLoop if simpy_loop else Simulation)(
+            scenario, bus=bus, duration_s=duration, tables=tables, processes=processes)
         t0, c0 = time.perf_counter(), time.process_time()
         with _scipy_poisson_counts() if legacy else contextlib.nullcontext():
             summary = sim.run()
@@ -120,6 +129,8 @@ def main() -> None:
         "full fidelity, no recording": best_of(s, args.duration, False, args.repeat),
         "free space, no clutter, no atmosphere": best_of(cheap, args.duration, True, args.repeat),
         "legacy paths + recording": best_of(s, args.duration, True, args.repeat, legacy=True),
+        "SimPy loop + recording": best_of(s, args.duration, True, args.repeat,
+                                          simpy_loop=True),
     }
     if len(s.radars()) > 1 and args.processes > 1:
         rows[f"{args.processes} processes + recording"] = best_of(
@@ -142,6 +153,9 @@ def main() -> None:
     old = rows["legacy paths + recording"]
     print(f"issue 16 levers (same bytes): new/old wall {full['wall_s'] / old['wall_s']:.2f}, "
           f"CPU {full['cpu_s'] / old['cpu_s']:.2f} (legacy {old['cpu_s']:.2f} s CPU)")
+    loop = rows["SimPy loop + recording"]
+    print(f"batched fast path (same bytes): new/SimPy loop wall "
+          f"{full['wall_s'] / loop['wall_s']:.2f}, CPU {full['cpu_s'] / loop['cpu_s']:.2f}")
     print(json.dumps(rows))
 
 

@@ -508,6 +508,32 @@ class Bus:
             len(f) for f in frames)
         self.t_last = t_sim
 
+    def emit_many(self, records: Sequence[tuple[float, Sequence[bytes]]]) -> None:
+        """:meth:`emit_frames` for several messages at once, in order (the recorder frames
+        them in one :meth:`Recorder.write_many`: the same records, byte for byte).
+
+        Parameters
+        ----------
+        records : Sequence[tuple[float, Sequence[bytes]]]
+            ``(t_sim, [topic, body])`` per message, in stream order.
+        """
+        if not records:
+            return
+        if self.recorder is not None:
+            self.recorder.write_many(records)
+        if self.publisher is not None:
+            send = self.publisher.send
+            for _, frames in records:
+                send(frames)
+        counts = self._messages
+        size = 0
+        for _, frames in records:
+            topic = frames[0]
+            counts[topic if type(topic) is bytes else bytes(topic)] += 1
+            size += sum(map(len, frames))
+        self._bytes += size
+        self.t_last = records[-1][0]
+
     def flush(self, fsync: bool = False) -> None:
         """End of scan: hand the recording to the OS (``fsync``: to the disk).
 

@@ -14,7 +14,11 @@ and the sensor metadata again for late joiners.  Computing ahead changes no time
 frame boundary of the stream, only the order of the random draws.
 
 Fast mode uses :class:`simpy.Environment`, real-time mode :class:`simpy.rt.RealtimeEnvironment`;
-the process code is the same in both (STYLE: SimPy's ``rt`` only overrides ``step()``).
+the process code is the same in both (STYLE: SimPy's ``rt`` only overrides ``step()``).  A
+fast run with nothing live downstream (no bus, or a recording-only :class:`sim.bus.Bus`:
+:attr:`Simulation.batched`) drives the same processes on a plain clock that replays SimPy's
+event order (:meth:`Simulation._run_batched`), and hands the recorder a scan's messages at
+once; the bytes are the same.
 """
 
 from __future__ import annotations
@@ -173,21 +177,95 @@ class Simulation:
             from shipradar.sim.parallel import run_parallel
 
             return run_parallel(self)
-        env = self._environment()
+        batched = self.batched
+        env = None if batched else self._environment()
         bar = None
         if self.progress:
             from tqdm import tqdm
 
             bar = tqdm(total=round(self.duration), unit="sim s", file=sys.stderr, leave=False)
-            env.process(self._progress(env, bar))
+            if env is not None:
+                env.process(self._progress(env, bar))
         wall0 = time.perf_counter()
-        env.run(until=self.duration + 1e-9)
+        if batched:
+            self._run_batched(bar)
+        else:
+            env.run(until=self.duration + 1e-9)
         wall = time.perf_counter() - wall0
         if bar is not None:
             bar.close()
         if self.bus is not None:
             self.bus.flush()
         return self.summary(wall)
+
+    @property
+    def batched(self) -> bool:
+        """True when :meth:`run` takes the batched fast path (:meth:`_run_batched`): fast
+        mode (no ``realtime``) and nothing live downstream, i.e. no bus, or a
+        :class:`sim.bus.Bus` without a publisher (recording only).  A publisher (a live
+        subscriber sees each sector as it is made), the ASTERIX bus, in-process sinks, test
+        doubles and the wall-clock modes keep SimPy's event loop."""
+        if self.realtime:
+            return False
+        bus = self.bus
+        if bus is None:
+            return True
+        from shipradar.sim.bus import Bus
+
+        return type(bus) is Bus and bus.publisher is None
+
+    def _run_batched(self, bar=None) -> None:
+        """Run the radars' processes (:meth:`_RadarProcess.run`, the same code as under
+        SimPy) on a plain clock, and hand the recording a scan's messages at once.
+
+        The loop is SimPy's own for these processes: a heap of (time, priority, event id),
+        the processes started in radar order (urgent, at 0), each resumption scheduling the
+        next one at ``now + delay`` with the next id, nothing at or after ``duration +
+        1e-9``; so the radars' messages interleave exactly as under
+        :class:`simpy.Environment` (``tests/test_engine_batched.py``).  The messages go to a
+        :class:`_BatchingBus` that passes them on to the run's bus at each end of scan (the
+        flush the engine does there), in one :meth:`sim.bus.Bus.emit_many`.
+        """
+        import heapq
+
+        real = self.bus
+        batch = _BatchingBus(real) if real is not None else None
+        clock = _FastClock()
+        heap = [(0.0, 0, eid, r.run(clock)) for eid, r in enumerate(self.radars)]
+        eid = len(heap)
+        until = self.duration + 1e-9
+        step = max(self.duration / 200.0, 0.5)
+        next_bar = step
+        pop, push = heapq.heappop, heapq.heappush
+        self.bus = batch
+        try:
+            while heap:
+                t, _, _, proc = heap[0]
+                if t >= until:
+                    break
+                pop(heap)
+                clock.now = t
+                try:
+                    delay = next(proc)
+                except StopIteration:
+                    continue
+                push(heap, (t + delay, 1, eid, proc))
+                eid += 1
+                if bar is not None and t >= next_bar:
+                    bar.n = min(round(t), bar.total)
+                    bar.refresh()
+                    next_bar = t + step
+            if batch is not None:
+                real.emit_many(batch.take())
+        except BaseException:
+            if batch is not None and batch.pending:  # what was emitted reaches the bus
+                try:
+                    real.emit_many(batch.take())
+                except Exception:
+                    pass
+            raise
+        finally:
+            self.bus = real
 
     def messages(self, step_s: float | None = None) -> Iterator[tuple[str, float, dict]]:
         """Run in process and yield every message as ``(topic, t_sim, payload)``, in the
@@ -264,6 +342,46 @@ class Simulation:
         from shipradar.sim.bus import Bus
 
         return type(bus) is Bus or getattr(bus, "encodes_ahead", False) is True
+
+
+class _FastClock:
+    """What :meth:`_RadarProcess.run` asks of a SimPy environment (``now``, ``timeout``),
+    for :meth:`Simulation._run_batched`: a timeout is its delay, the loop does the rest."""
+
+    __slots__ = ("now",)
+
+    def __init__(self) -> None:
+        self.now = 0.0
+
+    @staticmethod
+    def timeout(delay: float) -> float:
+        return delay
+
+
+class _BatchingBus:
+    """The run's :class:`sim.bus.Bus` as the engine sees it on the batched fast path: the
+    messages (encoded as ``Bus.emit`` encodes them) are kept until the end of scan's flush,
+    then passed on in one :meth:`sim.bus.Bus.emit_many`, and the bus flushed."""
+
+    encodes_ahead = True
+
+    def __init__(self, bus) -> None:
+        self.bus = bus
+        self.pending: list[tuple[float, list[bytes]]] = []
+
+    def emit(self, topic: bytes, t_sim: float, payload: dict) -> None:
+        self.pending.append((t_sim, protocol.encode(topic, t_sim, payload)))
+
+    def emit_frames(self, t_sim: float, frames) -> None:
+        self.pending.append((t_sim, frames))
+
+    def take(self) -> list[tuple[float, list[bytes]]]:
+        pending, self.pending = self.pending, []
+        return pending
+
+    def flush(self, fsync: bool = False) -> None:
+        self.bus.emit_many(self.take())
+        self.bus.flush(fsync)
 
 
 class _RadarProcess:
