@@ -403,8 +403,8 @@ class _RadarProcess:
         self._radar_dump = radar.model_dump(mode="json")
         self._scan = _merge_parts([])
         self._cursor = 0
-        self._plan_rows = np.zeros(0, dtype=int)
         self._frames: dict[int, tuple[int, bytes, bytes]] | None = None
+        self._meta_items: tuple[int, bytes, bytes] | None = None
         #: position in scenario.radars(); env.now at each resumption of run() (the order of
         #: the messages between radars in sim.parallel)
         self.index = 0
@@ -495,6 +495,34 @@ class _RadarProcess:
                 "clutter_false_alarm_profile": {"range_edges_m": edges, "per_scan": per_scan}}
 
     def _emit_meta(self, t: float, scan: int) -> None:
+        """The sensor metadata of revolution ``scan`` at time ``t``.  To a bus that only
+        moves frames (:class:`sim.bus.Bus`, the batched path's) it goes packed from the
+        items packed once (only ``scan`` changes; :func:`sim.protocol.encode_items`, the
+        same bytes as encoding the payload); other buses get the payload."""
+        sim = self.sim
+        bus = sim.bus
+        if bus is None:
+            return
+        from shipradar.sim.bus import Bus
+
+        if type(bus) is not Bus and type(bus) is not _BatchingBus:
+            sim.emit(protocol.TOPIC_META, t, self._meta_payload(scan))
+            return
+        parts = self._meta_items
+        if parts is None:
+            payload = self._meta_payload(0)
+            keys = list(payload)
+            k = keys.index("scan")
+            topic = protocol.TOPIC_META
+            parts = self._meta_items = (
+                len(keys), protocol.payload_items(topic, {c: payload[c] for c in keys[:k]}),
+                protocol.payload_items(topic, {c: payload[c] for c in keys[k + 1:]}))
+        n, before, after = parts
+        bus.emit_frames(t, protocol.encode_items(
+            protocol.TOPIC_META, t, n,
+            (before, protocol.payload_items(protocol.TOPIC_META, {"scan": scan}), after)))
+
+    def _meta_payload(self, scan: int) -> dict:
         r = self.radar
         payload = {
             "sensor": r.id,
@@ -516,27 +544,33 @@ class _RadarProcess:
             "sac_sic": list(self.sim.scenario.asterix_sources()[r.id]),
             "noise_power_dbm": 10.0 * math.log10(self.model.n0 * 1e3),
         }
-        self.sim.emit(protocol.TOPIC_META, t, payload)
+        return payload
 
-    def _plan_scan(self, t_scan: float) -> None:
-        """The targets the beam may meet in the revolution starting at ``t_scan``.
+    def _plan_scans(self, t_scans: list[float]) -> list[np.ndarray]:
+        """The targets the beam may meet in each revolution starting at ``t_scans``.
 
         Those that exist during the revolution and can be inside the instrumented range at
         some time of it (ground range at its start minus what the relative horizontal speed
-        covers in one period); the others are not solved for.  Sets ``_plan_rows``.
+        covers in one period); the others are not solved for.  The revolutions of a block
+        are planned together (the geometry is computed element by element: the same rows as
+        one revolution at a time).
         """
         sim = self.sim
         period = self.radar.scan_period_s
-        live = (sim.targets.t_last >= t_scan) & (sim.targets.t_first < t_scan + period)
-        rows = np.flatnonzero(live)
-        self._plan_rows = rows
-        if rows.size == 0:
-            return
-        tpos, tvel, _ = sim.targets.state(t_scan, rows)
-        ppos, pvel = self.platform_state(np.full(rows.size, t_scan))
+        t_last, t_first = sim.targets.t_last, sim.targets.t_first
+        rows_of = [np.flatnonzero((t_last >= t) & (t_first < t + period)) for t in t_scans]
+        sizes = [r.size for r in rows_of]
+        if not sum(sizes):
+            return rows_of
+        rows = np.concatenate(rows_of)
+        t = np.repeat(np.asarray(t_scans, dtype=float), sizes)
+        tpos, tvel, _ = sim.targets.state(t, rows)
+        ppos, pvel = self.platform_state(t)
         _, ground = antenna_azimuth(ppos, tpos, sim.frame)
         reach = np.hypot(tvel[:, 0] - pvel[:, 0], tvel[:, 1] - pvel[:, 1]) * period
-        self._plan_rows = rows[ground <= self.radar.instrumented_range_m + reach]
+        near = ground <= self.radar.instrumented_range_m + reach
+        edges = np.cumsum([0, *sizes]).tolist()
+        return [rows[a:b][near[a:b]] for a, b in zip(edges[:-1], edges[1:], strict=True)]
 
     def _dwell(self, rows: np.ndarray, tc: np.ndarray, scan_of: np.ndarray,
                bounds: list[tuple[float, float]]) -> dict | None:
@@ -614,9 +648,8 @@ class _RadarProcess:
         # beam crossings of every (revolution, target) pair, solved at once
         rows_all, start_all, beam_all, scan_all = [], [], [], []
         if sim.targets.n:
-            for j, (t_a, _) in enumerate(bounds):
-                self._plan_scan(t_a)
-                rows = self._plan_rows
+            for j, ((t_a, _), rows) in enumerate(zip(bounds, self._plan_scans(
+                    [t_a for t_a, _ in bounds]), strict=True)):
                 rows_all.append(rows)
                 # the search starts a hair before the revolution, and a revolution owns the
                 # crossings in [start - ε, end - ε): a crossing on the boundary between two

@@ -518,6 +518,36 @@ def encode_slices(
     return bodies
 
 
+def payload_items(topic: bytes, payload: Mapping[str, Any]) -> bytes:
+    """The bytes :func:`encode` writes for the items of ``payload`` (after the map header and
+    the envelope): each key then its value, in order, whatever else the message holds.
+
+    Joined under one header by :func:`encode_items`, the items of several payloads give
+    exactly the body of one :func:`encode` of the merged payload, so a message whose keys
+    mostly never change (the sensor metadata) is packed once and re-used.
+    """
+    body = encode(topic, 0.0, payload)[1]
+    return body[len(_map_header(len(payload) + 2)) + len(_ENVELOPE_V) + len(_ENVELOPE_T_KEY)
+                + 9:]
+
+
+def encode_items(topic: bytes, t_sim: float, n_items: int, items: Sequence[bytes]
+                 ) -> list[bytes]:
+    """``encode(topic, t_sim, payload)`` from the :func:`payload_items` of its parts:
+    ``n_items`` keys in all, ``items`` in payload order (distinct keys; same bytes)."""
+    t = float(t_sim)
+    if not math.isfinite(t):
+        raise ProtocolError(f"t_sim must be finite, got {t_sim!r}")
+    body = b"".join((_map_header(n_items + 2), _ENVELOPE_V, _ENVELOPE_T_KEY,
+                     _FLOAT64.pack(0xCB, t), *items))
+    if len(body) > MAX_BODY_BYTES:
+        raise ProtocolError(
+            f"encoded body is {len(body)} bytes, over the {MAX_BODY_BYTES}-byte maximum: "
+            "split the payload (e.g. one message per sector)"
+        )
+    return [topic, body]
+
+
 def _encode_reference(topic: bytes, t_sim: float, payload: Mapping[str, Any]) -> list[bytes]:
     """The straightforward encoder (msgpack with a ``default`` hook), same bytes as
     :func:`encode`; the tests compare the two."""

@@ -285,6 +285,7 @@ class StackedLookup2D:
         self.periodic1 = periodic1
         self.stack = np.ascontiguousarray(np.stack(
             [table.values if a is None else table.extra[a] for a in self.names], axis=-1))
+        self._flat = self.stack.reshape(-1, self.stack.shape[-1])
 
     def __call__(self, x0: np.ndarray, x1: np.ndarray) -> np.ndarray:
         """``(N, len(arrays))`` interpolated values at the points (x0, x1)."""
@@ -300,8 +301,13 @@ class StackedLookup2D:
         j = np.clip(np.searchsorted(a1, x1c, side="right") - 1, 0, len(a1) - 2)
         t = ((x0c - a0[i]) / (a0[i + 1] - a0[i]))[:, None]
         u = ((x1c - a1[j]) / (a1[j + 1] - a1[j]))[:, None]
-        s = self.stack
-        out = ((1 - t) * ((1 - u) * s[i, j] + u * s[i, j + 1])
-               + t * ((1 - u) * s[i + 1, j] + u * s[i + 1, j + 1]))
+        # the four corners gathered as rows of the (n0 n1, k) view of the stack (one flat
+        # index, ``take``): the same values as s[i, j] etc., at half the cost
+        n1 = len(a1)
+        f = i * n1 + j
+        take = self._flat.take
+        u1 = 1 - u
+        out = ((1 - t) * (u1 * take(f, axis=0) + u * take(f + 1, axis=0))
+               + t * (u1 * take(f + n1, axis=0) + u * take(f + (n1 + 1), axis=0)))
         out[outside] = np.nan
         return out

@@ -429,3 +429,20 @@ def test_encode_slices_same_bytes_as_encode():
         encode_slices(b"plots", [0.0], {"scan": 1}, {"scan": (cols["plot_id"], [0], [1])})
     with pytest.raises(ProtocolError):
         encode_slices(b"plots", [float("nan")], {}, {"x": (cols["plot_id"], [0], [1])})
+
+
+@pytest.mark.parametrize("scan", [0, 1, 127, 128, 255, 256, 65535, 65536, 2**32, 2**40])
+def test_encode_items_is_encode_of_the_merged_payload(scan):
+    # the engine's metadata: packed once around the one key that changes (same bytes)
+    before = {"sensor": "r1", "platform": "ship", "nested": {"a": [1, 2.5, None]}}
+    after = {"ids": ["t1", "t2"], "profile": np.arange(5.0), "pfa": 1e-6, "x": -3}
+    payload = {**before, "scan": scan, **after}
+    t = 12.375
+    want = protocol.encode(protocol.TOPIC_META, t, payload)
+    items = (protocol.payload_items(protocol.TOPIC_META, before),
+             protocol.payload_items(protocol.TOPIC_META, {"scan": scan}),
+             protocol.payload_items(protocol.TOPIC_META, after))
+    got = protocol.encode_items(protocol.TOPIC_META, t, len(payload), items)
+    assert got == want
+    with pytest.raises(ProtocolError, match="finite"):
+        protocol.encode_items(protocol.TOPIC_META, math.nan, len(payload), items)
