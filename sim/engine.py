@@ -406,9 +406,10 @@ class _RadarProcess:
         self._frames: dict[int, tuple[int, bytes, bytes]] | None = None
         self._meta_items: tuple[int, bytes, bytes] | None = None
         #: position in scenario.radars(); env.now at each resumption of run() (the order of
-        #: the messages between radars in sim.parallel)
+        #: the messages between radars in sim.parallel), kept only in a parallel worker: one
+        #: float per sector would grow with the run (≈5 MB per simulated hour of the raid)
         self.index = 0
-        self.resume_times: list[float] = []
+        self.resume_times: list[float] | None = None
         self.target_ids = [t.id for t in sim.scenario.targets]
         self._eos_cache: dict[float, tuple[float, float]] = {}
         # revolutions computed ahead (see _compute_block), consumed one per scan
@@ -455,7 +456,9 @@ class _RadarProcess:
     def run(self, env: simpy.Environment):
         sim = self.sim
         sim.active_radar = self.index
-        self.resume_times.append(env.now)
+        resumes = self.resume_times
+        if resumes is not None:
+            resumes.append(env.now)
         self._emit_meta(0.0, scan=0)
         k = 0
         while True:
@@ -474,7 +477,8 @@ class _RadarProcess:
             t_b = min((k + 1) * self.sector_s, sim.duration)
             yield env.timeout(t_b - env.now)
             sim.active_radar = self.index
-            self.resume_times.append(env.now)
+            if resumes is not None:
+                resumes.append(env.now)
             self._emit_sector(t_a, t_b, scan, last=sector == self.n_sectors - 1, sector=sector)
             sim.stats.sectors += 1
             if sector == self.n_sectors - 1 or t_b >= sim.duration:

@@ -56,6 +56,8 @@ class FrameCollector:
     def __init__(self, sim) -> None:
         self.sim = sim
         self.messages: list[tuple[int, int, float, bytes, bytes]] = []
+        for r in sim.radars:  # the engine records its resumptions only when asked
+            r.resume_times = []
         self._resumes = {r.index: r.resume_times for r in sim.radars}
 
     def emit(self, topic: bytes, t_sim: float, payload: dict) -> None:
