@@ -21,6 +21,7 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
+from pydantic import BaseModel
 
 from shipradar.sim.kinematics import (
     ARC,
@@ -259,10 +260,10 @@ def _walk(model, indent: int, lines: list[str]) -> None:
     for name, field in type(model).model_fields.items():
         value = getattr(model, name)
         unit = _unit(field)
-        if hasattr(value, "model_fields"):
+        if isinstance(value, BaseModel):
             lines.append(f"{pad}{name}:")
             _walk(value, indent + 1, lines)
-        elif isinstance(value, list) and value and hasattr(value[0], "model_fields"):
+        elif isinstance(value, list) and value and isinstance(value[0], BaseModel):
             lines.append(f"{pad}{name}:")
             for i, item in enumerate(value):
                 lines.append(f"{pad}  - [{i}]")
