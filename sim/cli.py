@@ -154,12 +154,9 @@ class _StopOnSignal:
             signal.signal(sig, old)
 
 
-def cmd_run(args) -> int:
-    from shipradar.sim.bus import Bus, Publisher, RunInterrupted
-    from shipradar.sim.engine import Simulation
-    from shipradar.sim.recording import Recorder, RecordingWriteError
-
-    s = _load(_scenario_path(args))
+def _check_run(args, s):
+    """Everything ``run`` can refuse, before any table is built or loaded; returns the
+    publisher's CURVE keys (or None)."""
     if args.record and Path(args.record).exists() and not args.overwrite:
         raise BadInput(f"--record: {args.record} exists; pass --overwrite to replace it")
     curve = _curve(args, "server")
@@ -167,7 +164,6 @@ def cmd_run(args) -> int:
     if args.processes > 1 and args.realtime:
         raise BadInput(f"--processes {args.processes} is for fast mode; drop --realtime or "
                        "use --processes 1")
-    # every address is checked before any table is built or loaded
     if args.publish:
         from shipradar.sim.bus import check_bind_endpoint
 
@@ -181,8 +177,31 @@ def cmd_run(args) -> int:
         problems = scenario_problems(s)
         if problems:
             raise BadInput("\n".join(f"--asterix: {p}" for p in problems))
+    return curve
+
+
+def _stopped_summary(sim, core_bus, wall0: float, signum) -> dict:
+    """The summary of a run stopped by SIGINT/SIGTERM at an end of scan."""
+    summary = sim.summary(time.perf_counter() - wall0)
+    summary["interrupted"] = True
+    t_last = getattr(core_bus, "t_last", None)
+    summary["simulated_s"] = t_last  # the last message's time (None: no bus)
+    wall = summary["wall_s"]
+    summary["realtime_factor"] = round(t_last / wall, 2) if t_last and wall else None
+    print(f"interrupted ({signal.Signals(signum or signal.SIGINT).name}): the run stopped "
+          f"at t = {t_last} s; the recording, if any, is closed and complete up to there",
+          file=sys.stderr)
+    return summary
+
+
+def cmd_run(args) -> int:
+    from shipradar.sim.bus import Bus, Publisher, RunInterrupted
+    from shipradar.sim.engine import Simulation
+    from shipradar.sim.recording import Recorder, RecordingWriteError
     from shipradar.tables.scene import load_scene_tables
 
+    s = _load(_scenario_path(args))
+    curve = _check_run(args, s)
     # the tables the scene reads: from the cache, built now if missing (shown on stderr)
     tables = load_scene_tables(s, progress=sys.stderr.isatty(), log=sys.stderr)
     if args.record and hasattr(signal, "SIGXFSZ"):
@@ -218,16 +237,7 @@ def cmd_run(args) -> int:
             try:
                 summary = sim.run()
             except (RunInterrupted, KeyboardInterrupt):
-                summary = sim.summary(time.perf_counter() - wall0)
-                summary["interrupted"] = True
-                t_last = getattr(core_bus, "t_last", None)
-                summary["simulated_s"] = t_last  # the last message's time (None: no bus)
-                wall = summary["wall_s"]
-                summary["realtime_factor"] = (round(t_last / wall, 2) if t_last and wall
-                                              else None)
-                print(f"interrupted ({signal.Signals(stop.signum or signal.SIGINT).name}): "
-                      f"the run stopped at t = {t_last} s; the recording, if any, is closed "
-                      f"and complete up to there", file=sys.stderr)
+                summary = _stopped_summary(sim, core_bus, wall0, stop.signum)
             except RecordingWriteError as exc:
                 print(f"error: {exc}", file=sys.stderr)
                 summary = sim.summary(time.perf_counter() - wall0)
