@@ -3,15 +3,12 @@
 from __future__ import annotations
 
 import json
-import os
 import shutil
 import subprocess
 
-import pytest
-
 from shipradar.sim.scenario import parse_scenario
 
-from .helpers import quiet_radar
+from .helpers import quiet_radar, require_system_tool
 
 #: The scene starts 10 s before a UTC midnight, so every run crosses it.
 START = "2026-06-01T23:59:50Z"
@@ -43,27 +40,9 @@ def scene(**kw):
     return parse_scenario(scene_dict(**kw))
 
 
-def _install_tshark() -> None:
-    if os.geteuid() != 0 or shutil.which("apt-get") is None:
-        return
-    env = dict(os.environ, DEBIAN_FRONTEND="noninteractive")
-    subprocess.run(["apt-get", "update", "-q"], capture_output=True, env=env, timeout=600)
-    subprocess.run(["apt-get", "install", "-y", "-q", "tshark"], capture_output=True, env=env,
-                   timeout=900)
-
-
 def tshark_path() -> str:
     """tshark, installed now if missing (root); skipped without it, failed under CI."""
-    path = shutil.which("tshark")
-    if path is None:
-        _install_tshark()
-        path = shutil.which("tshark")
-    if path is None:
-        msg = "tshark (Debian package tshark) is not installed and could not be installed"
-        if os.environ.get("CI"):
-            pytest.fail(msg)
-        pytest.skip(msg)
-    return path
+    return require_system_tool(lambda: shutil.which("tshark"), "tshark")
 
 
 def tshark_asterix(pcap, port: int) -> list[dict]:

@@ -3,9 +3,13 @@
 from __future__ import annotations
 
 import copy
+import os
+import shutil
 import socket
+import subprocess
 from pathlib import Path
 
+import pytest
 import yaml
 
 from shipradar.sim import protocol
@@ -75,3 +79,30 @@ def free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         return s.getsockname()[1]
+
+
+def require_system_tool(find, package: str) -> str:
+    """The path of a tool from a Debian package, installed now when missing (as root, with
+    apt-get); the test is skipped without it, and failed under CI (``CI`` set), where every
+    test must run.
+
+    Parameters
+    ----------
+    find : callable
+        Returns the tool's path or None (e.g. ``lambda: shutil.which("tshark")``).
+    package : str
+        The Debian package that provides it.
+    """
+    path = find()
+    if path is None and os.geteuid() == 0 and shutil.which("apt-get"):
+        env = dict(os.environ, DEBIAN_FRONTEND="noninteractive")
+        subprocess.run(["apt-get", "update", "-q"], capture_output=True, env=env, timeout=600)
+        subprocess.run(["apt-get", "install", "-y", "-q", package], capture_output=True,
+                       env=env, timeout=900)
+        path = find()
+    if path is None:
+        message = f"{package} is not installed and could not be (apt-get install {package})"
+        if os.environ.get("CI"):
+            pytest.fail(message)
+        pytest.skip(message)
+    return path

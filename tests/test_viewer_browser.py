@@ -7,14 +7,11 @@ where they fail.
 
 from __future__ import annotations
 
-import os
-import shutil
-import subprocess
-
 import pytest
 
 from shipradar.sim.viewer.screenshot import find_chromium, launch_chromium, open_page, seek
 from shipradar.sim.viewer.server import ViewerServer, ViewerThread
+from tests.helpers import require_system_tool
 from tests.test_viewer import demo_recording  # noqa: F401  (module fixture)
 
 playwright_api = pytest.importorskip("playwright.sync_api")
@@ -25,18 +22,7 @@ PLAIN_RGB = (0x5D, 0xFF, 0x6A)   # --plain
 
 @pytest.fixture(scope="session")
 def chromium():
-    path = find_chromium()
-    if path is None and shutil.which("apt-get") and os.geteuid() == 0:
-        subprocess.run("apt-get update -qq && DEBIAN_FRONTEND=noninteractive "
-                       "apt-get install -y -qq chromium", shell=True, check=False,
-                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, timeout=900)
-        path = find_chromium()
-    if path is None:
-        message = "chromium is not installed (apt-get install chromium)"
-        if os.environ.get("CI"):
-            pytest.fail(message)
-        pytest.skip(message)
-    return path
+    return require_system_tool(find_chromium, "chromium")
 
 
 @pytest.fixture(scope="module")
