@@ -1,5 +1,7 @@
-"""Command line: ``shipradar examples | validate | tables build | run | replay | tail | plot``,
-``shipradar export`` (a recording as ASTERIX, pcap, CSV or Parquet).
+"""shipradar: a shipborne surveillance radar simulator (DREV-R-9429) for data fusion studies.
+
+The command line: ``shipradar examples | validate | tables build | run | replay | export |
+tail | recording | keys | view | plot | montecarlo | report | fidelity`` (``-h`` on each).
 
 Exit codes: 0 success, 2 bad input (scenario, arguments, files), 1 runtime failure.
 Every bad-input message names the field or option, the value and what is allowed.
