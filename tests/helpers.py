@@ -106,3 +106,16 @@ def require_system_tool(find, package: str) -> str:
             pytest.fail(message)
         pytest.skip(message)
     return path
+
+
+def identical_radars_scene(n: int = 3):
+    """The demo scene with its radar copied ``n`` times (ids r0.., SIC 1..): every sector of
+    every radar ends at the same instants, the case where only SimPy's tie order (scenario
+    order) decides the order of the messages."""
+    from shipradar.sim.scenario import Scenario, load_scenario
+
+    doc = load_scenario(ROOT / "scenarios/single_missile.yaml").model_dump(mode="json")
+    plat = doc["platforms"][0]
+    radar = plat["radars"][0]
+    plat["radars"] = [{**radar, "id": f"r{k}", "sic": k + 1} for k in range(n)]
+    return Scenario.model_validate(doc)

@@ -13,8 +13,8 @@ import pytest
 from shipradar.sim.bus import Bus
 from shipradar.sim.engine import Simulation
 from shipradar.sim.recording import MAX_RECORD_BYTES, Recorder, RecordingError
-from shipradar.sim.scenario import Scenario, load_scenario
-from tests.helpers import ROOT
+from shipradar.sim.scenario import load_scenario
+from tests.helpers import ROOT, identical_radars_scene
 
 
 class _SimPyLoop(Simulation):
@@ -53,12 +53,7 @@ def test_raid_batched_is_the_simpy_recording(tmp_path, duration, compress):
 
 
 def test_identical_radars_keep_simpys_tie_order(tmp_path):
-    # three copies of one radar: every sector ends at the same instants
-    doc = load_scenario(ROOT / "scenarios/single_missile.yaml").model_dump(mode="json")
-    plat = doc["platforms"][0]
-    radar = plat["radars"][0]
-    plat["radars"] = [{**radar, "id": f"r{k}", "sic": k + 1} for k in range(3)]
-    s = Scenario.model_validate(doc)
+    s = identical_radars_scene(3)
     fast, _, _ = _run(Simulation, s, tmp_path / "fast.rec", duration_s=9.0)
     slow, _, _ = _run(_SimPyLoop, s, tmp_path / "slow.rec", duration_s=9.0)
     assert fast == slow

@@ -16,16 +16,11 @@ import yaml
 
 from shipradar.sim import fidelity as fi
 from shipradar.sim.scenario import load_scenario, parse_scenario
+from tests.helpers import quiet_radar
 
-RADAR = {
-    "id": "xr", "peak_power_w": 25000, "gain_db": 32, "frequency_hz": 10e9,
-    "polarization": "H", "antenna_height_m": 20, "beamwidth_az_deg": 3.3,
-    "beamwidth_el_deg": 20.0, "pattern_az": {"type": "gaussian"},
-    "pattern_el": {"type": "isotropic"}, "rotation_rpm": 60, "prf_hz": 2000,
-    "pulse_width_s": 2e-6, "noise_figure_db": 3, "loss_tr_db": 2,
-    "antenna_temperature_k": 290.0, "false_alarm_time_s": 60,
-    "processor": {"type": "none"}, "instrumented_range_m": 40000,
-}
+# an X-band variant of the tests' quiet radar
+RADAR = quiet_radar(id="xr", peak_power_w=25000, gain_db=32, frequency_hz=10e9,
+                    beamwidth_az_deg=3.3, pulse_width_s=2e-6, instrumented_range_m=40000)
 
 
 def scene(targets, *, duct=None, wave_height=None, duration=20.0, radar=None, fidelity=None,

@@ -14,8 +14,8 @@ from shipradar.sim import parallel
 from shipradar.sim.bus import Bus
 from shipradar.sim.engine import Simulation
 from shipradar.sim.recording import Recorder
-from shipradar.sim.scenario import Scenario, load_scenario
-from tests.helpers import ROOT
+from shipradar.sim.scenario import load_scenario
+from tests.helpers import ROOT, identical_radars_scene
 
 
 @settings(max_examples=60, deadline=None)
@@ -73,13 +73,8 @@ def test_raid_two_processes_byte_identical(tmp_path):
 
 
 def test_identical_radars_tie_order(tmp_path):
-    # three copies of one radar: every sector ends at the same instants, the tie order is
-    # SimPy's (scenario order); also more processes than radars
-    doc = load_scenario(ROOT / "scenarios/single_missile.yaml").model_dump(mode="json")
-    plat = doc["platforms"][0]
-    radar = plat["radars"][0]
-    plat["radars"] = [{**radar, "id": f"r{k}", "sic": k + 1} for k in range(3)]
-    s = Scenario.model_validate(doc)
+    # the tie order is SimPy's (scenario order); also more processes than radars
+    s = identical_radars_scene(3)
     one, _ = _recording(s, tmp_path, "one", duration_s=12.0)
     many, _ = _recording(s, tmp_path, "many", duration_s=12.0, processes=4)
     assert one == many
