@@ -128,6 +128,14 @@ class DwellModel:
             self.tables.sea_clutter, (*spectrum, "weibull_a"), periodic1=True))
         self._wx_reader = (None if self.tables.weather_clutter is None else StackedLookup2D(
             self.tables.weather_clutter, spectrum, periodic1=True))
+        # the spectrum's mean and spread alone, for the Doppler of every one of a scan's
+        # thousands of sea-clutter false alarms (half the gathers of the full reader)
+        self._sea_spectrum_reader = (None if self.tables.sea_clutter is None else
+                                     StackedLookup2D(self.tables.sea_clutter, spectrum[1:],
+                                                     periodic1=True))
+        # the false alarms' Doppler draws: a child of the radar's generator, spawned at the
+        # first draw so that the parent's stream, hence every other draw, is unchanged
+        self._doppler_rng: np.random.Generator | None = None
         self.rain_gamma_db_per_km = 0.0
         if env.rain is not None and fid.atmosphere:
             from shipradar.sensors.atmosphere import rain_specific_attenuation_db_per_km
@@ -213,7 +221,9 @@ class DwellModel:
 
     @property
     def n_doppler_filters(self) -> int:
-        """Filters of the bank (as :meth:`_doppler_filter` counts them); 1 without a bank."""
+        """Filters of the bank, by default as many as it has taps: N_c for a DFT or FIR bank,
+        N_c - N_pc behind an N_pc-order canceller (as the I_F table is built,
+        :func:`tables.scene.improvement_kwargs`); 1 without a bank."""
         proc = self.radar.processor
         if not self.has_doppler_bank:
             return 1
@@ -248,10 +258,9 @@ class DwellModel:
     def _doppler_draw_rng(self, rng: np.random.Generator) -> np.random.Generator:
         """A child of the radar's generator for the false alarms' Doppler draws (spawned
         once: the parent's stream, hence every other draw, is unchanged)."""
-        child = self.__dict__.get("_doppler_rng")
-        if child is None:
-            child = self._doppler_rng = rng.spawn(1)[0]
-        return child
+        if self._doppler_rng is None:
+            self._doppler_rng = rng.spawn(1)[0]
+        return self._doppler_rng
 
     def _false_alarm_range_rate(self, range_m, azimuth_rad, rng, clutter: bool) -> dict:
         """Range-rate columns of false alarms: the filter of a noise alarm is uniform over the
@@ -264,16 +273,9 @@ class DwellModel:
         draw = self._doppler_draw_rng(rng)
         reference = np.zeros(n)
         spread = np.zeros(n)
-        if self._sea_reader is not None:
-            # only the spectrum's mean and spread: a reader of those two arrays alone (the
-            # same bilinear values, column by column) halves the gathers, and a clutter map
-            # is read at every one of a scan's thousands of sea-clutter false alarms
-            reader = self.__dict__.get("_sea_spectrum_reader")
-            if reader is None:
-                reader = self._sea_spectrum_reader = StackedLookup2D(
-                    self.tables.sea_clutter, ("doppler_mean_hz", "doppler_spread_hz"),
-                    periodic1=True)
-            v = np.nan_to_num(reader(np.asarray(range_m), np.asarray(azimuth_rad)))
+        if self._sea_spectrum_reader is not None:
+            v = np.nan_to_num(self._sea_spectrum_reader(np.asarray(range_m),
+                                                        np.asarray(azimuth_rad)))
             reference, spread = v[:, 0], v[:, 1]
         if self._compensation is not None:
             reference = reference + self._platform_doppler_hz(*self._compensation,
@@ -419,11 +421,8 @@ class DwellModel:
             return fd - self._instantaneous_f1(geom, platform_vel)[0]
         if self._compensation is None:
             return fd
-        speed, course = self._compensation
-        depression = sea_clutter.depression_angle_rad(geom.ground_range,
-                                                      self.radar.antenna_height_m)
-        return fd - sea_clutter.platform_doppler_hz(speed, geom.azimuth - course, depression,
-                                                    self.wavelength)
+        return fd - self._platform_doppler_hz(*self._compensation, geom.azimuth,
+                                              geom.ground_range)
 
     def clutter_at(self, geom, tpos, antenna_en, platform_vel=None):
         """Clutter at each target's cell and what the processor does to it.
@@ -667,14 +666,10 @@ class DwellModel:
         after motion compensation relative to the clutter mean [Hz], the reference of the
         I_F table (:meth:`target_doppler_hz`, ``clutter_at(...)["doppler_relative_hz"]``).
         """
-        proc = self.radar.processor
-        if proc.type not in ("dft_bank", "fir_bank", "mti_bank"):
+        if not self.has_doppler_bank:
             return np.zeros(np.shape(doppler_hz), dtype=np.int64)
-        taps = proc.n_coherent - (proc.mti_order if proc.type == "mti_bank" else 0)
-        n_filters = proc.n_filters if proc.n_filters is not None else taps
-        return np.asarray(
-            doppler_filters.doppler_filter_index(doppler_hz, self.radar.prf_hz, n_filters),
-            dtype=np.int64)
+        return np.asarray(doppler_filters.doppler_filter_index(
+            doppler_hz, self.radar.prf_hz, self.n_doppler_filters), dtype=np.int64)
 
     def _pulse_args(self, clutter, lead):
         """Keyword arguments of :func:`sensors.detection.effective_pulses` for [74]-[77]."""
