@@ -688,13 +688,24 @@ class DwellModel:
         }
 
     # ------------------------------------------------------------------ false alarms
-    def noise_false_alarms(self, rng: np.random.Generator) -> dict:
-        """One revolution's noise-induced false alarms [90]-[93]: count, uniform R and θ."""
-        count = int(false_alarms.false_alarm_count(self.noise_false_alarms_per_scan,
-                                                   self.radar.n_channels, rng))
+    def noise_false_alarms(self, rng: np.random.Generator, revolutions: int | None = None
+                           ) -> dict:
+        """Noise-induced false alarms [90]-[93]: count, uniform R and θ.  One revolution's,
+        or with ``revolutions`` those of that many revolutions drawn together (every count
+        first, then all ranges and all azimuths) with the ``revolution`` index of each."""
+        if revolutions is None:
+            count = int(false_alarms.false_alarm_count(self.noise_false_alarms_per_scan,
+                                                       self.radar.n_channels, rng))
+        else:
+            count = false_alarms.false_alarm_count(self.noise_false_alarms_per_scan,
+                                                   self.radar.n_channels, rng,
+                                                   size=revolutions)
         r, az = false_alarms.uniform_positions(
             count, 0.0, self.radar.instrumented_range_m, 0.0, 2.0 * math.pi, rng)
-        return {"range_m": np.asarray(r, dtype=float), "azimuth_rad": np.asarray(az, dtype=float)}
+        out = {"range_m": np.asarray(r, dtype=float), "azimuth_rad": np.asarray(az, dtype=float)}
+        if revolutions is not None:
+            out["revolution"] = np.repeat(np.arange(revolutions), count)
+        return out
 
     def false_alarm_plots(self, range_m, azimuth_rad, time_s, rng) -> dict:
         """Plot columns for noise false alarms at the given positions and times.
@@ -726,7 +737,9 @@ class DwellModel:
         }
 
     def clutter_false_alarms(self, t_a, t_b, beam_start, omega, rng):
-        """Sea-clutter-induced false alarms of one revolution [t_a, t_b) (seed 7.2, [94]-[96]).
+        """Sea-clutter-induced false alarms of one revolution [t_a, t_b) (seed 7.2, [94]-[96]),
+        or of several drawn together when ``t_a``, ``t_b`` and ``beam_start`` are arrays (one
+        element per revolution; the plots then carry their ``revolution`` index).
 
         Per P_fac-map sector: a count by [91]-[93] from η = P_fac × cells, uniform positions,
         times when the beam (at ``beam_start`` [rad] at t_a, ``omega`` [rad/s]) sweeps them
@@ -742,7 +755,8 @@ class DwellModel:
                 self.tables.pfac, pfa=self.pfa, n_channels=self.radar.n_channels,
                 n_pulses=self.n_pulses, h_range=self.radar.h_range,
                 h_azimuth=self.radar.h_azimuth)
-        out = gen.scan(t_a, t_b, beam_start, omega, rng)
+        many = np.ndim(t_a) > 0
+        out = (gen.scans if many else gen.scan)(t_a, t_b, beam_start, omega, rng)
         if out is not None:
             out.update(self._false_alarm_range_rate(out["range_m"], out["azimuth_rad"], rng,
                                                     clutter=True))

@@ -731,6 +731,10 @@ def spike_excess(
         return np.exp(ln_m + a * np.log(base))
 
 
+#: Count regimes of [91]-[93] of a clutter false-alarm sector (ClutterFalseAlarms._draw).
+_REGIME_BERNOULLI, _REGIME_POISSON, _REGIME_NORMAL = 0, 1, 2
+
+
 class ClutterFalseAlarms:
     """Per-scan generator of sea-clutter-induced false alarms, seed 7.2 with 7.1's method.
 
@@ -805,6 +809,15 @@ class ClutterFalseAlarms:
         self._pois = ~self._bern & ~self._normal
         self._pois_cdf = poisson_cdf_table(self.eta[self._pois]) if self._pois.any() else None
         self._eta_bern = self.eta[self._bern]
+        # a sector draws one alarm or more when U < _hit_below or U > _hit_above: U < η
+        # (Bernoulli), U > P(0) = e^-η (Poisson), always (normal); see _draw
+        self._regime = np.where(self._bern, _REGIME_BERNOULLI,
+                                np.where(self._normal, _REGIME_NORMAL, _REGIME_POISSON))
+        self._hit_below = np.where(self._bern, self.eta, np.where(self._normal, 2.0, -1.0))
+        self._hit_above = np.full(self.eta.shape, 2.0)
+        self._pois_row = np.cumsum(self._pois) - 1  # the CDF row of each Poisson sector
+        if self._pois_cdf is not None:
+            self._hit_above[self._pois] = self._pois_cdf[:, 0]
         # uniform_positions' spans, formed once: r0 + (r1 - r0) U is the same number whether
         # the difference is taken before or after selecting the sector
         self._r_span = self.r_max_m - self.r_min_m
@@ -822,45 +835,72 @@ class ClutterFalseAlarms:
     def draw(self, rng: np.random.Generator) -> tuple[NDArray[np.int64], NDArray, NDArray]:
         """One revolution's counts per active sector and the positions (ground range [m],
         azimuth [rad]), sector after sector."""
-        counts, _, r, az = self._draw(rng)
-        return counts, r, az
+        counts, _, _, r, az = self._draw(rng)
+        return counts[0], r, az
 
-    def _draw(self, rng: np.random.Generator):
-        """:meth:`draw`, with the active-sector index of every false alarm."""
-        # false_alarm_count's draw (one uniform per sector, same counts) with the regimes
-        # and the Poisson CDF rows prepared in the constructor
-        u = rng.random(self.eta.shape)
-        counts = np.zeros(self.eta.shape, dtype=np.int64)
-        counts[self._bern] = u[self._bern] < self._eta_bern
-        if self._normal.any():
-            e = self.eta[self._normal]
-            x = e + np.sqrt(e) * special.ndtri(u[self._normal])
-            counts[self._normal] = np.rint(np.maximum(x, 0.0)).astype(np.int64)
-        if self._pois_cdf is not None:
-            counts[self._pois] = poisson_quantile(u[self._pois], cdf=self._pois_cdf)
+    def _draw(self, rng: np.random.Generator, revolutions: int = 1):
+        """:meth:`draw` of ``revolutions`` revolutions at once, with the active-sector index
+        and the revolution index of every false alarm (revolution after revolution, sector
+        after sector: one revolution draws the same numbers as :meth:`draw`)."""
+        # false_alarm_count's draw (one uniform per sector and revolution, same counts) with
+        # the regimes and the Poisson CDF rows prepared in the constructor.  Most sectors
+        # draw no alarm: a sector has one or more exactly when U < η (Bernoulli) or
+        # U > P(0) (Poisson's inverse CDF), or always (normal, η ≥ 9: counted below), so
+        # the counts are worked out only where that holds
+        n = self.eta.size
+        u = rng.random((revolutions, n))
+        hit = np.flatnonzero((u < self._hit_below) | (u > self._hit_above))
+        revolution, sector = np.divmod(hit, n)
+        u = u.ravel()[hit]
+        counts = np.ones(hit.size, dtype=np.int64)
+        regime = self._regime[sector]
+        normal = regime == _REGIME_NORMAL
+        if normal.any():
+            e = self.eta[sector[normal]]
+            x = e + np.sqrt(e) * special.ndtri(u[normal])
+            counts[normal] = np.rint(np.maximum(x, 0.0)).astype(np.int64)
+        pois = regime == _REGIME_POISSON
+        if pois.any():
+            counts[pois] = np.count_nonzero(
+                self._pois_cdf[self._pois_row[sector[pois]]] < u[pois, None], axis=1)
         # uniform_positions of these counts (same draws, same numbers), with the sector of
         # every plot found once instead of repeating each bound array over the counts
-        sector = np.repeat(np.arange(counts.size), counts)
+        revolution, sector = np.repeat(revolution, counts), np.repeat(sector, counts)
         r = self.r_min_m[sector] + self._r_span[sector] * rng.random(sector.size)
         az = self.az_min_rad[sector] + self._az_span[sector] * rng.random(sector.size)
         az = np.mod(az, TWO_PI)
-        return counts, sector, r, np.where(az >= TWO_PI, 0.0, az)
+        per_sector = np.zeros((revolutions, n), dtype=np.int64)
+        per_sector.ravel()[hit] = counts
+        return per_sector, sector, revolution, r, np.where(az >= TWO_PI, 0.0, az)
 
     def scan(self, t_scan: float, t_end: float, beam_start_rad: float, omega_rad_s: float,
              rng: np.random.Generator) -> dict[str, NDArray] | None:
-        """Plot columns of one revolution's clutter false alarms, or None if there are none.
+        """Plot columns of one revolution's clutter false alarms, or None if there are none:
+        :meth:`scans` of one revolution (the same draws), without its ``revolution``
+        column."""
+        out = self.scans([t_scan], [t_end], [beam_start_rad], omega_rad_s, rng)
+        if out is not None:
+            del out["revolution"]
+        return out
+
+    def scans(self, t_scan: ArrayLike, t_end: ArrayLike, beam_start_rad: ArrayLike,
+              omega_rad_s: float, rng: np.random.Generator) -> dict[str, NDArray] | None:
+        """Plot columns of the clutter false alarms of several revolutions drawn together
+        (the on-line level's block of revolutions), or None if there are no active sectors.
 
         Parameters
         ----------
-        t_scan : float
-            Start of the revolution [s].
-        t_end : float
-            End of the revolution or of the run [s]: later plots are dropped.
-        beam_start_rad : float
-            Beam azimuth at ``t_scan`` [rad].
+        t_scan : array_like
+            Start of each revolution [s].
+        t_end : array_like
+            End of each revolution or of the run [s]: later plots are dropped.
+        beam_start_rad : array_like
+            Beam azimuth at each ``t_scan`` [rad].
         omega_rad_s : float
             Rotation rate [rad/s] > 0.
         rng : numpy.random.Generator
+            The counts of every revolution are drawn first (one uniform per sector and
+            revolution), then all ranges, all azimuths and all spike excesses.
 
         Returns
         -------
@@ -868,15 +908,18 @@ class ClutterFalseAlarms:
             ``time_s`` (t_scan + mod(θ - θ_start, 2π)/ω), ``range_m`` (slant range of the sea
             point), ``azimuth_rad``, ``snr_db`` (spike excess x/σ0 - 1 in dB),
             ``sigma_range_m``, ``sigma_azimuth_rad`` ([84]-[85] / 3), ``interference``
-            (uint8, 1 = clutter), and ``ground_range_m``; None without active sectors.
+            (uint8, 1 = clutter), ``ground_range_m`` and ``revolution`` (index into
+            ``t_scan``), revolution after revolution (not sorted by time within one).
         """
         if self.eta.size == 0:
             return None
-        _, sector, ground, az = self._draw(rng)
-        t = t_scan + np.mod(az - beam_start_rad, TWO_PI) / omega_rad_s
-        keep = t < t_end
+        t_scan, t_end, beam = (np.atleast_1d(np.asarray(v, dtype=float)) for v in (
+            t_scan, t_end, beam_start_rad))
+        _, sector, revolution, ground, az = self._draw(rng, t_scan.size)
+        t = t_scan[revolution] + np.mod(az - beam[revolution], TWO_PI) / omega_rad_s
+        keep = t < t_end[revolution]
         a = self.weibull_a[sector[keep]]
-        ground, az, t = ground[keep], az[keep], t[keep]
+        ground, az, t, revolution = ground[keep], az[keep], t[keep], revolution[keep]
         x = spike_excess(self.threshold_ratio, a, rng, self.clutter_fa_model)
         si = np.maximum(x - 1.0, 1e-3)
         eps_r, eps_t = expected_errors(si, self.n_pulses, self.range_cell_m, self.beamwidth_rad,
@@ -892,6 +935,7 @@ class ClutterFalseAlarms:
             "sigma_azimuth_rad": np.broadcast_to(eps_t / 3.0, (n,)).copy(),
             "interference": np.ones(n, dtype=np.uint8),
             "ground_range_m": ground,
+            "revolution": revolution,
         }
 
 

@@ -6,7 +6,8 @@ computed at once: (1) for every target and revolution, the exact time at which t
 beam crosses it (moving ship and moving targets, :func:`sim.kinematics.beam_crossing_times`),
 (2) the dwell model on every crossing of the block in one vectorized call (S/I, P_d, noisy
 contacts; targets of different revolutions are never merged), (3) the noise and sea-clutter
-false alarms of each revolution, timed when the beam sweeps their azimuths.  The process
+false alarms of every revolution of the block, drawn together and timed when the beam sweeps
+their azimuths.  The process
 then advances sector by sector and, at the end of each sector, publishes one columnar plot
 frame and one truth frame holding exactly the plots the beam made in that sector.  The end
 of each revolution publishes an end-of-scan frame with the antenna's position and heading,
@@ -192,6 +193,8 @@ class Simulation:
         else:
             env.run(until=self.duration + 1e-9)
         wall = time.perf_counter() - wall0
+        for r in self.radars:
+            r.release()
         if bar is not None:
             bar.close()
         if self.bus is not None:
@@ -414,11 +417,22 @@ class _RadarProcess:
         self._eos_cache: dict[float, tuple[float, float]] = {}
         # revolutions computed ahead (see _compute_block), consumed one per scan
         self._block: list[dict] = []
-        self.scans_per_block = max(1, int(_BLOCK_S // radar.scan_period_s))
+        # a block's false alarms are held at once: fewer revolutions when a scan has many
+        expected = model.noise_false_alarms_per_scan + self._clutter_fa_meta.get(
+            "clutter_false_alarms_per_scan", 0.0)
+        self.scans_per_block = max(1, min(int(_BLOCK_S // radar.scan_period_s),
+                                          int(_BLOCK_PLOTS // max(expected, 1.0))))
         # a ship whose velocity changes (several legs, turns): the clutter spectrum's platform
         # terms [33]-[38] follow its instantaneous velocity, not the tables' first leg
         plat = sim.platforms
         self._platform_manoeuvres = bool(plat.count[p_index] > 1 or not plat.linear)
+
+    def release(self) -> None:
+        """Drop the revolutions computed ahead (a block's plots: up to :data:`_BLOCK_S` of
+        simulated time) once the run is over."""
+        self._block = []
+        self._scan = _merge_parts([])
+        self._frames = None
 
     # ------------------------------------------------------------------ helpers
     def beam_azimuth(self, t: float) -> float:
@@ -616,19 +630,35 @@ class _RadarProcess:
         res["origin"] = np.full(nplots, ORIGIN_TARGET, dtype=np.uint8)
         return res
 
-    def _scan_false_alarms(self, t_scan: float, t_end: float) -> dict | None:
-        """Noise-induced false alarms of one revolution ([90]-[93]), uniform in R and θ,
-        timed when the beam sweeps their azimuths."""
-        fa = self.model.noise_false_alarms(self.rng)
-        t = t_scan + np.mod(fa["azimuth_rad"] - self.beam_azimuth(t_scan), TWO_PI) / self.omega
-        keep = t < t_end
-        if not keep.any():
-            return None
-        plots = self.model.false_alarm_plots(fa["range_m"][keep], fa["azimuth_rad"][keep],
-                                             t[keep], self.rng)
-        plots["origin"] = np.full(int(keep.sum()), ORIGIN_NOISE, dtype=np.uint8)
-        self.sim.stats.noise_false_alarms += int(keep.sum())
-        return plots
+    def _false_alarms(self, bounds: list[tuple[float, float]]) -> list[dict]:
+        """The noise-induced ([90]-[93], uniform in R and θ) and sea-clutter-induced (seed
+        7.2) false alarms of the revolutions ``bounds`` ([start, end) each), drawn for all of
+        them together, timed when the beam sweeps their azimuths; each plot carries the
+        index of its ``revolution``."""
+        sim, model = self.sim, self.model
+        t_a = np.array([a for a, _ in bounds])
+        t_b = np.array([b for _, b in bounds])
+        beam = (self.beam0 + self.omega * t_a) % TWO_PI  # beam_azimuth, element-wise
+        parts = []
+        fa = model.noise_false_alarms(self.rng, len(bounds))
+        rev = fa["revolution"]
+        t = t_a[rev] + np.mod(fa["azimuth_rad"] - beam[rev], TWO_PI) / self.omega
+        keep = t < t_b[rev]
+        n = int(np.count_nonzero(keep))
+        if n:
+            plots = model.false_alarm_plots(fa["range_m"][keep], fa["azimuth_rad"][keep],
+                                            t[keep], self.rng)
+            plots["origin"] = np.full(n, ORIGIN_NOISE, dtype=np.uint8)
+            plots["revolution"] = rev[keep]
+            sim.stats.noise_false_alarms += n
+            parts.append(plots)
+        clutter = model.clutter_false_alarms(t_a, t_b, beam, self.omega, self.rng)
+        if clutter is not None and clutter["range_m"].size:
+            n = clutter["range_m"].size
+            clutter["origin"] = np.full(n, ORIGIN_SEA_CLUTTER, np.uint8)
+            sim.stats.clutter_false_alarms += n
+            parts.append(clutter)
+        return parts
 
     def _compute_block(self, scan0: int) -> list[dict]:
         """Every plot of the next revolutions from ``scan0``, one dict per revolution, each
@@ -637,9 +667,9 @@ class _RadarProcess:
         The on-line level is vectorized over a block of revolutions (:data:`_BLOCK_S` of
         simulated time, at least one): the beam-crossing times of every target in every
         revolution are solved together and the dwell model runs once on all of them; the
-        false alarms are drawn revolution by revolution.  The plots still leave at the end of
-        the sector in which the beam made them, so the stream is the same whatever the block
-        (only the order of the random draws depends on it).
+        false alarms of every revolution are drawn together too.  The plots still leave at
+        the end of the sector in which the beam made them, so the stream is the same whatever
+        the block (only the order of the random draws depends on it).
         """
         sim = self.sim
         period = self.radar.scan_period_s
@@ -680,27 +710,13 @@ class _RadarProcess:
             sel = (tc >= t_start) & ((tc < t_end - _CROSSING_EPS_S) | (last & (tc < t_end)))
             if sel.any():
                 target_part = self._dwell(rows[sel], tc[sel], scan_of[sel], bounds)
-        # split the contacts by revolution (they come out ordered by revolution)
-        if target_part is not None:
-            batch = target_part.pop("batch")
-            edges = np.searchsorted(batch, np.arange(len(bounds) + 1), side="left").tolist()
-        out = []
-        for j, (t_a, t_b) in enumerate(bounds):
-            parts = []
-            if target_part is not None and edges[j + 1] > edges[j]:
-                parts.append(_slice_plots(target_part, edges[j], edges[j + 1]))
-            noise_fa = self._scan_false_alarms(t_a, t_b)
-            if noise_fa is not None:
-                parts.append(noise_fa)
-            clutter = self.model.clutter_false_alarms(t_a, t_b, self.beam_azimuth(t_a),
-                                                      self.omega, self.rng)
-            if clutter is not None and clutter["range_m"].size:
-                clutter["origin"] = np.full(clutter["range_m"].size, ORIGIN_SEA_CLUTTER,
-                                            np.uint8)
-                sim.stats.clutter_false_alarms += clutter["range_m"].size
-                parts.append(clutter)
-            out.append(_merge_parts(parts))
-        return out
+                if target_part is not None:
+                    target_part["revolution"] = target_part.pop("batch")
+        parts = [] if target_part is None else [target_part]
+        parts += self._false_alarms(bounds)
+        merged = _merge_parts(parts, revolutions=True)
+        edges = np.searchsorted(merged["revolution"], np.arange(len(bounds) + 1)).tolist()
+        return [_slice_plots(merged, a, b) for a, b in zip(edges[:-1], edges[1:], strict=True)]
 
     def _sector_cuts(self, scan: int) -> list[int]:
         """Index in the revolution's plots where each sector's plots end (the sector frames of
@@ -860,7 +876,10 @@ class _RadarProcess:
 #: Margin of the beam-crossing search at the boundary between two revolutions [s].
 _CROSSING_EPS_S = 1e-6
 #: Simulated time whose revolutions are computed together [s] (at least one revolution).
-_BLOCK_S = 8.0
+_BLOCK_S = 64.0
+#: Expected false alarms a block of revolutions holds at most (fewer revolutions, at least
+#: one, when a scan has many: ≈ 200 bytes each while the block is computed).
+_BLOCK_PLOTS = 250_000
 #: Ends of scan whose platform latitude/longitude are converted together.
 _EOS_BATCH = 256
 
@@ -869,8 +888,10 @@ PLOT_COLUMNS = ("time_s", "range_m", "azimuth_rad", "snr_db", "sigma_range_m",
                 "sigma_azimuth_rad", "interference", "range_rate_mps", "sigma_range_rate_mps")
 
 
-def _merge_parts(parts: list[dict]) -> dict:
-    """Concatenate plot batches (targets, noise and clutter false alarms) sorted by time.
+def _merge_parts(parts: list[dict], revolutions: bool = False) -> dict:
+    """Concatenate plot batches (targets, noise and clutter false alarms) sorted by time, or
+    with ``revolutions`` by revolution and by time within each (every batch then carries
+    the ``revolution`` index of each plot, kept in the result); ties keep the batches' order.
 
     Each batch may carry the targets merged into each plot as ``contrib_offsets`` (one more
     than its plots) and ``contrib_targets``; batches without them have no contributors.
@@ -881,6 +902,8 @@ def _merge_parts(parts: list[dict]) -> dict:
         out.update(origin=np.zeros(0, dtype=np.uint8), target=np.zeros(0, dtype=np.int32),
                    contrib_offsets=np.zeros(1, dtype=np.int64),
                    contrib_targets=np.zeros(0, dtype=np.int32))
+        if revolutions:
+            out["revolution"] = np.zeros(0, dtype=np.int64)
         return out
     merged = {c: np.concatenate([p[c] for p in parts]) for c in PLOT_COLUMNS}
     origin = np.concatenate([p["origin"] for p in parts])
@@ -897,8 +920,14 @@ def _merge_parts(parts: list[dict]) -> dict:
         pool.append(c_idx)
         base += c_idx.size
     starts, counts, pool = np.concatenate(starts), np.concatenate(counts), np.concatenate(pool)
-    order = np.argsort(merged["time_s"], kind="stable")
+    if revolutions:
+        rev = np.concatenate([p["revolution"] for p in parts])
+        order = np.lexsort((merged["time_s"], rev))
+    else:
+        order = np.argsort(merged["time_s"], kind="stable")
     out = {c: merged[c][order] for c in PLOT_COLUMNS}
+    if revolutions:
+        out["revolution"] = rev[order]
     c_sorted, s_sorted = counts[order], starts[order]
     new_off = np.concatenate([[0], np.cumsum(c_sorted)]).astype(np.int64)
     gather = np.repeat(s_sorted, c_sorted) + (np.arange(new_off[-1])

@@ -162,6 +162,44 @@ def test_clutter_generator_counts_match_false_alarm_count():
         counts, _, _ = gen.draw(np.random.default_rng(seed))
         ref = false_alarm_count(gen.eta, 2, np.random.default_rng(seed))
         np.testing.assert_array_equal(counts, ref)
+    # several revolutions drawn together (the engine's block): the counts of the same
+    # uniforms, one row per revolution, and every alarm placed in its own sector
+    for seed in range(5):
+        counts, sector, revolution, r, az = gen._draw(np.random.default_rng(seed), 7)
+        m = gen.eta.size  # the active sectors (η > 0)
+        ref = false_alarm_count(gen.eta, 2, np.random.default_rng(seed), size=(7, m))
+        np.testing.assert_array_equal(counts, ref)
+        assert np.all(np.diff(revolution) >= 0)
+        np.testing.assert_array_equal(np.bincount(revolution * m + sector,
+                                                  minlength=counts.size), counts.ravel())
+        assert np.all((r >= gen.r_min_m[sector]) & (r < gen.r_max_m[sector]))
+
+
+def test_clutter_block_of_revolutions_times_and_counts():
+    """scans() of K revolutions: each alarm inside its own revolution (before the run's end
+    when it ends inside the last), and per revolution a count with mean Σ η (seeded test
+    against the Poisson-binomial/Poisson sum's mean and variance)."""
+    n = 400
+    rng = np.random.default_rng(3)
+    eta = rng.uniform(0.0, 2.0, n)
+    gen = false_alarms.ClutterFalseAlarms(
+        np.full(n, 1e3), np.full(n, 2e4), np.linspace(0, 6, n), np.linspace(0, 6, n) + 0.01,
+        np.ones(n), eta, np.full(n, 1.5), threshold_ratio=10.0, n_channels=2,
+        n_pulses=10.0, range_cell_m=30.0, beamwidth_rad=0.03, antenna_height_m=20.0)
+    k, period = 200, 2.0
+    t_a = np.arange(k) * period
+    t_b = t_a + period
+    t_b[-1] = t_a[-1] + 0.5  # the run ends inside its last revolution
+    out = gen.scans(t_a, t_b, np.full(k, 0.3), 2 * np.pi / period, rng)
+    rev = out["revolution"]
+    assert np.all((out["time_s"] >= t_a[rev]) & (out["time_s"] < t_b[rev]))
+    per_rev = np.bincount(rev, minlength=k)[:-1]  # the whole revolutions
+    mean = gen.expected_per_scan
+    # per sector: Bernoulli variance η(1 - η) below the limit, Poisson η above it
+    var = float(np.where(gen._bern, gen.eta * (1 - gen.eta), gen.eta).sum())
+    z = (per_rev.mean() - mean) / np.sqrt(var / per_rev.size)
+    assert abs(z) < 4, (per_rev.mean(), mean)
+    assert 0.6 < per_rev.var() / var < 1.5
 
 
 @pytest.mark.parametrize("eta", [0.0, 0.01, 0.1725, 0.2, 3.0, 8.99, 9.0, 50.0, 1e4])
