@@ -12,7 +12,7 @@ TAIL_ARGS ?=
 
 .PHONY: install demo test bench lint clean tables serve tail tshark chromium viewer-screenshot
 
-$(STAMP): pyproject.toml
+$(STAMP): pyproject.toml shipradar/_frames.c
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
 	$(PY) -m pip install -q -e '.[test]'

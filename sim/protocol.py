@@ -22,6 +22,8 @@ from typing import Any
 import msgpack
 import numpy as np
 
+from shipradar import _frames
+
 __all__ = [
     "EXT_NDARRAY",
     "MAX_BODY_BYTES",
@@ -486,6 +488,11 @@ def encode_slices(
     head_len = len(_map_header(len(fixed) + 2)) + len(_ENVELOPE_V) + len(_ENVELOPE_T_KEY) + 9
     prefix = _map_header(len(fixed) + len(columns) + 2) + _ENVELOPE_V + _ENVELOPE_T_KEY
     fixed_part = fixed_body[head_len:]
+    times = np.asarray(times, dtype=np.float64)
+    if times.ndim != 1:
+        raise ProtocolError("times must be 1-d")
+    if not np.isfinite(times).all():
+        raise ProtocolError(f"t_sim must be finite, got {times[~np.isfinite(times)][0]!r}")
     cols = []
     for key, (array, start, stop) in columns.items():
         array = np.asarray(array)
@@ -496,26 +503,21 @@ def encode_slices(
             head, little = _array_head(array.dtype, 1)
             array = array.astype(little)
         cols.append((_packed_key(key), head, array.dtype.itemsize,
-                     memoryview(array.tobytes()), list(start), list(stop)))
-    pack_t, pack_n, ext = _FLOAT64.pack, _U64.pack, _ext_header
-    bodies = []
-    for j, t_sim in enumerate(times):
-        t = float(t_sim)
-        if not math.isfinite(t):
-            raise ProtocolError(f"t_sim must be finite, got {t_sim!r}")
-        parts = [prefix, pack_t(0xCB, t), fixed_part]
-        for key, head, size, data, start, stop in cols:
-            i0, i1 = start[j], stop[j]
-            n = i1 - i0
-            parts += (key, ext(16 + n * size), head, pack_n(n), data[i0 * size:i1 * size])
-        body = b"".join(parts)
-        if len(body) > MAX_BODY_BYTES:
-            raise ProtocolError(
-                f"encoded body is {len(body)} bytes, over the {MAX_BODY_BYTES}-byte maximum: "
-                "split the payload (e.g. one message per sector)"
-            )
-        bodies.append(body)
-    return bodies
+                     np.ascontiguousarray(array), np.ascontiguousarray(start, dtype=np.int64),
+                     np.ascontiguousarray(stop, dtype=np.int64)))
+    # the bodies are joined in compiled code (shipradar/_frames.c): per message the prefix,
+    # the time, the fixed part, and per column its key, extension header, array head,
+    # element count and slice of the column's bytes
+    try:
+        return _frames.encode_slices(prefix, fixed_part, times, tuple(cols), EXT_NDARRAY,
+                                     MAX_BODY_BYTES)
+    except OverflowError as exc:
+        raise ProtocolError(
+            f"encoded body is {exc} bytes, over the {MAX_BODY_BYTES}-byte maximum: "
+            "split the payload (e.g. one message per sector)"
+        ) from None
+    except (ValueError, IndexError) as exc:
+        raise ProtocolError(f"encode_slices: {exc}") from None
 
 
 def payload_items(topic: bytes, payload: Mapping[str, Any]) -> bytes:

@@ -38,6 +38,7 @@ from pathlib import Path
 from types import TracebackType
 from typing import Any, BinaryIO
 
+from shipradar import _frames
 from shipradar.sim.protocol import MAX_BODY_BYTES, SCHEMA_VERSION
 
 __all__ = [
@@ -276,9 +277,17 @@ class Recorder:
             raise self._failed
         if self._fd is None:
             raise RecordingError(f"recording {self.path} is closed")
+        zstd = self._zstd
+        if zstd is None and type(records) is list:
+            # every message [topic, body] (the stream's): framed in compiled code
+            # (shipradar/_frames.c, the records of the loop below byte for byte)
+            framed = _frames.frame_records(records, self.records, MAX_RECORD_BYTES,
+                                           len(self._buf))
+            if framed is not None:
+                self._append_framed(*framed, records)
+                return
         crc32, pack_mid, pack_u32 = zlib.crc32, _REC2_MID.pack, _U32.pack
         head2, pack_len = _RECORD_HEAD_2.pack, _FRAME_LEN.pack
-        zstd = self._zstd
         parts: list[bytes] = []
         ends: list[int] = []
         start = end = len(self._buf)
@@ -329,6 +338,26 @@ class Recorder:
             self.stored_payload_bytes += stored
         if error is not None:
             raise error
+        if len(self._buf) >= self.buffer_bytes:
+            self._write_out()
+
+    def _append_framed(self, blob: bytes, ends: list[int], raw: int, done: int,
+                       records: Sequence) -> None:
+        """Append the whole records ``frame_records`` made of ``records[:done]`` (``ends``:
+        where each ends in the buffer); raise as
+        :meth:`write_many` for ``records[done]`` when it was too large."""
+        if done:
+            self._buf += blob
+            self._ends += ends
+            self.bytes_written += len(blob)
+            self.records += done
+            self.raw_payload_bytes += raw
+            self.stored_payload_bytes += raw
+        if done < len(records):
+            topic, body = records[done][1]
+            raise RecordingError(
+                f"record of {18 + len(topic) + len(body)} bytes exceeds the "
+                f"{MAX_RECORD_BYTES}-byte maximum")
         if len(self._buf) >= self.buffer_bytes:
             self._write_out()
 
