@@ -29,6 +29,7 @@ otherwise noise.  The three cases cover every (N, C, J) exactly once.  Jamming i
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -262,30 +263,55 @@ class DwellModel:
             self._doppler_rng = rng.spawn(1)[0]
         return self._doppler_rng
 
-    def _false_alarm_range_rate(self, range_m, azimuth_rad, rng, clutter: bool) -> dict:
+    def _false_alarm_range_rate(self, range_m, azimuth_rad, rng, clutter: bool,
+                                spectrum=None) -> dict:
         """Range-rate columns of false alarms: the filter of a noise alarm is uniform over the
-        bank; a sea-clutter alarm's Doppler is drawn from the clutter spectrum [33] at its
-        cell (Gaussian about μ_c with σ_s), then reported as a target's would be."""
+        bank; a sea-clutter alarm's Doppler is drawn from the clutter spectrum [33] (Gaussian
+        about μ_c with σ_s), then reported as a target's would be.  The bank's reference and
+        the spread are read from the clutter map at each alarm's cell, or given as
+        ``spectrum`` (N, 2) (the sea-clutter alarms: their P_fac sector's, see
+        :meth:`_clutter_fa_spectrum`)."""
         n = np.size(range_m)
         if not self.has_doppler_bank or n == 0:
             nan = np.full(n, np.nan)
             return {"range_rate_mps": nan, "sigma_range_rate_mps": nan.copy()}
         draw = self._doppler_draw_rng(rng)
-        reference = np.zeros(n)
-        spread = np.zeros(n)
-        if self._sea_spectrum_reader is not None:
-            v = np.nan_to_num(self._sea_spectrum_reader(np.asarray(range_m),
-                                                        np.asarray(azimuth_rad)))
-            reference, spread = v[:, 0], v[:, 1]
-        if self._compensation is not None:
-            reference = reference + self._platform_doppler_hz(*self._compensation,
-                                                              azimuth_rad, range_m)
+        if spectrum is not None:
+            reference, spread = spectrum[:, 0], spectrum[:, 1]
+        else:
+            reference, spread = self._spectrum_reference(np.asarray(range_m),
+                                                         np.asarray(azimuth_rad))
         if clutter:
             index = self._doppler_filter(draw.normal(0.0, 1.0, n) * spread)
         else:
             index = draw.integers(0, self.n_doppler_filters, n)
         return {"range_rate_mps": self.range_rate_from_filter(index, reference),
                 "sigma_range_rate_mps": np.full(n, self.range_rate_sigma_mps)}
+
+    def _spectrum_reference(self, range_m, azimuth_rad):
+        """The Doppler bank's reference (the sea-clutter mean μ_c, plus f1 [34] when
+        motion-compensated) and the clutter spread σ_s at ground ranges and azimuths [Hz];
+        0 without a sea-clutter map."""
+        reference = np.zeros(np.shape(range_m))
+        spread = np.zeros(np.shape(range_m))
+        if self._sea_spectrum_reader is not None:
+            v = np.nan_to_num(self._sea_spectrum_reader(range_m, azimuth_rad))
+            reference, spread = v[:, 0], v[:, 1]
+        if self._compensation is not None:
+            reference = reference + self._platform_doppler_hz(*self._compensation,
+                                                              azimuth_rad, range_m)
+        return reference, spread
+
+    @functools.cached_property
+    def _clutter_fa_spectrum(self) -> np.ndarray:
+        """(reference, spread) [Hz] of :meth:`_spectrum_reference` at the centre of every
+        active P_fac sector, for the sea-clutter false alarms' Doppler: the P_fac sector is
+        the resolution of the clutter false-alarm model (count, position bounds and spike
+        S/I are the sector's), and the spectrum changes little across one."""
+        gen = self._clutter_fa_generator
+        centre_r = 0.5 * (gen.r_min_m + gen.r_max_m)
+        centre_az = np.mod(0.5 * (gen.az_min_rad + gen.az_max_rad), 2.0 * math.pi)
+        return np.stack(self._spectrum_reference(centre_r, centre_az), axis=1)
 
     def _prepare_propagation(self, scenario: Scenario) -> None:
         self.propagation_mode = scenario.fidelity.propagation
@@ -758,8 +784,10 @@ class DwellModel:
         many = np.ndim(t_a) > 0
         out = (gen.scans if many else gen.scan)(t_a, t_b, beam_start, omega, rng)
         if out is not None:
+            spectrum = (self._clutter_fa_spectrum[out["sector"]] if self.has_doppler_bank
+                        else None)
             out.update(self._false_alarm_range_rate(out["range_m"], out["azimuth_rad"], rng,
-                                                    clutter=True))
+                                                    clutter=True, spectrum=spectrum))
         return out
 
 

@@ -908,8 +908,9 @@ class ClutterFalseAlarms:
             ``time_s`` (t_scan + mod(θ - θ_start, 2π)/ω), ``range_m`` (slant range of the sea
             point), ``azimuth_rad``, ``snr_db`` (spike excess x/σ0 - 1 in dB),
             ``sigma_range_m``, ``sigma_azimuth_rad`` ([84]-[85] / 3), ``interference``
-            (uint8, 1 = clutter), ``ground_range_m`` and ``revolution`` (index into
-            ``t_scan``), revolution after revolution (not sorted by time within one).
+            (uint8, 1 = clutter), ``ground_range_m``, ``revolution`` (index into
+            ``t_scan``) and ``sector`` (index of the active sector: ``eta``, ``r_min_m``...),
+            revolution after revolution (not sorted by time within one).
         """
         if self.eta.size == 0:
             return None
@@ -920,6 +921,7 @@ class ClutterFalseAlarms:
         keep = t < t_end[revolution]
         a = self.weibull_a[sector[keep]]
         ground, az, t, revolution = ground[keep], az[keep], t[keep], revolution[keep]
+        sector = sector[keep]
         x = spike_excess(self.threshold_ratio, a, rng, self.clutter_fa_model)
         si = np.maximum(x - 1.0, 1e-3)
         eps_r, eps_t = expected_errors(si, self.n_pulses, self.range_cell_m, self.beamwidth_rad,
@@ -936,6 +938,7 @@ class ClutterFalseAlarms:
             "interference": np.ones(n, dtype=np.uint8),
             "ground_range_m": ground,
             "revolution": revolution,
+            "sector": sector,
         }
 
 

@@ -116,10 +116,14 @@ def test_reference_against_itself_is_exactly_zero():
     assert not np.array_equal(other.looks["hit"], a.looks["hit"])
 
 
-def test_common_random_numbers_survive_other_draws():
+def test_common_random_numbers_survive_other_draws(monkeypatch):
     """The sea-clutter false-alarm model changes how many numbers each scan draws, not any
     target's P_d: with common random numbers every look keeps its outcome; on the engine's
-    sequential stream (crn=False) the later looks' dice move (so this test can fail)."""
+    sequential stream (crn=False) the looks of later blocks of revolutions (2 s here) have
+    their dice moved (so this test can fail)."""
+    from shipradar.sim import engine
+
+    monkeypatch.setattr(engine, "_BLOCK_S", 2.0)
     radar = {**RADAR, "pulse_width_s": 0.25e-6, "instrumented_range_m": 30000}
     s = parse_scenario(scene([target("t1", 26, 20, 300.0, sigma=20.0, duration=30.0),
                               target("t2", 28, 22, 100.0, sigma=5.0, duration=30.0)],
