@@ -525,13 +525,10 @@ class Bus:
             send = self.publisher.send
             for _, frames in records:
                 send(frames)
-        counts = self._messages
-        size = 0
-        for _, frames in records:
-            topic = frames[0]
-            counts[topic if type(topic) is bytes else bytes(topic)] += 1
-            size += sum(map(len, frames))
-        self._bytes += size
+        topics = [frames[0] for _, frames in records]
+        self._messages.update(t if type(t) is bytes else bytes(t) for t in topics)
+        self._bytes += sum(map(len, topics)) + sum(
+            sum(map(len, frames[1:])) for _, frames in records)
         self.t_last = records[-1][0]
 
     def flush(self, fsync: bool = False) -> None:

@@ -25,6 +25,7 @@ once; the bytes are the same.
 from __future__ import annotations
 
 import functools
+import itertools
 import math
 import sys
 import time
@@ -474,30 +475,39 @@ class _RadarProcess:
         if resumes is not None:
             resumes.append(env.now)
         self._emit_meta(0.0, scan=0)
-        k = 0
-        while True:
-            t_a = k * self.sector_s
-            if t_a >= sim.duration:
+        n, sector_s, duration, stats = self.n_sectors, self.sector_s, sim.duration, sim.stats
+        k = 0  # sectors since the start: sector k is [k, k + 1) sector_s
+        for scan in itertools.count():
+            if k * sector_s >= duration:
                 return
-            scan, sector = divmod(k, self.n_sectors)
-            if sector == 0:
-                if scan > 0:
-                    self._emit_meta(t_a, scan)
-                if not self._block:
-                    self._block = self._compute_block(scan)
-                self._scan = self._block.pop(0)
-                self._cursor = 0
-                self._frames = self._encode_scan(scan) if sim.encodes_ahead else None
-            t_b = min((k + 1) * self.sector_s, sim.duration)
-            yield env.timeout(t_b - env.now)
-            sim.active_radar = self.index
-            if resumes is not None:
-                resumes.append(env.now)
-            self._emit_sector(t_a, t_b, scan, last=sector == self.n_sectors - 1, sector=sector)
-            sim.stats.sectors += 1
-            if sector == self.n_sectors - 1 or t_b >= sim.duration:
-                self._end_of_scan(t_b, scan)
-            k += 1
+            if scan > 0:
+                self._emit_meta(k * sector_s, scan)
+            if not self._block:
+                self._block = self._compute_block(scan)
+            self._scan = self._block.pop(0)
+            self._cursor = 0
+            frames = self._frames = self._encode_scan(scan) if sim.encodes_ahead else None
+            for sector in range(n):
+                t_a = k * sector_s
+                if t_a >= duration:
+                    return
+                t_b = (k + 1) * sector_s
+                if t_b > duration:
+                    t_b = duration
+                yield env.timeout(t_b - env.now)
+                sim.active_radar = self.index
+                if resumes is not None:
+                    resumes.append(env.now)
+                if frames is not None:  # the revolution's frames encoded ahead
+                    sent = frames.pop(sector, None)
+                    if sent is not None:
+                        self._send_frames(t_b, sent)
+                else:
+                    self._emit_sector(t_a, t_b, scan, last=sector == n - 1)
+                stats.sectors += 1
+                k += 1
+                if sector == n - 1 or t_b >= duration:
+                    self._end_of_scan(t_b, scan)
 
     @functools.cached_property
     def _clutter_fa_meta(self) -> dict:
@@ -735,26 +745,26 @@ class _RadarProcess:
         never sent.
         """
         scan_plots = self._scan
-        cuts = self._sector_cuts(scan)
-        start = [0, *cuts[:-1]]
-        sectors = [j for j in range(self.n_sectors) if cuts[j] > start[j]]
-        if not sectors:
+        cuts = np.array(self._sector_cuts(scan), dtype=np.int64)
+        start = np.concatenate(([0], cuts[:-1]))
+        sectors = np.flatnonzero(cuts > start)
+        if not sectors.size:
             return {}
         n, sim = self.n_sectors, self.sim
-        times = [min(float(scan * n + j + 1) * self.sector_s, sim.duration) for j in sectors]
-        i0 = np.array([start[j] for j in sectors], dtype=np.int64)
-        i1 = np.array([cuts[j] for j in sectors], dtype=np.int64)
-        s0, s1 = i0.tolist(), i1.tolist()
+        # the sectors' ends, min(float(k + 1) * sector_s, duration) element-wise
+        times = np.minimum((scan * n + sectors + 1) * self.sector_s, sim.duration)
+        i0, i1 = start[sectors], cuts[sectors]
         # plot ids run on through the revolution's sectors (as plot_counter does)
         plot_id = np.arange(self.plot_counter, self.plot_counter + int(i1[-1]), dtype=np.int64)
-        cols = {"plot_id": (plot_id, s0, s1)}
-        cols.update({c: (scan_plots[c], s0, s1) for c in PLOT_COLUMNS})
+        cols = {"plot_id": (plot_id, i0, i1)}
+        cols.update({c: (scan_plots[c], i0, i1) for c in PLOT_COLUMNS})
         sid = self.radar.id
         plots = protocol.encode_slices(protocol.TOPIC_PLOTS, times,
                                        {"sensor": sid, "scan": scan}, cols)
         ahead = getattr(sim.bus, "plots_ahead", None)
         if ahead is not None:  # the ASTERIX bus: its CAT048 records of the revolution at once
-            ahead(sid, plots, {c: scan_plots[c] for c in PLOT_COLUMNS}, s0, s1)
+            ahead(sid, plots, {c: scan_plots[c] for c in PLOT_COLUMNS}, i0.tolist(),
+                  i1.tolist())
         # each sector's contributor offsets start at 0: one array of every sector's rebased
         # offsets (n + 1 per sector), sliced per sector
         off = scan_plots["contrib_offsets"]
@@ -764,30 +774,27 @@ class _RadarProcess:
         rebased = (off[idx] - np.repeat(off[i0], length)).astype(np.int64, copy=False)
         truth = protocol.encode_slices(
             protocol.TOPIC_TRUTH, times, {"sensor": sid, "scan": scan, "kind": "plots"}, {
-                "plot_id": (plot_id, s0, s1),
-                "origin": (scan_plots["origin"], s0, s1),
-                "target": (scan_plots["target"], s0, s1),
-                "contrib_offsets": (rebased, first.tolist(), (first + length).tolist()),
-                "contrib_targets": (scan_plots["contrib_targets"], off[i0].tolist(),
-                                    off[i1].tolist()),
+                "plot_id": (plot_id, i0, i1),
+                "origin": (scan_plots["origin"], i0, i1),
+                "target": (scan_plots["target"], i0, i1),
+                "contrib_offsets": (rebased, first, first + length),
+                "contrib_targets": (scan_plots["contrib_targets"], off[i0], off[i1]),
             })
         rows = (i1 - i0).tolist()
-        return {j: (r, p, q) for j, r, p, q in zip(sectors, rows, plots, truth, strict=True)}
+        return dict(zip(sectors.tolist(), zip(rows, plots, truth, strict=True), strict=True))
 
-    def _emit_sector(self, t_a: float, t_b: float, scan: int, last: bool,
-                     sector: int = -1) -> None:
+    def _send_frames(self, t_b: float, frames: tuple[int, bytes, bytes]) -> None:
+        """Publish a sector's plot and truth bodies encoded ahead (:meth:`_encode_scan`)."""
+        rows, plots, truth = frames
+        self._cursor += rows
+        self.plot_counter += rows
+        emit = self.sim.bus.emit_frames
+        emit(t_b, [protocol.TOPIC_PLOTS, plots])
+        emit(t_b, [protocol.TOPIC_TRUTH, truth])
+
+    def _emit_sector(self, t_a: float, t_b: float, scan: int, last: bool) -> None:
         """Publish the plots (and their truth) whose times fall in the sector [t_a, t_b)
-        (sector ``sector`` of revolution ``scan``)."""
-        if self._frames is not None:
-            frames = self._frames.pop(sector, None)
-            if frames is not None:
-                rows, plots, truth = frames
-                self._cursor += rows
-                self.plot_counter += rows
-                emit = self.sim.bus.emit_frames
-                emit(t_b, [protocol.TOPIC_PLOTS, plots])
-                emit(t_b, [protocol.TOPIC_TRUTH, truth])
-            return
+        of revolution ``scan`` (``last``: its last sector, which takes every plot left)."""
         scan_plots = self._scan
         times = scan_plots["time_s"]
         i0 = self._cursor

@@ -494,7 +494,11 @@ def encode_slices(
     if not np.isfinite(times).all():
         raise ProtocolError(f"t_sim must be finite, got {times[~np.isfinite(times)][0]!r}")
     cols = []
+    bounds: dict[int, np.ndarray] = {}  # columns often share their start and stop arrays
     for key, (array, start, stop) in columns.items():
+        for b in (start, stop):
+            if id(b) not in bounds:
+                bounds[id(b)] = np.ascontiguousarray(b, dtype=np.int64)
         array = np.asarray(array)
         if array.ndim != 1:
             raise ProtocolError(f"column {key!r} must be 1-d")
@@ -503,8 +507,7 @@ def encode_slices(
             head, little = _array_head(array.dtype, 1)
             array = array.astype(little)
         cols.append((_packed_key(key), head, array.dtype.itemsize,
-                     np.ascontiguousarray(array), np.ascontiguousarray(start, dtype=np.int64),
-                     np.ascontiguousarray(stop, dtype=np.int64)))
+                     np.ascontiguousarray(array), bounds[id(start)], bounds[id(stop)]))
     # the bodies are joined in compiled code (shipradar/_frames.c): per message the prefix,
     # the time, the fixed part, and per column its key, extension header, array head,
     # element count and slice of the column's bytes
