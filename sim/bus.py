@@ -526,9 +526,10 @@ class Bus:
             for _, frames in records:
                 send(frames)
         topics = [frames[0] for _, frames in records]
-        self._messages.update(t if type(t) is bytes else bytes(t) for t in topics)
-        self._bytes += sum(map(len, topics)) + sum(
-            sum(map(len, frames[1:])) for _, frames in records)
+        if not all(type(t) is bytes for t in topics):
+            topics = [bytes(t) for t in topics]
+        self._messages.update(topics)
+        self._bytes += sum([len(f) for _, frames in records for f in frames])
         self.t_last = records[-1][0]
 
     def flush(self, fsync: bool = False) -> None:

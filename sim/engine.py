@@ -415,7 +415,8 @@ class _RadarProcess:
         self.index = 0
         self.resume_times: list[float] | None = None
         self.target_ids = [t.id for t in sim.scenario.targets]
-        self._eos_cache: dict[float, tuple[float, float]] = {}
+        # states at the ends of the revolutions computed ahead (_scan_end_states)
+        self._eos_states: dict[float, tuple] = {}
         # revolutions computed ahead (see _compute_block), consumed one per scan
         self._block: list[dict] = []
         # a block's false alarms are held at once: fewer revolutions when a scan has many
@@ -434,6 +435,7 @@ class _RadarProcess:
         self._block = []
         self._scan = _merge_parts([])
         self._frames = None
+        self._eos_states = {}
 
     # ------------------------------------------------------------------ helpers
     def beam_azimuth(self, t: float) -> float:
@@ -689,6 +691,7 @@ class _RadarProcess:
             if t_a >= sim.duration:
                 break
             bounds.append((t_a, min(t_a + period, sim.duration)))
+        self._scan_end_states(scan0, len(bounds))
         # beam crossings of every (revolution, target) pair, solved at once
         rows_all, start_all, beam_all, scan_all = [], [], [], []
         if sim.targets.n:
@@ -823,32 +826,40 @@ class _RadarProcess:
         }
         self.sim.emit(protocol.TOPIC_TRUTH, t_b, truth)
 
-    def _eos_lat_lon(self, t: float, scan: int) -> tuple[float, float]:
-        """Latitude and longitude [deg] of the platform at the end of scan ``scan`` (time t).
-
-        The geodetic conversion (iterative, ``pymap3d``) is done for the next
-        :data:`_EOS_BATCH` ends of scan at once, at the times the run will reach them; a time
-        not predicted (never, in practice) is converted on its own.
-        """
-        cached = self._eos_cache.pop(t, None)
-        if cached is not None:
-            return cached
-        last = self.n_sectors * np.arange(scan + 1, scan + 1 + _EOS_BATCH)
-        times = [min(float(k) * self.sector_s, self.sim.duration) for k in last.tolist()]
-        times = sorted({t, *times})
-        ppos, _ = self.platform_state(np.array(times))
-        lat, lon, _ = self.sim.frame.geodetic(ppos)
-        self._eos_cache = dict(zip(times, zip(lat.tolist(), lon.tolist(), strict=True),
-                                   strict=True))
-        return self._eos_cache.pop(t)
+    def _scan_end_states(self, scan0: int, count: int) -> None:
+        """Platform and target states at the ends of revolutions ``scan0`` to ``scan0 +
+        count - 1`` (at the times the run reaches them), computed together and kept for
+        :meth:`_end_of_scan`: the platform's position, velocity, latitude and longitude
+        (the geodetic conversion is iterative, ``pymap3d``) and every target's position,
+        velocity, acceleration and activity.  Element-wise the same numbers as one call per
+        end of scan."""
+        sim = self.sim
+        ends = self.n_sectors * np.arange(scan0 + 1, scan0 + 1 + count)
+        times = [min(float(k) * self.sector_s, sim.duration) for k in ends.tolist()]
+        t = np.array(times)
+        pos, vel = self.platform_state(t)
+        lat, lon, _ = sim.frame.geodetic(pos)
+        n = sim.targets.n
+        if n:
+            tpos, tvel, tacc, active = sim.targets.state_acc(np.repeat(t, n),
+                                                             np.tile(np.arange(n), t.size))
+        for j, tj in enumerate(times):
+            target = None if not n else (tpos[j * n:(j + 1) * n], tvel[j * n:(j + 1) * n],
+                                         tacc[j * n:(j + 1) * n], active[j * n:(j + 1) * n])
+            self._eos_states[tj] = (pos[j], vel[j], float(lat[j]), float(lon[j]), target)
 
     def _end_of_scan(self, t: float, scan: int) -> None:
         sim = self.sim
         sim.stats.scans += 1
-        pos, vel = self.platform_state(np.array([t]))
-        lat, lon = self._eos_lat_lon(t, scan)
-        speed = float(np.hypot(vel[0, 0], vel[0, 1]))
-        heading = (math.degrees(math.atan2(vel[0, 0], vel[0, 1])) % 360.0 if speed > 0
+        states = self._eos_states.pop(t, None)
+        if states is None:  # a time not predicted (never, in practice): on its own
+            pos, vel = self.platform_state(np.array([t]))
+            lat, lon, _ = sim.frame.geodetic(pos)
+            target = sim.targets.state_acc(t) if sim.targets.n else None
+            states = (pos[0], vel[0], float(lat[0]), float(lon[0]), target)
+        pos, vel, lat, lon, target = states
+        speed = float(np.hypot(vel[0], vel[1]))
+        heading = (math.degrees(math.atan2(vel[0], vel[1])) % 360.0 if speed > 0
                    else self.platform.heading_deg)
         eos = {
             "sensor": self.radar.id,
@@ -856,16 +867,16 @@ class _RadarProcess:
             "time_s": t,
             "position": {
                 "lat_deg": lat, "lon_deg": lon,
-                "alt_m": float(pos[0, 2] + self.radar.antenna_height_m),
-                "east_m": float(pos[0, 0]), "north_m": float(pos[0, 1]),
-                "up_m": float(pos[0, 2] + self.radar.antenna_height_m),
+                "alt_m": float(pos[2] + self.radar.antenna_height_m),
+                "east_m": float(pos[0]), "north_m": float(pos[1]),
+                "up_m": float(pos[2] + self.radar.antenna_height_m),
             },
-            "velocity_enu_mps": [float(v) for v in vel[0]],
+            "velocity_enu_mps": [float(v) for v in vel],
             "heading_deg": heading,
         }
         sim.emit(protocol.TOPIC_EOS, t, eos)
-        if sim.targets.n:
-            tpos, tvel, tacc, active = sim.targets.state_acc(t)
+        if target is not None:
+            tpos, tvel, tacc, active = target
             sim.emit(protocol.TOPIC_TRUTH, t, {
                 "sensor": self.radar.id,
                 "scan": scan,
@@ -887,8 +898,6 @@ _BLOCK_S = 64.0
 #: Expected false alarms a block of revolutions holds at most (fewer revolutions, at least
 #: one, when a scan has many: ≈ 200 bytes each while the block is computed).
 _BLOCK_PLOTS = 250_000
-#: Ends of scan whose platform latitude/longitude are converted together.
-_EOS_BATCH = 256
 
 #: Plot-topic columns, in the order they are published.
 PLOT_COLUMNS = ("time_s", "range_m", "azimuth_rad", "snr_db", "sigma_range_m",
