@@ -3,7 +3,7 @@
  * Two functions, each the compiled twin of a Python reference that the tests compare it
  * with byte for byte:
  *
- *   encode_slices(prefix, fixed, times, cols, ext_type, max_body) -> list[bytes]
+ *   encode_slices(prefix, fixed, which, times, cols, ext_type, max_body) -> list[bytes]
  *       the bodies of sim.protocol.encode_slices (msgpack maps whose columns are slices of
  *       shared arrays, as numpy-ndarray extensions);
  *   frame_records(records, seq, max_record, offset) -> (bytes, ends, raw, done) or None
@@ -151,20 +151,38 @@ static void release_columns(column *cols, Py_ssize_t n)
 
 static PyObject *py_encode_slices(PyObject *self, PyObject *args)
 {
-    Py_buffer prefix, fixed, times;
-    PyObject *cols_obj;
+    Py_buffer prefix, times, which;
+    PyObject *fixed_obj, *cols_obj;
     int ext_type;
     Py_ssize_t max_body;
-    if (!PyArg_ParseTuple(args, "y*y*y*O!in", &prefix, &fixed, &times, &PyTuple_Type,
-                          &cols_obj, &ext_type, &max_body))
+    if (!PyArg_ParseTuple(args, "y*O!y*y*O!in", &prefix, &PyTuple_Type, &fixed_obj, &which,
+                          &times, &PyTuple_Type, &cols_obj, &ext_type, &max_body))
         return NULL;
     PyObject *out = NULL;
     Py_ssize_t n_cols = PyTuple_GET_SIZE(cols_obj), ready = 0;
+    Py_ssize_t n_fixed = PyTuple_GET_SIZE(fixed_obj);
     Py_ssize_t n_msg = times.len / (Py_ssize_t)sizeof(double);
+    const int64_t *fixed_of = which.buf;
     column *cols = PyMem_Calloc(n_cols ? n_cols : 1, sizeof(column));
     if (cols == NULL) {
         PyErr_NoMemory();
         goto done;
+    }
+    for (Py_ssize_t f = 0; f < n_fixed; f++) {
+        if (!PyBytes_Check(PyTuple_GET_ITEM(fixed_obj, f))) {
+            PyErr_SetString(PyExc_TypeError, "encode_slices: fixed parts must be bytes");
+            goto done;
+        }
+    }
+    if (which.len != n_msg * 8) {
+        PyErr_SetString(PyExc_ValueError, "encode_slices: one fixed part index per time");
+        goto done;
+    }
+    for (Py_ssize_t j = 0; j < n_msg; j++) {
+        if (fixed_of[j] < 0 || fixed_of[j] >= n_fixed) {
+            PyErr_SetString(PyExc_IndexError, "encode_slices: fixed part index out of range");
+            goto done;
+        }
     }
     for (; ready < n_cols; ready++) {
         column *c = &cols[ready];
@@ -182,7 +200,9 @@ static PyObject *py_encode_slices(PyObject *self, PyObject *args)
         goto done;
     const double *t = times.buf;
     for (Py_ssize_t j = 0; j < n_msg; j++) {
-        Py_ssize_t size = prefix.len + 9 + fixed.len;
+        PyObject *fixed = PyTuple_GET_ITEM(fixed_obj, fixed_of[j]);
+        Py_ssize_t fixed_len = PyBytes_GET_SIZE(fixed);
+        Py_ssize_t size = prefix.len + 9 + fixed_len;
         for (Py_ssize_t k = 0; k < n_cols; k++) {
             column *c = &cols[k];
             int64_t i0 = ((const int64_t *)c->start.buf)[j];
@@ -210,8 +230,8 @@ static PyObject *py_encode_slices(PyObject *self, PyObject *args)
         o += prefix.len;
         *o++ = 0xCB;
         o = put_be(o, double_bits(t[j]), 8);
-        memcpy(o, fixed.buf, fixed.len);
-        o += fixed.len;
+        memcpy(o, PyBytes_AS_STRING(fixed), fixed_len);
+        o += fixed_len;
         for (Py_ssize_t k = 0; k < n_cols; k++) {
             column *c = &cols[k];
             int64_t i0 = ((const int64_t *)c->start.buf)[j];
@@ -234,7 +254,7 @@ done:
         PyMem_Free(cols);
     }
     PyBuffer_Release(&prefix);
-    PyBuffer_Release(&fixed);
+    PyBuffer_Release(&which);
     PyBuffer_Release(&times);
     return out;
 }
@@ -340,11 +360,12 @@ static PyObject *py_frame_records(PyObject *self, PyObject *args)
 /* ------------------------------------------------------------------ module */
 static PyMethodDef methods[] = {
     {"encode_slices", py_encode_slices, METH_VARARGS,
-     "encode_slices(prefix, fixed, times, cols, ext_type, max_body) -> list[bytes]\n\n"
-     "The bodies of sim.protocol.encode_slices: per message prefix, float64 time, fixed "
-     "part, then per column (key, head, itemsize, data, start, stop) its key, ext header, "
-     "array head, element count and data slice.  OverflowError (the size) when a body "
-     "exceeds max_body."},
+     "encode_slices(prefix, fixed, which, times, cols, ext_type, max_body) -> list[bytes]\n\n"
+     "The bodies of sim.protocol.encode_slices: per message the prefix, its float64 time, "
+     "its fixed part (fixed[which[j]], a tuple of bytes and an int64 index per message), "
+     "then per column (key, head, itemsize, data, start, stop) its key, ext header, array "
+     "head, element count and data slice.  OverflowError (the size) when a body exceeds "
+     "max_body."},
     {"frame_records", py_frame_records, METH_VARARGS,
      "frame_records(records, seq, max_record, offset) -> (blob, ends, raw, done) or None\n\n"
      "Recording format-2 records of (t_sim, [topic, body]) messages numbered from seq, "

@@ -419,6 +419,8 @@ class _RadarProcess:
         self._eos_states: dict[float, tuple] = {}
         # revolutions computed ahead (see _compute_block), consumed one per scan
         self._block: list[dict] = []
+        self._block_plots: tuple[int, dict, list[int]] | None = None
+        self._block_frames: list[tuple[dict, list[bytes], list[int], list[int]]] | None = None
         # a block's false alarms are held at once: fewer revolutions when a scan has many
         expected = model.noise_false_alarms_per_scan + self._clutter_fa_meta.get(
             "clutter_false_alarms_per_scan", 0.0)
@@ -433,6 +435,7 @@ class _RadarProcess:
         """Drop the revolutions computed ahead (a block's plots: up to :data:`_BLOCK_S` of
         simulated time) once the run is over."""
         self._block = []
+        self._block_plots = self._block_frames = None
         self._scan = _merge_parts([])
         self._frames = None
         self._eos_states = {}
@@ -486,9 +489,16 @@ class _RadarProcess:
                 self._emit_meta(k * sector_s, scan)
             if not self._block:
                 self._block = self._compute_block(scan)
+                self._block_frames = self._encode_block() if sim.encodes_ahead else None
             self._scan = self._block.pop(0)
             self._cursor = 0
-            frames = self._frames = self._encode_scan(scan) if sim.encodes_ahead else None
+            frames = None
+            if self._block_frames is not None:
+                frames, bodies, s0, s1 = self._block_frames.pop(0)
+                ahead = getattr(sim.bus, "plots_ahead", None)
+                if ahead is not None:  # the ASTERIX bus: its CAT048 records ahead
+                    ahead(self.radar.id, bodies, self._scan, s0, s1)
+            self._frames = frames
             for sector in range(n):
                 t_a = k * sector_s
                 if t_a >= duration:
@@ -729,65 +739,80 @@ class _RadarProcess:
         parts += self._false_alarms(bounds)
         merged = _merge_parts(parts, revolutions=True)
         edges = np.searchsorted(merged["revolution"], np.arange(len(bounds) + 1)).tolist()
+        self._block_plots = (scan0, merged, edges)  # for _encode_block
         return [_slice_plots(merged, a, b) for a, b in zip(edges[:-1], edges[1:], strict=True)]
 
-    def _sector_cuts(self, scan: int) -> list[int]:
-        """Index in the revolution's plots where each sector's plots end (the sector frames of
-        :meth:`_emit_sector`: times before the sector's end, everything left in the last)."""
-        n, sim = self.n_sectors, self.sim
-        ends = [min(float(scan * n + j + 1) * self.sector_s, sim.duration)
-                for j in range(n - 1)]
-        times = self._scan["time_s"]
-        return [*np.searchsorted(times, ends, side="left").tolist(), int(times.size)]
+    def _sector_cuts(self, scan: int, times: np.ndarray) -> np.ndarray:
+        """Index in revolution ``scan``'s plot ``times`` where each sector's plots end (the
+        sector frames of :meth:`_emit_sector`: times before the sector's end, everything
+        left in the last)."""
+        ends = np.minimum((scan * self.n_sectors + np.arange(1, self.n_sectors))
+                          * self.sector_s, self.sim.duration)
+        cuts = np.empty(self.n_sectors, dtype=np.int64)
+        cuts[:-1] = np.searchsorted(times, ends, side="left")
+        cuts[-1] = times.size
+        return cuts
 
-    def _encode_scan(self, scan: int) -> dict[int, tuple[float, bytes, bytes]]:
-        """The plot and truth bodies of every non-empty sector of revolution ``scan``, by
-        sector, encoded at once (byte for byte what :meth:`_emit_sector` would encode).
+    def _encode_block(self) -> list[tuple[dict, list[bytes], list[int], list[int]]]:
+        """The plot and truth bodies of every non-empty sector of the revolutions
+        :meth:`_compute_block` computed last, encoded at once (byte for byte what
+        :meth:`_emit_sector` would encode); per revolution, its frames by sector
+        ``{sector: (rows, plots body, truth body)}`` and the plot bodies with their slices
+        of the revolution's plots (for the ASTERIX bus's ``plots_ahead``).
 
-        Sectors the run does not reach (its end inside the revolution) are encoded but
-        never sent.
+        Sectors the run does not reach (its end inside a revolution) are encoded but never
+        sent.  Plot ids run on through the block: its plots are sent in their order.
         """
-        scan_plots = self._scan
-        cuts = np.array(self._sector_cuts(scan), dtype=np.int64)
-        start = np.concatenate(([0], cuts[:-1]))
-        sectors = np.flatnonzero(cuts > start)
-        if not sectors.size:
-            return {}
+        scan0, merged, edges = self._block_plots
         n, sim = self.n_sectors, self.sim
+        starts, cuts = [], []
+        for r in range(len(edges) - 1):
+            a, b = edges[r], edges[r + 1]
+            c = a + self._sector_cuts(scan0 + r, merged["time_s"][a:b])
+            cuts.append(c)
+            starts.append(np.concatenate(([a], c[:-1])))
+        cuts, starts = np.concatenate(cuts), np.concatenate(starts)
+        msg = np.flatnonzero(cuts > starts)  # non-empty sectors, sector k of the block
+        rev, sectors = np.divmod(msg, n)
+        i0, i1 = starts[msg], cuts[msg]
         # the sectors' ends, min(float(k + 1) * sector_s, duration) element-wise
-        times = np.minimum((scan * n + sectors + 1) * self.sector_s, sim.duration)
-        i0, i1 = start[sectors], cuts[sectors]
-        # plot ids run on through the revolution's sectors (as plot_counter does)
-        plot_id = np.arange(self.plot_counter, self.plot_counter + int(i1[-1]), dtype=np.int64)
-        cols = {"plot_id": (plot_id, i0, i1)}
-        cols.update({c: (scan_plots[c], i0, i1) for c in PLOT_COLUMNS})
+        times = np.minimum(((scan0 + rev) * n + sectors + 1) * self.sector_s, sim.duration)
+        total = int(edges[-1])
+        plot_id = np.arange(self.plot_counter, self.plot_counter + total, dtype=np.int64)
         sid = self.radar.id
+        scans = range(scan0, scan0 + len(edges) - 1)
+        cols = {"plot_id": (plot_id, i0, i1)}
+        cols.update({c: (merged[c], i0, i1) for c in PLOT_COLUMNS})
         plots = protocol.encode_slices(protocol.TOPIC_PLOTS, times,
-                                       {"sensor": sid, "scan": scan}, cols)
-        ahead = getattr(sim.bus, "plots_ahead", None)
-        if ahead is not None:  # the ASTERIX bus: its CAT048 records of the revolution at once
-            ahead(sid, plots, {c: scan_plots[c] for c in PLOT_COLUMNS}, i0.tolist(),
-                  i1.tolist())
+                                       [{"sensor": sid, "scan": k} for k in scans], cols, rev)
         # each sector's contributor offsets start at 0: one array of every sector's rebased
         # offsets (n + 1 per sector), sliced per sector
-        off = scan_plots["contrib_offsets"]
+        off = merged["contrib_offsets"]
         length = i1 - i0 + 1
         first = np.cumsum(length) - length
         idx = np.repeat(i0 - first, length) + np.arange(int(length.sum()))
         rebased = (off[idx] - np.repeat(off[i0], length)).astype(np.int64, copy=False)
         truth = protocol.encode_slices(
-            protocol.TOPIC_TRUTH, times, {"sensor": sid, "scan": scan, "kind": "plots"}, {
+            protocol.TOPIC_TRUTH, times,
+            [{"sensor": sid, "scan": k, "kind": "plots"} for k in scans], {
                 "plot_id": (plot_id, i0, i1),
-                "origin": (scan_plots["origin"], i0, i1),
-                "target": (scan_plots["target"], i0, i1),
+                "origin": (merged["origin"], i0, i1),
+                "target": (merged["target"], i0, i1),
                 "contrib_offsets": (rebased, first, first + length),
-                "contrib_targets": (scan_plots["contrib_targets"], off[i0], off[i1]),
-            })
-        rows = (i1 - i0).tolist()
-        return dict(zip(sectors.tolist(), zip(rows, plots, truth, strict=True), strict=True))
+                "contrib_targets": (merged["contrib_targets"], off[i0], off[i1]),
+            }, rev)
+        out = [({}, [], [], []) for _ in scans]
+        for r, sector, a, b, p, q in zip(rev.tolist(), sectors.tolist(), i0.tolist(),
+                                          i1.tolist(), plots, truth, strict=True):
+            frames, bodies, s0, s1 = out[r]
+            frames[sector] = (b - a, p, q)
+            bodies.append(p)
+            s0.append(a - edges[r])
+            s1.append(b - edges[r])
+        return out
 
     def _send_frames(self, t_b: float, frames: tuple[int, bytes, bytes]) -> None:
-        """Publish a sector's plot and truth bodies encoded ahead (:meth:`_encode_scan`)."""
+        """Publish a sector's plot and truth bodies encoded ahead (:meth:`_encode_block`)."""
         rows, plots, truth = frames
         self._cursor += rows
         self.plot_counter += rows

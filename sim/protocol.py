@@ -446,16 +446,18 @@ def encode(topic: bytes, t_sim: float, payload: Mapping[str, Any]) -> list[bytes
 def encode_slices(
     topic: bytes,
     times: Sequence[float],
-    fixed: Mapping[str, Any],
+    fixed: Mapping[str, Any] | Sequence[Mapping[str, Any]],
     columns: Mapping[str, tuple[np.ndarray, Sequence[int], Sequence[int]]],
+    fixed_index: Sequence[int] | None = None,
 ) -> list[bytes]:
     """Encode many messages that share their keys and slice the same columns: the bodies.
 
     Message ``j`` is exactly ``encode(topic, times[j], {**fixed, **{key: array[start[j]:
     stop[j]] for key, (array, start, stop) in columns.items()}})[1]``: the same bytes, for
-    the engine's sector frames, whose columns are the slices of one revolution's arrays.
-    The fixed part is packed once, each column's elements are converted to bytes once, and
-    a message costs a join of pre-packed pieces (no per-message dict, array or msgpack call).
+    the engine's sector frames, whose columns are the slices of a block of revolutions'
+    arrays.  The fixed part is packed once, each column's elements are converted to bytes
+    once, and the bodies are assembled in compiled code (``shipradar/_frames.c``: no
+    per-message dict, array or msgpack call).
 
     Parameters
     ----------
@@ -463,12 +465,16 @@ def encode_slices(
         Topic of every message (checked as by :func:`encode`).
     times : Sequence[float]
         Simulated time of each message [s]; finite.
-    fixed : Mapping[str, Any]
+    fixed : Mapping[str, Any] or Sequence[Mapping[str, Any]]
         Keys and values common to every message, first in each payload (as :func:`encode`
-        takes them).
+        takes them); or several such mappings, all with the same keys, message ``j`` taking
+        ``fixed[fixed_index[j]]`` (the sector frames of several revolutions: their scan
+        numbers).
     columns : Mapping[str, tuple[numpy.ndarray, Sequence[int], Sequence[int]]]
         For each column key, in payload order after ``fixed``: a 1-d array and the start and
         stop index of each message's slice.
+    fixed_index : Sequence[int], optional
+        With a sequence ``fixed``: the index in it of each message's fixed part.
 
     Returns
     -------
@@ -480,14 +486,25 @@ def encode_slices(
     ProtocolError
         As :func:`encode` (the keys of ``fixed`` and ``columns`` together must be distinct).
     """
-    if any(key in fixed for key in columns):
+    many = not isinstance(fixed, Mapping)
+    parts = list(fixed) if many else [fixed]
+    if not parts or any(list(p) != list(parts[0]) for p in parts):
+        raise ProtocolError("fixed parts must be one or more mappings with the same keys")
+    if any(key in parts[0] for key in columns):
         raise ProtocolError("a key is both fixed and a column")
-    # the fixed part, as encode() packs it: the body of a message holding only `fixed`,
+    keys = len(parts[0])
+    # each fixed part, as encode() packs it: the body of a message holding only that part,
     # after its map header and envelope
-    fixed_body = encode(topic, 0.0, fixed)[1]
-    head_len = len(_map_header(len(fixed) + 2)) + len(_ENVELOPE_V) + len(_ENVELOPE_T_KEY) + 9
-    prefix = _map_header(len(fixed) + len(columns) + 2) + _ENVELOPE_V + _ENVELOPE_T_KEY
-    fixed_part = fixed_body[head_len:]
+    head_len = len(_map_header(keys + 2)) + len(_ENVELOPE_V) + len(_ENVELOPE_T_KEY) + 9
+    prefix = _map_header(keys + len(columns) + 2) + _ENVELOPE_V + _ENVELOPE_T_KEY
+    fixed_parts = tuple(encode(topic, 0.0, p)[1][head_len:] for p in parts)
+    n_msg = len(times)
+    if many:
+        if fixed_index is None:
+            raise ProtocolError("several fixed parts need a fixed_index")
+        which = np.ascontiguousarray(fixed_index, dtype=np.int64)
+    else:
+        which = np.zeros(n_msg, dtype=np.int64)
     times = np.asarray(times, dtype=np.float64)
     if times.ndim != 1:
         raise ProtocolError("times must be 1-d")
@@ -512,8 +529,8 @@ def encode_slices(
     # the time, the fixed part, and per column its key, extension header, array head,
     # element count and slice of the column's bytes
     try:
-        return _frames.encode_slices(prefix, fixed_part, times, tuple(cols), EXT_NDARRAY,
-                                     MAX_BODY_BYTES)
+        return _frames.encode_slices(prefix, fixed_parts, which, times, tuple(cols),
+                                     EXT_NDARRAY, MAX_BODY_BYTES)
     except OverflowError as exc:
         raise ProtocolError(
             f"encoded body is {exc} bytes, over the {MAX_BODY_BYTES}-byte maximum: "
