@@ -946,35 +946,44 @@ def _merge_parts(parts: list[dict], revolutions: bool = False) -> dict:
         if revolutions:
             out["revolution"] = np.zeros(0, dtype=np.int64)
         return out
-    merged = {c: np.concatenate([p[c] for p in parts]) for c in PLOT_COLUMNS}
-    origin = np.concatenate([p["origin"] for p in parts])
-    target = np.concatenate(
-        [p.get("target", np.full(p["range_m"].size, -1, dtype=np.int32)) for p in parts])
-    starts, counts, pool, base = [], [], [], 0
-    for p in parts:
-        off = p.get("contrib_offsets")
-        if off is None:
-            off = np.zeros(p["range_m"].size + 1, dtype=np.int64)
-        starts.append(off[:-1] + base)
-        counts.append(np.diff(off))
-        c_idx = p.get("contrib_targets", np.zeros(0, dtype=np.int32))
-        pool.append(c_idx)
-        base += c_idx.size
-    starts, counts, pool = np.concatenate(starts), np.concatenate(counts), np.concatenate(pool)
+    sizes = [p["range_m"].size for p in parts]
+    first = np.cumsum([0, *sizes])
+    time_s = np.concatenate([p["time_s"] for p in parts])
+    order = np.argsort(time_s, kind="stable")
     if revolutions:
         rev = np.concatenate([p["revolution"] for p in parts])
-        order = np.lexsort((merged["time_s"], rev))
-    else:
-        order = np.argsort(merged["time_s"], kind="stable")
-    out = {c: merged[c][order] for c in PLOT_COLUMNS}
+        if np.any(np.diff(rev[order]) < 0):
+            # a plot a hair before its revolution's start (a target crossing the start
+            # azimuth) sorts before the previous revolution's last plots: by revolution first
+            order = np.lexsort((time_s, rev))
+    out = {c: np.concatenate([p[c] for p in parts])[order] for c in PLOT_COLUMNS}
     if revolutions:
         out["revolution"] = rev[order]
-    c_sorted, s_sorted = counts[order], starts[order]
+    out["origin"] = np.concatenate([p["origin"] for p in parts])[order]
+    out["target"] = np.concatenate([p.get("target", np.full(p["range_m"].size, -1, np.int32))
+                                    for p in parts])[order].astype(np.int32)
+    # contributors: only some batches have them (the targets'); the others count none
+    counts = np.zeros(time_s.size, dtype=np.int64)
+    starts = np.zeros(time_s.size, dtype=np.int64)
+    pool, base = [], 0
+    for p, a, b in zip(parts, first[:-1], first[1:], strict=True):
+        off = p.get("contrib_offsets")
+        if off is None:
+            continue
+        starts[a:b] = off[:-1] + base
+        counts[a:b] = np.diff(off)
+        pool.append(p["contrib_targets"])
+        base += p["contrib_targets"].size
+    c_sorted = counts[order]
     new_off = np.concatenate([[0], np.cumsum(c_sorted)]).astype(np.int64)
-    gather = np.repeat(s_sorted, c_sorted) + (np.arange(new_off[-1])
-                                              - np.repeat(new_off[:-1], c_sorted))
-    out.update(origin=origin[order], target=target[order].astype(np.int32),
-               contrib_offsets=new_off, contrib_targets=pool[gather].astype(np.int32))
+    if base:
+        s_sorted = starts[order]
+        gather = np.repeat(s_sorted, c_sorted) + (np.arange(new_off[-1])
+                                                  - np.repeat(new_off[:-1], c_sorted))
+        contrib = np.concatenate(pool)[gather].astype(np.int32)
+    else:
+        contrib = np.zeros(0, dtype=np.int32)
+    out.update(contrib_offsets=new_off, contrib_targets=contrib)
     return out
 
 
