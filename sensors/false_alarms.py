@@ -859,10 +859,17 @@ class ClutterFalseAlarms:
             e = self.eta[sector[normal]]
             x = e + np.sqrt(e) * special.ndtri(u[normal])
             counts[normal] = np.rint(np.maximum(x, 0.0)).astype(np.int64)
-        pois = regime == _REGIME_POISSON
-        if pois.any():
-            counts[pois] = np.count_nonzero(
-                self._pois_cdf[self._pois_row[sector[pois]]] < u[pois, None], axis=1)
+        pois = np.flatnonzero(regime == _REGIME_POISSON)
+        if pois.size:
+            # the inverse CDF, count = #{k: CDF(k) < U} (≥ 1 here), one column at a time
+            # over the sectors still above it (most stop at 1 or 2)
+            rows, up = self._pois_row[sector[pois]], u[pois]
+            for k in range(1, self._pois_cdf.shape[1]):
+                more = up > self._pois_cdf[rows, k]
+                if not more.any():
+                    break
+                pois, rows, up = pois[more], rows[more], up[more]
+                counts[pois] += 1
         # uniform_positions of these counts (same draws, same numbers), with the sector of
         # every plot found once instead of repeating each bound array over the counts
         revolution, sector = np.repeat(revolution, counts), np.repeat(sector, counts)
