@@ -294,6 +294,12 @@ static int two_frames(PyObject *rec, double *t, PyObject **topic, PyObject **bod
     return 1;
 }
 
+typedef struct {
+    double t;
+    const char *topic, *body;
+    Py_ssize_t lt, lb;
+} message;
+
 static PyObject *py_frame_records(PyObject *self, PyObject *args)
 {
     PyObject *records;
@@ -302,12 +308,21 @@ static PyObject *py_frame_records(PyObject *self, PyObject *args)
     if (!PyArg_ParseTuple(args, "O!Knn", &PyList_Type, &records, &seq, &max_record, &offset))
         return NULL;
     Py_ssize_t n = PyList_GET_SIZE(records), done = 0, total = 0;
-    double t;
-    PyObject *topic, *body;
+    message *msg = PyMem_Malloc((n ? n : 1) * sizeof(message));
+    if (msg == NULL)
+        return PyErr_NoMemory();
     for (; done < n; done++) {
-        if (!two_frames(PyList_GET_ITEM(records, done), &t, &topic, &body))
+        PyObject *topic, *body;
+        message *m = &msg[done];
+        if (!two_frames(PyList_GET_ITEM(records, done), &m->t, &topic, &body)) {
+            PyMem_Free(msg);
             Py_RETURN_NONE; /* not every message is [topic, body]: the Python path */
-        Py_ssize_t payload = 18 + PyBytes_GET_SIZE(topic) + PyBytes_GET_SIZE(body);
+        }
+        m->topic = PyBytes_AS_STRING(topic);
+        m->lt = PyBytes_GET_SIZE(topic);
+        m->body = PyBytes_AS_STRING(body);
+        m->lb = PyBytes_GET_SIZE(body);
+        Py_ssize_t payload = 18 + m->lt + m->lb;
         if (payload > max_record)
             break;
         total += RECORD_HEADER + payload;
@@ -317,24 +332,27 @@ static PyObject *py_frame_records(PyObject *self, PyObject *args)
     if (blob == NULL || ends == NULL) {
         Py_XDECREF(blob);
         Py_XDECREF(ends);
+        PyMem_Free(msg);
         return NULL;
     }
-    unsigned char *base = (unsigned char *)PyBytes_AS_STRING(blob), *o = base;
-    Py_ssize_t raw = 0;
+    unsigned char *base = (unsigned char *)PyBytes_AS_STRING(blob);
+    /* the copies and CRCs without the GIL (the caller holds `records`, hence the bytes,
+       and nothing else sees `blob` yet): a recorder thread runs beside the simulation */
+    Py_BEGIN_ALLOW_THREADS
+    unsigned char *o = base;
     for (Py_ssize_t i = 0; i < done; i++) {
-        two_frames(PyList_GET_ITEM(records, i), &t, &topic, &body);
-        Py_ssize_t lt = PyBytes_GET_SIZE(topic), lb = PyBytes_GET_SIZE(body);
-        Py_ssize_t payload = 18 + lt + lb;
+        const message *g = &msg[i];
+        Py_ssize_t payload = 18 + g->lt + g->lb;
         unsigned char *mid = o + 8, *p = o + RECORD_HEADER, *q = p;
         memcpy(o, SYNC, 8);
         /* payload: t_sim <d, 2 frames <H, topic length <I, topic, body length <I, body */
-        q = put_le(q, double_bits(t), 8);
+        q = put_le(q, double_bits(g->t), 8);
         q = put_le(q, 2, 2);
-        q = put_le(q, (uint64_t)lt, 4);
-        memcpy(q, PyBytes_AS_STRING(topic), lt);
-        q += lt;
-        q = put_le(q, (uint64_t)lb, 4);
-        memcpy(q, PyBytes_AS_STRING(body), lb);
+        q = put_le(q, (uint64_t)g->lt, 4);
+        memcpy(q, g->topic, g->lt);
+        q += g->lt;
+        q = put_le(q, (uint64_t)g->lb, 4);
+        memcpy(q, g->body, g->lb);
         uint32_t crc = crc32_update(0, p, (size_t)payload);
         /* mid <IHHQI: payload length, flags 0, reserved 0, sequence number, payload CRC */
         unsigned char *m = mid;
@@ -345,15 +363,23 @@ static PyObject *py_frame_records(PyObject *self, PyObject *args)
         m = put_le(m, crc, 4);
         put_le(m, crc32_update(0, mid, 20), 4);
         o = p + payload;
+    }
+    Py_END_ALLOW_THREADS
+    Py_ssize_t raw = 0, end = offset;
+    for (Py_ssize_t i = 0; i < done; i++) {
+        Py_ssize_t payload = 18 + msg[i].lt + msg[i].lb;
         raw += payload;
-        PyObject *end = PyLong_FromSsize_t(offset + (o - base));
-        if (end == NULL) {
+        end += RECORD_HEADER + payload;
+        PyObject *e = PyLong_FromSsize_t(end);
+        if (e == NULL) {
             Py_DECREF(blob);
             Py_DECREF(ends);
+            PyMem_Free(msg);
             return NULL;
         }
-        PyList_SET_ITEM(ends, i, end);
+        PyList_SET_ITEM(ends, i, e);
     }
+    PyMem_Free(msg);
     return Py_BuildValue("(NNnn)", blob, ends, raw, done);
 }
 
