@@ -15,6 +15,7 @@
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
+#include <dlfcn.h>
 #include <stdint.h>
 #include <string.h>
 
@@ -38,8 +39,39 @@ static void crc_init(void)
     }
 }
 
+/* zlib's own crc32 (the library Python's zlib module is built on: faster than the table
+   below, which stands in when the shared library cannot be found), looked up at import */
+typedef unsigned long (*zlib_crc32_fn)(unsigned long, const unsigned char *, unsigned int);
+static zlib_crc32_fn zlib_crc32;
+
+static void zlib_init(void)
+{
+    const char *names[] = {"libz.so.1", "libz.so", "libz.1.dylib", NULL};
+    for (int i = 0; names[i] != NULL && zlib_crc32 == NULL; i++) {
+        void *lib = dlopen(names[i], RTLD_NOW | RTLD_LOCAL);
+        if (lib != NULL)
+            zlib_crc32 = (zlib_crc32_fn)dlsym(lib, "crc32");
+    }
+}
+
+static uint32_t crc32_table(uint32_t crc, const unsigned char *p, size_t n);
+
 /* zlib.crc32(data, crc): the CRC-32 of the bytes so far (crc) continued over data */
 static uint32_t crc32_update(uint32_t crc, const unsigned char *p, size_t n)
+{
+    if (zlib_crc32 == NULL)
+        return crc32_table(crc, p, n);
+    unsigned long c = crc;
+    while (n > 0) { /* zlib takes unsigned int lengths */
+        unsigned int chunk = n > 0x40000000u ? 0x40000000u : (unsigned int)n;
+        c = zlib_crc32(c, p, chunk);
+        p += chunk;
+        n -= chunk;
+    }
+    return (uint32_t)c;
+}
+
+static uint32_t crc32_table(uint32_t crc, const unsigned char *p, size_t n)
 {
     uint32_t c = ~crc;
     while (n && ((uintptr_t)p & 7)) {
@@ -67,11 +99,17 @@ static PyObject *py_crc32(PyObject *self, PyObject *args)
 {
     Py_buffer b;
     unsigned long crc = 0;
-    if (!PyArg_ParseTuple(args, "y*|k", &b, &crc))
+    int table = 0;
+    if (!PyArg_ParseTuple(args, "y*|kp", &b, &crc, &table))
         return NULL;
-    uint32_t c = crc32_update((uint32_t)crc, b.buf, (size_t)b.len);
+    uint32_t c = (table ? crc32_table : crc32_update)((uint32_t)crc, b.buf, (size_t)b.len);
     PyBuffer_Release(&b);
     return PyLong_FromUnsignedLong(c);
+}
+
+static PyObject *py_uses_zlib(PyObject *self, PyObject *args)
+{
+    return PyBool_FromLong(zlib_crc32 != NULL);
 }
 
 /* ------------------------------------------------------------------ byte writers */
@@ -398,7 +436,9 @@ static PyMethodDef methods[] = {
      "uncompressed, and where each ends (offset + its end in blob); stops before a record "
      "whose payload exceeds max_record (done < len(records)); None when a message is not "
      "two bytes frames."},
-    {"crc32", py_crc32, METH_VARARGS, "crc32(data, crc=0): zlib.crc32, for the tests."},
+    {"crc32", py_crc32, METH_VARARGS,
+     "crc32(data, crc=0, table=False): zlib.crc32, for the tests (table: the fallback's)."},
+    {"uses_zlib", py_uses_zlib, METH_NOARGS, "True when the CRC-32 is zlib's own crc32."},
     {NULL, NULL, 0, NULL},
 };
 
@@ -410,5 +450,6 @@ static struct PyModuleDef module = {
 PyMODINIT_FUNC PyInit__frames(void)
 {
     crc_init();
+    zlib_init();
     return PyModule_Create(&module);
 }

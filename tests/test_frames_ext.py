@@ -27,6 +27,13 @@ def test_crc32_is_zlibs(data, skip, crc):
     view = memoryview(data)[min(skip, len(data)):]
     assert _frames.crc32(view, crc) == zlib.crc32(view, crc)
     assert _frames.crc32(bytes(view)) == zlib.crc32(bytes(view))
+    # the table the module falls back on when zlib's shared library is not found
+    assert _frames.crc32(view, crc, True) == zlib.crc32(view, crc)
+
+
+def test_crc32_is_zlibs_own_here():
+    # Python's zlib module is built on the shared zlib, which _frames finds and uses
+    assert _frames.uses_zlib()
 
 
 @pytest.mark.parametrize("n", [0, 1, 239, 240, 241, 65519, 65520, 65521, 70000])
