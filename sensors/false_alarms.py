@@ -62,6 +62,7 @@ Sea-clutter-induced false alarms, seed 7.2, [94]-[96]
 
 from __future__ import annotations
 
+import functools
 from typing import Literal
 
 import numpy as np
@@ -827,6 +828,30 @@ class ClutterFalseAlarms:
             raise ValueError("ClutterFalseAlarms: need 0 <= r_min <= r_max and "
                              "az_min <= az_max <= az_min + 2 pi")
 
+    def spike_excess(self, sector: NDArray[np.int64], rng: np.random.Generator
+                     ) -> NDArray[np.float64]:
+        """:func:`spike_excess` of alarms in active sectors ``sector`` (the same numbers for
+        the same draws): the threshold's term, (Y/σ_m)^(1/a) of each sector, computed once
+        (:meth:`_spike_base`) instead of per alarm."""
+        base, a, ln_m = self._spike_base
+        e = rng.standard_exponential(sector.shape)
+        if ln_m is None:
+            return (base[sector] + e / np.log(2.0)) ** a[sector]
+        with np.errstate(divide="ignore", over="ignore", under="ignore"):
+            return np.exp(ln_m[sector] + a[sector] * np.log(base[sector] + e / np.log(2.0)))
+
+    @functools.cached_property
+    def _spike_base(self):
+        """Per active sector, :func:`spike_excess`'s threshold term and a (and ln(σ_m/σ0)
+        for the ``weibull_median`` model, else None), as it computes them."""
+        a = self.weibull_a
+        y = np.full(a.shape, self.threshold_ratio)
+        if self.clutter_fa_model == "seed":
+            return y ** (1.0 / a), a, None
+        ln_m = log_weibull_median_ratio(a)
+        with np.errstate(divide="ignore", over="ignore", under="ignore"):
+            return np.exp((np.log(y) - ln_m) / a), a, ln_m
+
     @property
     def expected_per_scan(self) -> float:
         """Expected clutter false alarms per full revolution, Σ η [-]."""
@@ -926,10 +951,9 @@ class ClutterFalseAlarms:
         _, sector, revolution, ground, az = self._draw(rng, t_scan.size)
         t = t_scan[revolution] + np.mod(az - beam[revolution], TWO_PI) / omega_rad_s
         keep = t < t_end[revolution]
-        a = self.weibull_a[sector[keep]]
         ground, az, t, revolution = ground[keep], az[keep], t[keep], revolution[keep]
         sector = sector[keep]
-        x = spike_excess(self.threshold_ratio, a, rng, self.clutter_fa_model)
+        x = self.spike_excess(sector, rng)
         si = np.maximum(x - 1.0, 1e-3)
         eps_r, eps_t = expected_errors(si, self.n_pulses, self.range_cell_m, self.beamwidth_rad,
                                        h_range=self.h_range, h_azimuth=self.h_azimuth)

@@ -949,7 +949,9 @@ def _merge_parts(parts: list[dict], revolutions: bool = False) -> dict:
     sizes = [p["range_m"].size for p in parts]
     first = np.cumsum([0, *sizes])
     time_s = np.concatenate([p["time_s"] for p in parts])
-    order = np.argsort(time_s, kind="stable")
+    order = np.argsort(time_s)  # introsort: a stable sort only when two times are equal
+    if np.any(np.diff(time_s[order]) == 0.0):
+        order = np.argsort(time_s, kind="stable")
     if revolutions:
         rev = np.concatenate([p["revolution"] for p in parts])
         if np.any(np.diff(rev[order]) < 0):

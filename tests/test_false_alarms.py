@@ -217,3 +217,20 @@ def test_scalar_count_and_positions_are_the_array_paths(eta):
     np.testing.assert_array_equal(a1, a2)
     with pytest.raises(ValueError):
         uniform_positions(1, 10.0, 5.0, 0.0, 1.0, np.random.default_rng(1))
+
+
+@pytest.mark.parametrize("model", ["seed", "weibull_median"])
+def test_generator_spike_excess_is_spike_excess(model):
+    # the per-sector threshold term computed once gives spike_excess's numbers draw for draw
+    n = 50
+    rng = np.random.default_rng(8)
+    a = rng.uniform(0.3, 4.0, n)
+    gen = false_alarms.ClutterFalseAlarms(
+        np.zeros(n), np.full(n, 1e4), np.zeros(n), np.full(n, 0.1), np.full(n, 0.01),
+        np.full(n, 100.0), a, threshold_ratio=37.0, n_channels=2, n_pulses=10.0,
+        range_cell_m=30.0, beamwidth_rad=0.03, antenna_height_m=20.0, clutter_fa_model=model)
+    sector = rng.integers(0, n, 5000)
+    got = gen.spike_excess(sector, np.random.default_rng(2))
+    ref = false_alarms.spike_excess(37.0, a[sector], np.random.default_rng(2), model)
+    np.testing.assert_array_equal(got, ref)
+    assert np.all(got >= 37.0 * (1 - 1e-12)) if model == "seed" else np.all(got > 0)
