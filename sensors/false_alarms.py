@@ -840,6 +840,16 @@ class ClutterFalseAlarms:
         with np.errstate(divide="ignore", over="ignore", under="ignore"):
             return np.exp(ln_m[sector] + a[sector] * np.log(base[sector] + e / np.log(2.0)))
 
+    def _scratch(self, revolutions: int):
+        """The uniforms and two masks of :meth:`_draw`, one per sector and revolution, kept
+        between calls (a block's are tens of MB: allocated once, not at every block)."""
+        shape = (revolutions, self.eta.size)
+        scratch = self.__dict__.get("_scratch_arrays")
+        if scratch is None or scratch[0].shape != shape:
+            scratch = (np.empty(shape), np.empty(shape, dtype=bool), np.empty(shape, dtype=bool))
+            self._scratch_arrays = scratch
+        return scratch
+
     @functools.cached_property
     def _spike_base(self):
         """Per active sector, :func:`spike_excess`'s threshold term and a (and ln(σ_m/σ0)
@@ -863,18 +873,23 @@ class ClutterFalseAlarms:
         counts, _, _, r, az = self._draw(rng)
         return counts[0], r, az
 
-    def _draw(self, rng: np.random.Generator, revolutions: int = 1):
+    def _draw(self, rng: np.random.Generator, revolutions: int = 1,
+              counts_per_sector: bool = True):
         """:meth:`draw` of ``revolutions`` revolutions at once, with the active-sector index
         and the revolution index of every false alarm (revolution after revolution, sector
-        after sector: one revolution draws the same numbers as :meth:`draw`)."""
+        after sector: one revolution draws the same numbers as :meth:`draw`); the counts per
+        sector (a revolutions × sectors array) only when ``counts_per_sector``."""
         # false_alarm_count's draw (one uniform per sector and revolution, same counts) with
         # the regimes and the Poisson CDF rows prepared in the constructor.  Most sectors
         # draw no alarm: a sector has one or more exactly when U < η (Bernoulli) or
         # U > P(0) (Poisson's inverse CDF), or always (normal, η ≥ 9: counted below), so
         # the counts are worked out only where that holds
         n = self.eta.size
-        u = rng.random((revolutions, n))
-        hit = np.flatnonzero((u < self._hit_below) | (u > self._hit_above))
+        u, below, above = self._scratch(revolutions)
+        rng.random(out=u)
+        np.less(u, self._hit_below, out=below)
+        np.greater(u, self._hit_above, out=above)
+        hit = np.flatnonzero(np.logical_or(below, above, out=below))
         revolution, sector = np.divmod(hit, n)
         u = u.ravel()[hit]
         counts = np.ones(hit.size, dtype=np.int64)
@@ -901,8 +916,10 @@ class ClutterFalseAlarms:
         r = self.r_min_m[sector] + self._r_span[sector] * rng.random(sector.size)
         az = self.az_min_rad[sector] + self._az_span[sector] * rng.random(sector.size)
         az = np.mod(az, TWO_PI)
-        per_sector = np.zeros((revolutions, n), dtype=np.int64)
-        per_sector.ravel()[hit] = counts
+        per_sector = None
+        if counts_per_sector:
+            per_sector = np.zeros((revolutions, n), dtype=np.int64)
+            per_sector.ravel()[hit] = counts
         return per_sector, sector, revolution, r, np.where(az >= TWO_PI, 0.0, az)
 
     def scan(self, t_scan: float, t_end: float, beam_start_rad: float, omega_rad_s: float,
@@ -948,7 +965,8 @@ class ClutterFalseAlarms:
             return None
         t_scan, t_end, beam = (np.atleast_1d(np.asarray(v, dtype=float)) for v in (
             t_scan, t_end, beam_start_rad))
-        _, sector, revolution, ground, az = self._draw(rng, t_scan.size)
+        _, sector, revolution, ground, az = self._draw(rng, t_scan.size,
+                                                       counts_per_sector=False)
         t = t_scan[revolution] + np.mod(az - beam[revolution], TWO_PI) / omega_rad_s
         keep = t < t_end[revolution]
         ground, az, t, revolution = ground[keep], az[keep], t[keep], revolution[keep]
