@@ -251,10 +251,24 @@ class DwellModel:
         them), so the fold is by ``prf_hz``; the stagger moves the blind speeds of the
         improvement factor, not the ambiguity of one coherent dwell's filter centre.
         """
+        index = np.asarray(filter_index)
         n = self.n_doppler_filters
-        prf = self.radar.prf_hz
-        centre = (np.mod(np.asarray(filter_index) / n + 0.5, 1.0) - 0.5) * prf
+        if (index.dtype == np.int64 and index.size > n and index.min() >= 0
+                and index.max() < n):
+            centre = self._filter_centres_hz[index]  # the formula below, once per filter
+        else:
+            centre = self._filter_centre_hz(index)
         return -0.5 * self.wavelength * (centre + reference_hz)
+
+    def _filter_centre_hz(self, filter_index):
+        """Centre of filters ``filter_index`` folded into [-f_r/2, f_r/2) [Hz]."""
+        n = self.n_doppler_filters
+        return (np.mod(np.asarray(filter_index) / n + 0.5, 1.0) - 0.5) * self.radar.prf_hz
+
+    @functools.cached_property
+    def _filter_centres_hz(self) -> np.ndarray:
+        """:meth:`_filter_centre_hz` of every filter of the bank."""
+        return self._filter_centre_hz(np.arange(self.n_doppler_filters, dtype=np.int64))
 
     def _doppler_draw_rng(self, rng: np.random.Generator) -> np.random.Generator:
         """A child of the radar's generator for the false alarms' Doppler draws (spawned
@@ -269,7 +283,7 @@ class DwellModel:
         bank; a sea-clutter alarm's Doppler is drawn from the clutter spectrum [33] (Gaussian
         about μ_c with σ_s), then reported as a target's would be.  The bank's reference and
         the spread are read from the clutter map at each alarm's cell, or given as
-        ``spectrum`` (N, 2) (the sea-clutter alarms: their P_fac sector's, see
+        ``spectrum`` (reference, spread) (the sea-clutter alarms: their P_fac sector's, see
         :meth:`_clutter_fa_spectrum`)."""
         n = np.size(range_m)
         if not self.has_doppler_bank or n == 0:
@@ -277,7 +291,7 @@ class DwellModel:
             return {"range_rate_mps": nan, "sigma_range_rate_mps": nan.copy()}
         draw = self._doppler_draw_rng(rng)
         if spectrum is not None:
-            reference, spread = spectrum[:, 0], spectrum[:, 1]
+            reference, spread = spectrum
         else:
             reference, spread = self._spectrum_reference(np.asarray(range_m),
                                                          np.asarray(azimuth_rad))
@@ -303,7 +317,7 @@ class DwellModel:
         return reference, spread
 
     @functools.cached_property
-    def _clutter_fa_spectrum(self) -> np.ndarray:
+    def _clutter_fa_spectrum(self) -> tuple[np.ndarray, np.ndarray]:
         """(reference, spread) [Hz] of :meth:`_spectrum_reference` at the centre of every
         active P_fac sector, for the sea-clutter false alarms' Doppler: the P_fac sector is
         the resolution of the clutter false-alarm model (count, position bounds and spike
@@ -311,7 +325,7 @@ class DwellModel:
         gen = self._clutter_fa_generator
         centre_r = 0.5 * (gen.r_min_m + gen.r_max_m)
         centre_az = np.mod(0.5 * (gen.az_min_rad + gen.az_max_rad), 2.0 * math.pi)
-        return np.stack(self._spectrum_reference(centre_r, centre_az), axis=1)
+        return self._spectrum_reference(centre_r, centre_az)
 
     def _prepare_propagation(self, scenario: Scenario) -> None:
         self.propagation_mode = scenario.fidelity.propagation
@@ -784,8 +798,9 @@ class DwellModel:
         many = np.ndim(t_a) > 0
         out = (gen.scans if many else gen.scan)(t_a, t_b, beam_start, omega, rng)
         if out is not None:
-            spectrum = (self._clutter_fa_spectrum[out["sector"]] if self.has_doppler_bank
-                        else None)
+            spectrum = None
+            if self.has_doppler_bank:
+                spectrum = tuple(v[out["sector"]] for v in self._clutter_fa_spectrum)
             out.update(self._false_alarm_range_rate(out["range_m"], out["azimuth_rad"], rng,
                                                     clutter=True, spectrum=spectrum))
         return out
