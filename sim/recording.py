@@ -197,7 +197,8 @@ class Recorder:
         self.bytes_written = 0
         self.stored_payload_bytes = 0
         self.raw_payload_bytes = 0
-        self._buf = bytearray()
+        # what is not yet written: a bytearray, or the bytes of frame_records alone
+        self._buf: bytearray | bytes = bytearray()
         self._ends: list[int] = []  # record ends inside _buf: where a failed write may be cut
         self._committed = 0  # bytes known to be in the file
         self._failed: RecordingWriteError | None = None
@@ -347,7 +348,10 @@ class Recorder:
         where each ends in the buffer); raise as
         :meth:`write_many` for ``records[done]`` when it was too large."""
         if done:
-            self._buf += blob
+            if self._buf:
+                self._buf += blob
+            else:  # the records alone: kept as they are until written (no copy)
+                self._buf = blob
             self._ends += ends
             self.bytes_written += len(blob)
             self.records += done
@@ -375,7 +379,7 @@ class Recorder:
             self._fail(exc, done)
         view.release()
         self._committed += done
-        self._buf.clear()
+        self._buf = bytearray()
         self._ends.clear()
 
     def _fail(self, exc: OSError, done: int) -> None:
@@ -391,7 +395,7 @@ class Recorder:
                errno.EFBIG: "file size limit reached",
                errno.EDQUOT: "disk quota exceeded"}.get(exc.errno, exc.strerror or str(exc))
         self._committed = keep
-        self._buf.clear()
+        self._buf = bytearray()
         self._ends.clear()
         self.bytes_written = keep
         self.records = max(on_disk, 0)
