@@ -317,6 +317,19 @@ class DwellModel:
         return reference, spread
 
     @functools.cached_property
+    def _clutter_fa_generator(self):
+        """The P_fac map's per-scan generator
+        (:func:`tables.pfac.clutter_false_alarm_generator`), made at its first use; None
+        without a P_fac map."""
+        if self.tables.pfac is None:
+            return None
+        from shipradar.tables.pfac import clutter_false_alarm_generator
+
+        return clutter_false_alarm_generator(
+            self.tables.pfac, pfa=self.pfa, n_channels=self.radar.n_channels,
+            n_pulses=self.n_pulses, h_range=self.radar.h_range, h_azimuth=self.radar.h_azimuth)
+
+    @functools.cached_property
     def _clutter_fa_spectrum(self) -> tuple[np.ndarray, np.ndarray]:
         """(reference, spread) [Hz] of :meth:`_spectrum_reference` at the centre of every
         active P_fac sector, for the sea-clutter false alarms' Doppler: the P_fac sector is
@@ -785,16 +798,9 @@ class DwellModel:
         times when the beam (at ``beam_start`` [rad] at t_a, ``omega`` [rad/s]) sweeps them
         (:class:`sensors.false_alarms.ClutterFalseAlarms`).  None without a P_fac map.
         """
-        if self.tables.pfac is None:
-            return None
-        gen = self.__dict__.get("_clutter_fa_generator")
+        gen = self._clutter_fa_generator
         if gen is None:
-            from shipradar.tables.pfac import clutter_false_alarm_generator
-
-            gen = self._clutter_fa_generator = clutter_false_alarm_generator(
-                self.tables.pfac, pfa=self.pfa, n_channels=self.radar.n_channels,
-                n_pulses=self.n_pulses, h_range=self.radar.h_range,
-                h_azimuth=self.radar.h_azimuth)
+            return None
         many = np.ndim(t_a) > 0
         out = (gen.scans if many else gen.scan)(t_a, t_b, beam_start, omega, rng)
         if out is not None:

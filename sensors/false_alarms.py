@@ -724,12 +724,26 @@ def spike_excess(
     if np.any(~(y >= 0.0)) or np.any(~(a > 0.0)):
         raise ValueError("spike_excess: need Y/σ0 >= 0 and a > 0")
     e = rng.standard_exponential(y.shape)
-    if _model_checked(model) == "seed":
-        return (y ** (1.0 / a) + e / np.log(2.0)) ** a
+    return _spike_from_terms(*_spike_terms(y, a, _model_checked(model)), a, e)
+
+
+def _spike_terms(y, a, model: ClutterFaModel):
+    """The threshold's terms of :func:`spike_excess`: (Y/σ_m)^(1/a) and ln(σ_m/σ0) (None
+    for the ``seed`` model, σ_m = σ0), computed in logs for ``weibull_median``."""
+    if model == "seed":
+        return y ** (1.0 / a), None
     ln_m = log_weibull_median_ratio(a)
     with np.errstate(divide="ignore", over="ignore", under="ignore"):
-        base = np.exp((np.log(y) - ln_m) / a) + e / np.log(2.0)
-        return np.exp(ln_m + a * np.log(base))
+        return np.exp((np.log(y) - ln_m) / a), ln_m
+
+
+def _spike_from_terms(base, ln_m, a, e):
+    """x/σ0 = σ_m/σ0 ((Y/σ_m)^(1/a) + E/ln 2)^a from :func:`_spike_terms` and the
+    exponentials E (:func:`spike_excess`)."""
+    if ln_m is None:
+        return (base + e / np.log(2.0)) ** a
+    with np.errstate(divide="ignore", over="ignore", under="ignore"):
+        return np.exp(ln_m + a * np.log(base + e / np.log(2.0)))
 
 
 #: Count regimes of [91]-[93] of a clutter false-alarm sector (ClutterFalseAlarms._draw).
@@ -804,21 +818,20 @@ class ClutterFalseAlarms:
         self.clutter_fa_model = _model_checked(clutter_fa_model)
         # The sectors' regimes of [91]-[93] and the Poisson CDF rows never change during a
         # run: classify once, so a scan's counts are a few whole-array operations.
-        limit = float(bernoulli_limit(self.n_channels))
-        self._bern = self.eta < limit
-        self._normal = (self.eta >= NORMAL_MIN_ETA) & ~self._bern
-        self._pois = ~self._bern & ~self._normal
-        self._pois_cdf = poisson_cdf_table(self.eta[self._pois]) if self._pois.any() else None
-        self._eta_bern = self.eta[self._bern]
+        bern = self.eta < float(bernoulli_limit(self.n_channels))
+        normal = (self.eta >= NORMAL_MIN_ETA) & ~bern
+        pois = ~bern & ~normal
+        self._regime = np.where(bern, _REGIME_BERNOULLI,
+                                np.where(normal, _REGIME_NORMAL, _REGIME_POISSON))
+        self._pois_cdf = poisson_cdf_table(self.eta[pois]) if pois.any() else None
+        self._pois_row = np.cumsum(pois) - 1  # the CDF row of each Poisson sector
         # a sector draws one alarm or more when U < _hit_below or U > _hit_above: U < η
         # (Bernoulli), U > P(0) = e^-η (Poisson), always (normal); see _draw
-        self._regime = np.where(self._bern, _REGIME_BERNOULLI,
-                                np.where(self._normal, _REGIME_NORMAL, _REGIME_POISSON))
-        self._hit_below = np.where(self._bern, self.eta, np.where(self._normal, 2.0, -1.0))
+        self._hit_below = np.where(bern, self.eta, np.where(normal, 2.0, -1.0))
         self._hit_above = np.full(self.eta.shape, 2.0)
-        self._pois_row = np.cumsum(self._pois) - 1  # the CDF row of each Poisson sector
         if self._pois_cdf is not None:
-            self._hit_above[self._pois] = self._pois_cdf[:, 0]
+            self._hit_above[pois] = self._pois_cdf[:, 0]
+        self._scratch_arrays: tuple[NDArray, NDArray, NDArray] | None = None
         # uniform_positions' spans, formed once: r0 + (r1 - r0) U is the same number whether
         # the difference is taken before or after selecting the sector
         self._r_span = self.r_max_m - self.r_min_m
@@ -830,37 +843,28 @@ class ClutterFalseAlarms:
 
     def spike_excess(self, sector: NDArray[np.int64], rng: np.random.Generator
                      ) -> NDArray[np.float64]:
-        """:func:`spike_excess` of alarms in active sectors ``sector`` (the same numbers for
-        the same draws): the threshold's term, (Y/σ_m)^(1/a) of each sector, computed once
-        (:meth:`_spike_base`) instead of per alarm."""
-        base, a, ln_m = self._spike_base
+        """:func:`spike_excess` ([94]'s Weibull tail above the threshold [95]) of alarms in
+        active sectors ``sector``, the same numbers for the same draws: the threshold's terms
+        depend on the sector alone and are computed once per sector."""
+        base, ln_m = self._spike_terms
         e = rng.standard_exponential(sector.shape)
-        if ln_m is None:
-            return (base[sector] + e / np.log(2.0)) ** a[sector]
-        with np.errstate(divide="ignore", over="ignore", under="ignore"):
-            return np.exp(ln_m[sector] + a[sector] * np.log(base[sector] + e / np.log(2.0)))
+        return _spike_from_terms(base[sector], None if ln_m is None else ln_m[sector],
+                                 self.weibull_a[sector], e)
 
     def _scratch(self, revolutions: int):
         """The uniforms and two masks of :meth:`_draw`, one per sector and revolution, kept
         between calls (a block's are tens of MB: allocated once, not at every block)."""
         shape = (revolutions, self.eta.size)
-        scratch = self.__dict__.get("_scratch_arrays")
-        if scratch is None or scratch[0].shape != shape:
-            scratch = (np.empty(shape), np.empty(shape, dtype=bool), np.empty(shape, dtype=bool))
-            self._scratch_arrays = scratch
-        return scratch
+        if self._scratch_arrays is None or self._scratch_arrays[0].shape != shape:
+            self._scratch_arrays = (np.empty(shape), np.empty(shape, dtype=bool),
+                                    np.empty(shape, dtype=bool))
+        return self._scratch_arrays
 
     @functools.cached_property
-    def _spike_base(self):
-        """Per active sector, :func:`spike_excess`'s threshold term and a (and ln(σ_m/σ0)
-        for the ``weibull_median`` model, else None), as it computes them."""
-        a = self.weibull_a
-        y = np.full(a.shape, self.threshold_ratio)
-        if self.clutter_fa_model == "seed":
-            return y ** (1.0 / a), a, None
-        ln_m = log_weibull_median_ratio(a)
-        with np.errstate(divide="ignore", over="ignore", under="ignore"):
-            return np.exp((np.log(y) - ln_m) / a), a, ln_m
+    def _spike_terms(self):
+        """:func:`_spike_terms` of every active sector."""
+        return _spike_terms(np.full(self.eta.shape, self.threshold_ratio), self.weibull_a,
+                            self.clutter_fa_model)
 
     @property
     def expected_per_scan(self) -> float:

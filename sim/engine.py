@@ -407,7 +407,6 @@ class _RadarProcess:
         self._radar_dump = radar.model_dump(mode="json")
         self._scan = _merge_parts([])
         self._cursor = 0
-        self._frames: dict[int, tuple[int, bytes, bytes]] | None = None
         self._meta_items: tuple[int, bytes, bytes] | None = None
         #: position in scenario.radars(); env.now at each resumption of run() (the order of
         #: the messages between radars in sim.parallel), kept only in a parallel worker: one
@@ -416,7 +415,7 @@ class _RadarProcess:
         self.resume_times: list[float] | None = None
         self.target_ids = [t.id for t in sim.scenario.targets]
         # states at the ends of the revolutions computed ahead (_scan_end_states)
-        self._eos_states: dict[float, tuple] = {}
+        self._eos_states: dict[int, tuple] = {}
         # revolutions computed ahead (see _compute_block), consumed one per scan
         self._block: list[dict] = []
         self._block_plots: tuple[int, dict, list[int]] | None = None
@@ -437,12 +436,18 @@ class _RadarProcess:
         self._block = []
         self._block_plots = self._block_frames = None
         self._scan = _merge_parts([])
-        self._frames = None
         self._eos_states = {}
 
     # ------------------------------------------------------------------ helpers
-    def beam_azimuth(self, t: float) -> float:
+    def beam_azimuth(self, t):
+        """Beam azimuth at times ``t`` [rad], true north (scalar or array)."""
         return (self.beam0 + self.omega * t) % TWO_PI
+
+    def sector_end(self, k):
+        """End of sector(s) ``k`` (counted from the start of the run, an int or an int array)
+        [s]: (k + 1) sector_s, the run's end at the latest; the same number the process loop
+        computes."""
+        return np.minimum((np.asarray(k) + 1) * self.sector_s, self.sim.duration)
 
     def platform_state(self, t: np.ndarray):
         rows = np.full(np.shape(t), self.p_index, dtype=int)
@@ -498,7 +503,6 @@ class _RadarProcess:
                 ahead = getattr(sim.bus, "plots_ahead", None)
                 if ahead is not None:  # the ASTERIX bus: its CAT048 records ahead
                     ahead(self.radar.id, bodies, self._scan, s0, s1)
-            self._frames = frames
             for sector in range(n):
                 t_a = k * sector_s
                 if t_a >= duration:
@@ -660,7 +664,7 @@ class _RadarProcess:
         sim, model = self.sim, self.model
         t_a = np.array([a for a, _ in bounds])
         t_b = np.array([b for _, b in bounds])
-        beam = (self.beam0 + self.omega * t_a) % TWO_PI  # beam_azimuth, element-wise
+        beam = self.beam_azimuth(t_a)
         parts = []
         fa = model.noise_false_alarms(self.rng, len(bounds))
         rev = fa["revolution"]
@@ -737,7 +741,7 @@ class _RadarProcess:
                     target_part["revolution"] = target_part.pop("batch")
         parts = [] if target_part is None else [target_part]
         parts += self._false_alarms(bounds)
-        merged = _merge_parts(parts, revolutions=True)
+        merged = _merge_parts(parts)
         edges = np.searchsorted(merged["revolution"], np.arange(len(bounds) + 1)).tolist()
         self._block_plots = (scan0, merged, edges)  # for _encode_block
         return [_slice_plots(merged, a, b) for a, b in zip(edges[:-1], edges[1:], strict=True)]
@@ -746,8 +750,7 @@ class _RadarProcess:
         """Index in revolution ``scan``'s plot ``times`` where each sector's plots end (the
         sector frames of :meth:`_emit_sector`: times before the sector's end, everything
         left in the last)."""
-        ends = np.minimum((scan * self.n_sectors + np.arange(1, self.n_sectors))
-                          * self.sector_s, self.sim.duration)
+        ends = self.sector_end(scan * self.n_sectors + np.arange(self.n_sectors - 1))
         cuts = np.empty(self.n_sectors, dtype=np.int64)
         cuts[:-1] = np.searchsorted(times, ends, side="left")
         cuts[-1] = times.size
@@ -764,7 +767,7 @@ class _RadarProcess:
         sent.  Plot ids run on through the block: its plots are sent in their order.
         """
         scan0, merged, edges = self._block_plots
-        n, sim = self.n_sectors, self.sim
+        n = self.n_sectors
         starts, cuts = [], []
         for r in range(len(edges) - 1):
             a, b = edges[r], edges[r + 1]
@@ -775,8 +778,7 @@ class _RadarProcess:
         msg = np.flatnonzero(cuts > starts)  # non-empty sectors, sector k of the block
         rev, sectors = np.divmod(msg, n)
         i0, i1 = starts[msg], cuts[msg]
-        # the sectors' ends, min(float(k + 1) * sector_s, duration) element-wise
-        times = np.minimum(((scan0 + rev) * n + sectors + 1) * self.sector_s, sim.duration)
+        times = self.sector_end((scan0 + rev) * n + sectors)
         total = int(edges[-1])
         plot_id = np.arange(self.plot_counter, self.plot_counter + total, dtype=np.int64)
         sid = self.radar.id
@@ -853,36 +855,29 @@ class _RadarProcess:
 
     def _scan_end_states(self, scan0: int, count: int) -> None:
         """Platform and target states at the ends of revolutions ``scan0`` to ``scan0 +
-        count - 1`` (at the times the run reaches them), computed together and kept for
-        :meth:`_end_of_scan`: the platform's position, velocity, latitude and longitude
-        (the geodetic conversion is iterative, ``pymap3d``) and every target's position,
-        velocity, acceleration and activity.  Element-wise the same numbers as one call per
-        end of scan."""
+        count - 1`` (the end of their last sector, :meth:`sector_end`: the times the run
+        reaches them), computed together and kept by revolution for :meth:`_end_of_scan`:
+        the platform's position, velocity, latitude and longitude (the geodetic conversion
+        is iterative, ``pymap3d``) and every target's position, velocity, acceleration and
+        activity.  Element-wise the same numbers as one call per end of scan."""
         sim = self.sim
-        ends = self.n_sectors * np.arange(scan0 + 1, scan0 + 1 + count)
-        times = [min(float(k) * self.sector_s, sim.duration) for k in ends.tolist()]
-        t = np.array(times)
+        t = self.sector_end(self.n_sectors * np.arange(scan0 + 1, scan0 + 1 + count) - 1)
         pos, vel = self.platform_state(t)
         lat, lon, _ = sim.frame.geodetic(pos)
         n = sim.targets.n
         if n:
             tpos, tvel, tacc, active = sim.targets.state_acc(np.repeat(t, n),
                                                              np.tile(np.arange(n), t.size))
-        for j, tj in enumerate(times):
+        for j in range(count):
             target = None if not n else (tpos[j * n:(j + 1) * n], tvel[j * n:(j + 1) * n],
                                          tacc[j * n:(j + 1) * n], active[j * n:(j + 1) * n])
-            self._eos_states[tj] = (pos[j], vel[j], float(lat[j]), float(lon[j]), target)
+            self._eos_states[scan0 + j] = (pos[j], vel[j], float(lat[j]), float(lon[j]),
+                                           target)
 
     def _end_of_scan(self, t: float, scan: int) -> None:
         sim = self.sim
         sim.stats.scans += 1
-        states = self._eos_states.pop(t, None)
-        if states is None:  # a time not predicted (never, in practice): on its own
-            pos, vel = self.platform_state(np.array([t]))
-            lat, lon, _ = sim.frame.geodetic(pos)
-            target = sim.targets.state_acc(t) if sim.targets.n else None
-            states = (pos[0], vel[0], float(lat[0]), float(lon[0]), target)
-        pos, vel, lat, lon, target = states
+        pos, vel, lat, lon, target = self._eos_states.pop(scan)  # at t (_scan_end_states)
         speed = float(np.hypot(vel[0], vel[1]))
         heading = (math.degrees(math.atan2(vel[0], vel[1])) % 360.0 if speed > 0
                    else self.platform.heading_deg)
@@ -929,10 +924,10 @@ PLOT_COLUMNS = ("time_s", "range_m", "azimuth_rad", "snr_db", "sigma_range_m",
                 "sigma_azimuth_rad", "interference", "range_rate_mps", "sigma_range_rate_mps")
 
 
-def _merge_parts(parts: list[dict], revolutions: bool = False) -> dict:
-    """Concatenate plot batches (targets, noise and clutter false alarms) sorted by time, or
-    with ``revolutions`` by revolution and by time within each (every batch then carries
-    the ``revolution`` index of each plot, kept in the result); ties keep the batches' order.
+def _merge_parts(parts: list[dict]) -> dict:
+    """Concatenate plot batches (targets, noise and clutter false alarms) sorted by
+    revolution and by time within each (every batch carries the ``revolution`` index of each
+    plot, kept in the result); ties keep the batches' order.
 
     Each batch may carry the targets merged into each plot as ``contrib_offsets`` (one more
     than its plots) and ``contrib_targets``; batches without them have no contributors.
@@ -942,9 +937,8 @@ def _merge_parts(parts: list[dict], revolutions: bool = False) -> dict:
         out["interference"] = np.zeros(0, dtype=np.uint8)
         out.update(origin=np.zeros(0, dtype=np.uint8), target=np.zeros(0, dtype=np.int32),
                    contrib_offsets=np.zeros(1, dtype=np.int64),
-                   contrib_targets=np.zeros(0, dtype=np.int32))
-        if revolutions:
-            out["revolution"] = np.zeros(0, dtype=np.int64)
+                   contrib_targets=np.zeros(0, dtype=np.int32),
+                   revolution=np.zeros(0, dtype=np.int64))
         return out
     sizes = [p["range_m"].size for p in parts]
     first = np.cumsum([0, *sizes])
@@ -952,15 +946,13 @@ def _merge_parts(parts: list[dict], revolutions: bool = False) -> dict:
     order = np.argsort(time_s)  # introsort: a stable sort only when two times are equal
     if np.any(np.diff(time_s[order]) == 0.0):
         order = np.argsort(time_s, kind="stable")
-    if revolutions:
-        rev = np.concatenate([p["revolution"] for p in parts])
-        if np.any(np.diff(rev[order]) < 0):
-            # a plot a hair before its revolution's start (a target crossing the start
-            # azimuth) sorts before the previous revolution's last plots: by revolution first
-            order = np.lexsort((time_s, rev))
+    rev = np.concatenate([p["revolution"] for p in parts])
+    if np.any(np.diff(rev[order]) < 0):
+        # a plot a hair before its revolution's start (a target crossing the start
+        # azimuth) sorts before the previous revolution's last plots: by revolution first
+        order = np.lexsort((time_s, rev))
     out = {c: np.concatenate([p[c] for p in parts])[order] for c in PLOT_COLUMNS}
-    if revolutions:
-        out["revolution"] = rev[order]
+    out["revolution"] = rev[order]
     out["origin"] = np.concatenate([p["origin"] for p in parts])[order]
     out["target"] = np.concatenate([p.get("target", np.full(p["range_m"].size, -1, np.int32))
                                     for p in parts])[order].astype(np.int32)

@@ -196,7 +196,8 @@ def test_clutter_block_of_revolutions_times_and_counts():
     per_rev = np.bincount(rev, minlength=k)[:-1]  # the whole revolutions
     mean = gen.expected_per_scan
     # per sector: Bernoulli variance η(1 - η) below the limit, Poisson η above it
-    var = float(np.where(gen._bern, gen.eta * (1 - gen.eta), gen.eta).sum())
+    bern = gen.eta < false_alarms.bernoulli_limit(2)
+    var = float(np.where(bern, gen.eta * (1 - gen.eta), gen.eta).sum())
     z = (per_rev.mean() - mean) / np.sqrt(var / per_rev.size)
     assert abs(z) < 4, (per_rev.mean(), mean)
     assert 0.6 < per_rev.var() / var < 1.5
