@@ -87,7 +87,11 @@ def estimate_tables(scenario: Scenario) -> list[TableEstimate]:
 
     from shipradar.sensors import propagation as prop
     from shipradar.tables.propagation import grid_steps, pe_top_height
-    from shipradar.tables.scene import PE_MAX_HEIGHT_M, clutter_grid_size, refractivity_profile
+    from shipradar.tables.scene import (
+        clutter_grid_size,
+        pe_table_height_m,
+        refractivity_profile,
+    )
 
     out: list[TableEstimate] = []
     fid = scenario.fidelity
@@ -98,9 +102,7 @@ def estimate_tables(scenario: Scenario) -> list[TableEstimate]:
             if fid.propagation == "pe":
                 if profile is None:
                     profile = prop.profile_from_spec(refractivity_profile(scenario))
-                movers = [*scenario.targets, *scenario.jammers]
-                top = max((m.max_altitude_m for m in movers), default=0.0)
-                max_height = min(PE_MAX_HEIGHT_M, max(100.0, 1.2 * top + 20.0))
+                max_height = pe_table_height_m(scenario, radar)
                 steps = grid_steps(
                     radar.frequency_hz,
                     pe_top_height(max_height, radar.instrumented_range_m,

@@ -368,6 +368,20 @@ def _pfac_specs(scenario: Scenario, platform: Platform, radar: Radar) -> list[Ta
 PE_MAX_HEIGHT_M = 1500.0
 
 
+def pe_table_height_m(scenario: Scenario, radar: Radar) -> float:
+    """Top of a radar's PE table [m]: 20 % above the highest look, and 20 m more.
+
+    The highest look is the highest altitude any target or jammer reaches (climbs and pop-ups
+    included) or the radar's own antenna, whichever is higher: the PE starts its field at the
+    antenna, so the table must hold it (an antenna above the highest target used to fall
+    outside the table and stop the run). At least 100 m, at most :data:`PE_MAX_HEIGHT_M`
+    (above it the two-ray model answers, counted as a fallback).
+    """
+    movers = [*scenario.targets, *scenario.jammers]
+    top = max([radar.antenna_height_m, *(m.max_altitude_m for m in movers)])
+    return min(PE_MAX_HEIGHT_M, max(100.0, 1.2 * top + 20.0))
+
+
 def refractivity_profile(scenario: Scenario) -> dict[str, Any]:
     """The scene's M-profile: the user's piecewise profile, an evaporation duct [7] or standard."""
     duct = scenario.environment.duct
@@ -389,9 +403,7 @@ def _propagation_specs(scenario: Scenario, platform: Platform, radar: Radar) -> 
     from shipradar.tables.propagation import get_propagation_table
 
     k = radar_constants(scenario, radar)
-    movers = [*scenario.targets, *scenario.jammers]
-    top = max((m.max_altitude_m for m in movers), default=0.0)  # climbs, pop-ups too
-    max_height = min(PE_MAX_HEIGHT_M, max(100.0, 1.2 * top + 20.0))
+    max_height = pe_table_height_m(scenario, radar)
     kind, phi_b, sidelobe, tilt = k.pattern_key(radar)
     description = {"kind": kind, "beamwidth_rad": phi_b, "sidelobe_db": sidelobe,
                    "tilt_rad": tilt, "convention": "absolute elevation"}
