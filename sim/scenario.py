@@ -332,6 +332,11 @@ def _max_altitude(obj) -> float:
 
 
 # --------------------------------------------------------------------------- radar
+#: Slack on "at least one pulse per beamwidth" for the rounding of θ_b t_scan f_r / (2π): a
+#: radar with exactly one pulse per beamwidth (0.9 deg, 90 rpm, 600 Hz gives 1 - 1.1e-16)
+#: is accepted, and the dwell model counts it as one (sensors.dwell.DwellModel.n_pulses).
+PULSES_PER_BEAM_ULP = 1e-9
+
 class AzimuthPattern(_Model):
     """Azimuth cut of the antenna directivity ([8]-[13])."""
 
@@ -384,6 +389,39 @@ class Processor(_Model):
     motion_compensated: bool = Field(
         True, description="platform motion removed from the clutter Doppler (μ_c = 0, [35])"
     )
+
+    @property
+    def bank_taps(self) -> int:
+        """Taps of the filter bank [1]: N_c, less the N_pc pulses the MTI of a cascade takes
+        ([61]: the cascade's weights are the convolution of both, N_c taps in all)."""
+        return self.n_coherent - (self.mti_order if self.type == "mti_bank" else 0)
+
+    @model_validator(mode="after")
+    def _bank_fits(self) -> Processor:
+        # the rules the I_F builder (tables/improvement.py) and the bank's weights
+        # (sensors/doppler_filters.py) need, checked here so that validate and run agree
+        if self.type not in ("dft_bank", "fir_bank", "mti_bank"):
+            return self
+        taps = self.bank_taps
+        if taps < 1:
+            raise ValueError(
+                f".n_coherent: an mti_bank's {self.n_coherent} pulses leave no tap for the bank "
+                f"after its order-{self.mti_order} MTI (mti_order); n_coherent must be > "
+                f"mti_order, got n_coherent {self.n_coherent}, mti_order {self.mti_order}")
+        if self.type == "dft_bank" and self.n_filters is not None and self.n_filters != taps:
+            raise ValueError(
+                f".n_filters: a DFT bank has as many filters as taps (n_coherent {taps}); "
+                f"leave n_filters out or use type fir_bank for another count, got "
+                f"{self.n_filters}")
+        if self.window.type == "hann" and taps == 2:
+            # scipy's symmetric 2-point Hann window is [0, 0]: every filter's weights vanish
+            # and the bank passes nothing (S/C and I_F 0/0)
+            raise ValueError(
+                ".window.type: a 2-tap Hann window is [0, 0] (no weight on either pulse); "
+                "use another window (hamming, taylor, chebyshev, rectangular) or n_coherent "
+                f">= {3 + (self.mti_order if self.type == 'mti_bank' else 0)}, got hann with "
+                f"{taps} taps")
+        return self
 
 
 class Losses(_Model):
@@ -491,6 +529,35 @@ class Radar(_Model):
         if tau is not None and prf * tau >= 0.5:
             raise ValueError(f"prf_hz * transmitted_pulse_width_s (the duty cycle) must be "
                              f"< 0.5, got {prf * tau:.3g}")
+        return self
+
+    @model_validator(mode="after")
+    def _beam_and_dwell(self) -> Radar:
+        # cosec² [14]: the cosec law joins the main beam at its upper 3 dB point, which must
+        # be above the horizon (sensors.antenna.cosec2_directivity refuses it otherwise)
+        pe = self.pattern_el
+        if pe.type == "cosec2" and pe.tilt_deg is not None:
+            junction = pe.tilt_deg + self.beamwidth_el_deg / 2.0
+            if not junction > 0.0:
+                raise ValueError(
+                    f".pattern_el.tilt_deg: a cosec2 beam's upper 3 dB point (tilt_deg + "
+                    f"beamwidth_el_deg / 2 = {junction:g} deg) must be above the horizon; "
+                    f"tilt_deg must be > {-self.beamwidth_el_deg / 2.0:g} with beamwidth_el_deg "
+                    f"{self.beamwidth_el_deg:g}, got {pe.tilt_deg:g}")
+        # [73]: N_n = θ_b t_scan f_r / (2π) pulses hit a point target per sweep, computed as
+        # sensors.detection.pulses_per_beam does. Below one, the target is lit by a pulse in
+        # some sweeps and missed in others, which [73]-[89] (integration, error model) do not
+        # describe: refused, with the least PRF that gives one pulse per beamwidth
+        n_n = math.radians(self.beamwidth_az_deg) / (2.0 * math.pi) * self.scan_period_s \
+            * self.prf_hz
+        if not n_n >= 1.0 - PULSES_PER_BEAM_ULP:  # exactly one pulse, to rounding, is one
+            need = self.prf_hz / n_n
+            raise ValueError(
+                f".prf_hz: fewer than one pulse per beamwidth (N_n [73] = beamwidth_az_deg "
+                f"{self.beamwidth_az_deg:g} x prf_hz {self.prf_hz:g} / (6 x rotation_rpm "
+                f"{self.rotation_rpm:g}) = {n_n:.3g}); needs prf_hz >= {math.ceil(need):d} for "
+                f"this rotation and beamwidth (or a wider beam or a slower rotation), got "
+                f"{self.prf_hz:g}")
         return self
 
     @property
