@@ -109,8 +109,9 @@ class DwellModel:
         self.pfa = float(detection.pfa_from_false_alarm_time(
             radar.false_alarm_time_s, self.theta_b, radar.scan_period_s, radar.prf_hz,
             radar.pulse_width_s, n_channels=radar.n_channels))
-        self.n_pulses = float(detection.pulses_per_beam(self.theta_b, radar.scan_period_s,
-                                                        radar.prf_hz))
+        # N_n >= 1 to rounding (the schema refuses fewer, sim.scenario.PULSES_PER_BEAM_ULP)
+        self.n_pulses = max(1.0, float(detection.pulses_per_beam(
+            self.theta_b, radar.scan_period_s, radar.prf_hz)))
         self.n_cells = float(false_alarms.resolution_cells(
             radar.instrumented_range_m, self.theta_b, self.range_cell))
         self.noise_false_alarms_per_scan = self.n_cells * self.pfa
