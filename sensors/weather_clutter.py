@@ -13,10 +13,32 @@ mm⁶/m³ with |K_w|² = 0.93 (π⁵ · 0.93 · 200e-18 / c⁴ = 7.0e-48 s⁴/m)
 Weather clutter exists only inside the rain region: every power here is "if the cell is full
 of rain"; the caller multiplies by the rain fraction of the cell
 (:func:`rain_cylinder_fraction` for the scenario's cylinder).
+
+Range folding: the seed's [39]-[41] and the erratum on [41]
+-----------------------------------------------------------
+The seed computes the volume ϑ of [40] at the folded range R_c = mod(R, c/(2 f_r)) of [41]
+but divides by the *true* range R⁴ in [39].  That mixes two cells: the resolution volume
+of one cell and the R⁻⁴ of another, and at 170 km it puts the rain clutter 30-50 dB below
+any physical reading (issue 23 item 5(c); SPEC §4 item 3 already fixes the f of [41] as the
+PRF).  What the receiver sees at the delay of a target at true range R is the sum of the
+echoes of every pulse still in flight: rain at r + k R_u, k = 0, 1, 2, ..., with r = R mod
+R_u and R_u = c/(2 f_r), each with its own volume and its own R⁻⁴::
+
+    P_wc(R) = Σ_k P_1(r + k R_u),  P_1(x) = K_r ϑ0 x θ_b d_h(x) C_R / x_s⁴   ([39], [40], [43])
+
+(x_s the slant range of the cell at ground range x).  :func:`single_trip_power_w` is P_1
+and :func:`range_folded_power_w` the sum; the sum stops at the instrumented range (the
+clutter map's range axis): each further trip is below the first by (r/(r + k R_u))³ or
+more, and the beam over the curved earth climbs out of the rain far out anyway.  The
+first-trip echo of rain at r (k = 0) usually dominates: at R ≥ R_u it is what the seed's
+volume at R_c stood for, now with its own (R_c)⁻⁴.  With R ≤ R_u and R_inst ≤ R_u the sum
+is the single cell of the seed.  Folding is done in ground range (the seed's "terrestrial
+range" R_r); slant and ground range differ by millimetres at these heights.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Literal
 
 import numpy as np
@@ -136,6 +158,20 @@ def folded_range_m(range_m: ArrayLike, prf_hz: ArrayLike) -> NDArray[np.float64]
     return np.mod(_f(range_m), SPEED_OF_LIGHT_MPS / (2.0 * prf))
 
 
+def unambiguous_range_m(prf_hz: ArrayLike) -> NDArray[np.float64]:
+    """Unambiguous range R_u = c/(2 f_r) [m] (the period of the folding of [41]).
+
+    Parameters
+    ----------
+    prf_hz : array_like
+        f_r [Hz], > 0.
+    """
+    prf = _f(prf_hz)
+    if np.any(prf <= 0.0):
+        raise ValueError("PRF must be > 0")
+    return SPEED_OF_LIGHT_MPS / (2.0 * prf)
+
+
 def volume_height_m(
     folded_range: ArrayLike, elevation_beamwidth_rad: ArrayLike, cloud_base_m: ArrayLike
 ) -> NDArray[np.float64]:
@@ -220,6 +256,116 @@ def weather_clutter_power_w(
     if np.any((frac < 0.0) | (frac > 1.0)):
         raise ValueError("rain fraction must be in [0, 1]")
     return _f(radar_constant_w_m2) * _f(cross_section_m2) * frac / r**4
+
+
+def single_trip_power_w(
+    radar_constant_w_m2: ArrayLike,
+    reflectivity: ArrayLike,
+    ground_range_m: ArrayLike,
+    slant_range_m: ArrayLike,
+    beamwidth_rad: ArrayLike,
+    elevation_beamwidth_rad: ArrayLike,
+    cloud_base_m: ArrayLike,
+    range_cell_m: ArrayLike,
+) -> NDArray[np.float64]:
+    """Power of the rain in one cell at its own range, P_1 = K_r ϑ0 R θ_b d_h C_R / R_s⁴ [W].
+
+    Seed [39] with [40] and [43], the volume and the R⁻⁴ both at the cell's true range (the
+    one-trip term of :func:`range_folded_power_w`; see the module notes on [41]).
+
+    Parameters
+    ----------
+    radar_constant_w_m2 : array_like
+        K_r of [3] [W·m²].
+    reflectivity : array_like
+        ϑ0 [m²/m³] ([42]).
+    ground_range_m : array_like
+        Ground range of the cell R [m], ≥ 0 (the volume's range).
+    slant_range_m : array_like
+        Slant range of the cell R_s [m], > 0 (≥ the antenna height for a cell at sea level).
+    beamwidth_rad, elevation_beamwidth_rad : array_like
+        θ_b and φ_b [rad].
+    cloud_base_m : array_like
+        h_cloud [m].
+    range_cell_m : array_like
+        C_R [m].
+
+    Returns
+    -------
+    ndarray
+        P_1 [W], ≥ 0; 0 at R = 0 (no volume); largest near R ≈ h_a, where R θ_b R φ_b / R_s⁴
+        peaks (the seed's horizon beam does not hold there, but the value stays finite).
+    """
+    vol = volume_cross_section_m2(
+        reflectivity, ground_range_m, beamwidth_rad, elevation_beamwidth_rad, cloud_base_m,
+        range_cell_m,
+    )
+    return weather_clutter_power_w(radar_constant_w_m2, vol, slant_range_m)
+
+
+def trip_count(prf_hz: ArrayLike, max_range_m: ArrayLike) -> int:
+    """Largest number of pulses in flight whose rain echoes can overlap up to R_max.
+
+    ``floor(R_max / R_u) + 1`` (trips k = 0 .. floor(R_max / R_u)).
+
+    Parameters
+    ----------
+    prf_hz : array_like
+        f_r [Hz], > 0.
+    max_range_m : array_like
+        R_max [m], ≥ 0.
+    """
+    r_max = _f(max_range_m)
+    if np.any(r_max < 0.0):
+        raise ValueError("max range must be >= 0")
+    return int(np.max(np.floor(r_max / unambiguous_range_m(prf_hz)))) + 1
+
+
+def range_folded_power_w(
+    single_trip: Callable[[NDArray[np.float64]], NDArray[np.float64]],
+    ground_range_m: ArrayLike,
+    prf_hz: float,
+    max_range_m: ArrayLike,
+) -> NDArray[np.float64]:
+    """Rain clutter at the delay of range R, summed over the pulses in flight [W].
+
+    ``P_wc(R) = Σ_k P_1(r + k R_u)`` for k ≥ 0 with ``r + k R_u ≤ max(R_max, R)``,
+    ``r = R mod R_u`` ([41], module notes): the consistent reading of [39]-[41] for second-
+    and later-trip echoes.
+
+    Parameters
+    ----------
+    single_trip : callable
+        ``single_trip(x)`` -> P_1 at ground ranges x [m] (same shape as x), e.g.
+        :func:`single_trip_power_w` with its other arguments bound, times the rain fraction
+        of the cell at x along the beam when the rain is a region.
+    ground_range_m : array_like
+        True ground range R of the cell where the target is [m], ≥ 0.
+    prf_hz : float
+        f_r [Hz], > 0.
+    max_range_m : array_like
+        R_max [m]: rain beyond it (and beyond R) is not counted (the instrumented range).
+
+    Returns
+    -------
+    ndarray
+        P_wc [W], ≥ 0, periodic in R with period R_u where R ≤ R_max; equal to
+        ``single_trip(R)`` when R_max < R_u.
+    """
+    r_true = _f(ground_range_m)
+    if np.any(r_true < 0.0):
+        raise ValueError("ground range must be >= 0")
+    r_u = float(unambiguous_range_m(prf_hz))
+    limit = np.maximum(_f(max_range_m), r_true)
+    r = np.mod(r_true, r_u)
+    total = np.zeros(np.broadcast(r, limit).shape)
+    for k in range(trip_count(prf_hz, np.max(limit, initial=0.0))):
+        x = r + k * r_u
+        inside = x <= limit
+        if not np.any(inside):
+            break
+        total = total + np.where(inside, single_trip(np.where(inside, x, r)), 0.0)
+    return total
 
 
 def shear_spread_mps(

@@ -17,9 +17,10 @@ same grid, read on-line by S/C [46], the distribution loss [64] and the clutter 
 * ``doppler_spread_hz``: σ_s [Hz] ([36]-[38]).
 
 Weather map (:func:`build_weather_clutter_map`, only for a scene with precipitation), values
-P_wc [W] if the cell is full of rain; the on-line side multiplies by the cell's rain fraction
-(:func:`sensors.weather_clutter.rain_cylinder_fraction`); extras ``doppler_mean_hz`` and
-``doppler_spread_hz``.
+P_wc [W] if the rain is everywhere, summed over the pulses in flight (the range-folding
+erratum on [39]-[41], :mod:`sensors.weather_clutter`); the on-line side multiplies by the
+cell's rain fraction (:func:`sensors.weather_clutter.rain_cylinder_fraction`); extras
+``doppler_mean_hz``, ``doppler_spread_hz`` and ``single_trip_power_w`` (the cell alone).
 
 Both depend on the ship's motion only through μ (when not motion-compensated); the table is
 built for the given speed and heading, and the on-line side may recompute f1 [34] cheaply.
@@ -46,7 +47,7 @@ SEA_MAP_NAME = "sea_clutter_map"
 WEATHER_MAP_NAME = "weather_clutter_map"
 #: Builder versions (part of the cache key): bump when the model changes.
 SEA_MAP_VERSION = 1
-WEATHER_MAP_VERSION = 1
+WEATHER_MAP_VERSION = 2
 #: Default grid: 1501 ranges (100 m steps at 150 km) and 1° in azimuth.
 DEFAULT_N_RANGE = 1501
 DEFAULT_N_AZIMUTH = 360
@@ -368,11 +369,17 @@ def weather_clutter_map_inputs(
 def build_weather_clutter_map(**kwargs: Any) -> Table:
     """Build the weather-clutter map of one radar in one precipitation (seed [39]-[45]).
 
-    Per cell: ϑ0 [42] (snow as rain-equivalent), R_c [41] (folded with the PRF), d_h [43],
-    ϑ [40], P_wc = K_r ϑ / R⁴ [39] with R the slant range of the cell, assuming the cell is
-    full of rain; spread [44]-[45] with the scan [37]; mean from the wind drift (and f1 [34]
-    unless motion-compensated, the beam at the horizon).  Only call this when the scene has
-    precipitation; multiply by the cell's rain fraction on-line.
+    Per cell at ground range R: ϑ0 [42] (snow as rain-equivalent), and the rain of every
+    pulse in flight that arrives with the echo of R, ``P_wc = Σ_k P_1(r + k R_u)``, r the
+    range folded by the PRF [41], each term ``K_r ϑ0 x θ_b d_h(x) C_R / x_s⁴`` with its own
+    range x ([39], [40], [43]; :func:`sensors.weather_clutter.range_folded_power_w`, up to
+    the instrumented range), assuming rain everywhere.  This replaces the seed's volume at
+    R_c over the true R⁴ (erratum, module notes of :mod:`sensors.weather_clutter`).  Spread
+    [44]-[45] with the scan [37], the power-weighted rms over the trips; mean from the wind
+    drift (and f1 [34] unless motion-compensated, the beam at the horizon).  Only call this
+    when the scene has precipitation; multiply by the cell's rain fraction on-line (exact
+    for rain everywhere; for a rain region the extra ``single_trip_power_w`` lets the
+    on-line side weight each trip by its own rain fraction).
 
     Parameters
     ----------
@@ -389,7 +396,8 @@ def build_weather_clutter_map(**kwargs: Any) -> Table:
     Returns
     -------
     Table
-        Values P_wc [W] (full rain); extras ``doppler_mean_hz`` and ``doppler_spread_hz`` [Hz].
+        Values P_wc [W] (full rain, summed over trips); extras ``doppler_mean_hz`` and
+        ``doppler_spread_hz`` [Hz], ``single_trip_power_w`` P_1 [W] (the cell alone).
     """
     p = weather_clutter_map_inputs(**kwargs)
     ranges, azimuths = map_axes(p["max_range_m"], p["n_range"], p["n_azimuth"])
@@ -398,12 +406,32 @@ def build_weather_clutter_map(**kwargs: Any) -> Table:
     theta_b, phi_b = p["beamwidth_az_rad"], p["beamwidth_el_rad"]
 
     eta = wc.rain_reflectivity(f, p["rain_rate_mm_h"], p["precipitation"])
-    r_c = wc.folded_range_m(ranges, p["prf_hz"])
-    vol = wc.volume_cross_section_m2(
-        eta, r_c, theta_b, phi_b, p["cloud_base_m"], range_cell_m(p["pulse_width_s"])
+    c_r = range_cell_m(p["pulse_width_s"])
+    rotation = sc.rotation_spread_hz(p["rotation_rate_rad_s"], theta_b)
+
+    def single_trip(x):
+        slant = sc.slant_range_m(x, p["antenna_height_m"], p["k_factor"])
+        return wc.single_trip_power_w(
+            p["radar_constant_w_m2"], eta, x, slant, theta_b, phi_b, p["cloud_base_m"], c_r
+        )
+
+    def spread_at(x):
+        return wc.weather_spread_hz(
+            lam, wc.shear_spread_mps(x, phi_b), p["turbulence_spread_mps"], rotation
+        )
+
+    # [39]-[41] read consistently (module notes of sensors.weather_clutter): the rain of
+    # every pulse in flight, r + k R_u up to the instrumented range, each at its own range.
+    r_max = p["max_range_m"]
+    power = wc.range_folded_power_w(single_trip, ranges, p["prf_hz"], r_max)
+    # the trips share the mean Doppler (wind drift, f1); their spreads differ (shear ∝ range):
+    # the mixture's spread is the power-weighted rms
+    second = wc.range_folded_power_w(
+        lambda x: single_trip(x) * spread_at(x) ** 2, ranges, p["prf_hz"], r_max
     )
-    slant = sc.slant_range_m(ranges, p["antenna_height_m"], p["k_factor"])
-    power = wc.weather_clutter_power_w(p["radar_constant_w_m2"], vol, slant)
+    own = spread_at(ranges)
+    has = power > 0.0
+    spread = np.where(has, np.sqrt(np.where(has, second, 0.0) / np.where(has, power, 1.0)), own)
 
     phi = (azimuths - p["wind_direction_rad"])[None, :]
     f1 = 0.0
@@ -412,12 +440,6 @@ def build_weather_clutter_map(**kwargs: Any) -> Table:
             p["ship_speed_mps"], azimuths[None, :] - p["ship_heading_rad"], 0.0, lam
         )
     mean = wc.weather_mean_doppler_hz(p["wind_speed_mps"], phi, lam, f1)
-    spread = wc.weather_spread_hz(
-        lam,
-        wc.shear_spread_mps(ranges, phi_b),
-        p["turbulence_spread_mps"],
-        sc.rotation_spread_hz(p["rotation_rate_rad_s"], theta_b),
-    )
     shape = (len(ranges), len(azimuths))
     return Table(
         name=WEATHER_MAP_NAME,
@@ -432,6 +454,9 @@ def build_weather_clutter_map(**kwargs: Any) -> Table:
         extra={
             "doppler_mean_hz": np.broadcast_to(mean, shape).copy(),
             "doppler_spread_hz": np.broadcast_to(spread[:, None], shape).copy(),
+            # P_1 of the cell itself (no folding): with a rain *region*, the on-line side
+            # needs each trip's own rain fraction, Σ_k frac(r + k R_u) P_1(r + k R_u)
+            "single_trip_power_w": np.broadcast_to(single_trip(ranges)[:, None], shape).copy(),
         },
     )
 

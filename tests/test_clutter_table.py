@@ -204,18 +204,28 @@ def weather_kwargs(**over):
 def test_weather_map_values_by_hand(table_cache):
     m, built = tc.weather_clutter_map(**weather_kwargs())
     assert built
-    i = 100
-    r = m.axes[0][i]
-    r_c = r % (299_792_458.0 / (2 * 1200.0))
+    r_u = 299_792_458.0 / (2 * 1200.0)  # 124.9 km, below the map's 200 km
     eta = wc.reflectivity_constant(5.6e9) * (5.6e9) ** 4 * 8.0**1.6
     c_r = 299_792_458.0 * 1e-6 / 2
-    vol = eta * r_c * math.radians(1.5) * min(2000.0, r_c * BW_EL) * c_r
-    p = 50.0 * vol / sc.slant_range_m(r, 25.0) ** 4
-    assert m.values[i, 0] == pytest.approx(p, rel=1e-12)
+
+    def one_cell(x):  # [39], [40], [43] with the volume and R⁴ of the same cell
+        vol = eta * x * math.radians(1.5) * min(2000.0, x * BW_EL) * c_r
+        return 50.0 * vol / sc.slant_range_m(x, 25.0) ** 4
+
+    # the rain of both pulses in flight arrives with the echo of 50 km (the second trip at
+    # 174.9 km, inside the 200 km map) and of 174.9 km (the first trip at 50 km); before
+    # issue 23 item 5(c) the map held the seed's volume at R_c over the true R⁴ instead
+    for i in (100, 350):
+        r = m.axes[0][i]
+        r_near = r % r_u
+        p = one_cell(r_near) + (one_cell(r_near + r_u) if r_near + r_u <= 200e3 else 0.0)
+        assert m.values[i, 0] == pytest.approx(p, rel=1e-12)
+        assert m.extra["single_trip_power_w"][i, 0] == pytest.approx(one_cell(r), rel=1e-12)
     assert np.all(np.isfinite(m.values)) and np.all(m.values >= 0)
-    # beyond the unambiguous range (124.9 km) the folded range restarts near 0
-    far = m.axes[0] > 299_792_458.0 / 2400.0
-    assert m.values[far][0, 0] < m.values[~far][-1, 0]
+    # beyond the unambiguous range the first trip's near rain dominates: far more clutter
+    # than the seed-literal map's volume at R_c over the true R⁴
+    far = m.axes[0] > r_u
+    assert m.values[far][0, 0] > m.values[~far][-1, 0]
 
 
 def test_weather_map_needs_precipitation():
