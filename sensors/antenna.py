@@ -190,7 +190,9 @@ def cosec2_directivity(
       there, so that the junction is continuous, see the code comment).
     * ``φ > φ_max``: the shaped coverage ends; the sinc sidelobe pattern about the tilt,
       never above the cosec envelope.  ``φ_max`` defaults to 40°
-      (:data:`COSEC_MAX_ELEVATION_RAD`); the seed does not give it.
+      (:data:`COSEC_MAX_ELEVATION_RAD`); the seed does not give it.  A junction above φ_max
+      (``φ_tilt + φ_b/2 > φ_max``, a wide or steeply tilted beam) leaves no cosec² part: the
+      pattern is the sinc main beam up to φ_j (peak 1 at the tilt), capped above it.
 
     Parameters
     ----------
@@ -236,7 +238,9 @@ def cosec2_directivity(
     # csc evaluated only where φ >= φ_j > 0, so sin φ > 0 there; elsewhere a dummy 1.
     sin_el = np.where(el >= phi_j, np.sin(el), 1.0)
     cosec = g_junction * np.sin(phi_j) / sin_el
-    above_max = el > cosec_max_rad
+    # above φ_max the cosec envelope caps the sinc sidelobes, never the main beam below φ_j:
+    # a beam whose junction is above φ_max (tilt + φ_b/2 > 40°) has no cosec² part at all
+    above_max = (el > cosec_max_rad) & (el >= phi_j)
     g = np.where(el < phi_j, sinc, cosec)
     g = np.where(above_max, np.sign(sinc) * np.minimum(np.abs(sinc), cosec), g)
     return np.clip(g, -1.0, 1.0)

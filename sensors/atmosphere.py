@@ -51,6 +51,11 @@ DEFAULT_FOG_TOP_M = 100.0
 _VAPOUR_PRESSURE_FACTOR = 216.7
 #: P.838-3 coefficients are tabulated from 1 GHz (below, rain attenuation is negligible).
 P838_MIN_FREQ_HZ = 1.0e9
+#: P.676-12 Annex 2 equivalent heights, eqs. (31)-(38), hold from 1 to 350 GHz; below 1 GHz
+#: the rational term t3 of eq. (33) has a pole at 0.715 GHz (h_o goes to ±inf and negative
+#: between 0.6 and 0.715 GHz), so the heights are held at their 1 GHz values there.
+P676_HEIGHTS_MIN_FREQ_HZ = 1.0e9
+P676_HEIGHTS_MAX_FREQ_HZ = 350.0e9
 #: Polarization tilt τ relative to the horizontal for P.838 [deg].
 POLARIZATION_TILT_DEG = {"H": 0.0, "horizontal": 0.0, "V": 90.0, "vertical": 90.0, "circular": 45.0}
 
@@ -130,17 +135,26 @@ def gaseous_equivalent_heights_m(
     Parameters
     ----------
     freq_hz : array_like
-        Frequency [Hz] (P.676 Annex 2: 1-350 GHz).
+        Frequency [Hz].  P.676 Annex 2 states the fit for 1-350 GHz; outside it the heights
+        are clamped to those at the nearer end (:data:`P676_HEIGHTS_MIN_FREQ_HZ`,
+        :data:`P676_HEIGHTS_MAX_FREQ_HZ`).  Below 1 GHz the fit's eq. (33) has a pole at
+        0.715 GHz and gives negative heights (an exponentially *growing* absorption with
+        height); the physical scale heights of oxygen and water vapour do not depend on
+        frequency away from their lines, so the 1 GHz values (5.5 km and 1.7 km) stand.
     temperature_k, pressure_hpa, water_vapour_density_g_m3 : array_like, optional
         Surface temperature [K], total pressure [hPa], water vapour density [g/m³].
 
     Returns
     -------
     h_o_m, h_w_m : ndarray
-        h_o and h_w [m] (about 5 km and 1.7 km at 10 GHz).
+        h_o and h_w [m] (about 5 km and 1.7 km at 10 GHz), > 0 at every frequency.
     """
     p = _dry_pressure_hpa(pressure_hpa, water_vapour_density_g_m3, temperature_k)
-    f = np.asarray(_ghz(freq_hz), dtype=float)
+    f = np.clip(
+        np.asarray(_ghz(freq_hz), dtype=float),
+        P676_HEIGHTS_MIN_FREQ_HZ / _GHZ,
+        P676_HEIGHTS_MAX_FREQ_HZ / _GHZ,
+    )
     # itur 0.4 returns kilometres under a "m" unit label: take the value as km.
     ho_hw = itu676.slant_inclined_path_equivalent_height(
         f,

@@ -553,7 +553,10 @@ def _reflection_geometry(d, h1, h2, a_e):
     Returns d1 (ground distance antenna -> specular point) [m].  Requires line of sight.
     """
     p = (2 / np.sqrt(3)) * np.sqrt(a_e * (h1 + h2) + d**2 / 4)
-    arg = np.clip(2 * a_e * (h1 - h2) * d / p**3, -1.0, 1.0)
+    # p = 0 only when d = h1 = h2 = 0 (both ends on the surface at one point): arg -> 0 there
+    p3 = p**3
+    arg = np.clip(np.divide(2 * a_e * (h1 - h2) * d, p3, out=np.zeros_like(p3), where=p3 > 0),
+                  -1.0, 1.0)
     phi = np.arccos(arg)
     return np.clip(d / 2 + p * np.cos((phi + np.pi) / 3), 0.0, d)
 
@@ -637,13 +640,15 @@ def smooth_earth_diffraction_factor(
     k_factor : float
         Effective-earth-radius factor.
     permittivity : complex, optional
-        Surface permittivity ``eps' - j eps''``; default sea water at 15 degC, 35 psu.
+        Surface permittivity ``eps' - j eps''``; default sea water at 15 degC, 35 psu;
+        ``inf`` a perfect conductor (the limits K_H = 0, K_V = inf of P.526's admittance).
 
     Returns
     -------
     ndarray
         F (linear field factor).  Accurate at and beyond the radio horizon; inside the horizon
         the first term over-estimates F and :func:`two_ray_factor` does not use it there.
+        Ranges below 1 micrometre are evaluated at 1 micrometre (X > 0 for the log of F(X)).
     """
     pol = normalize_polarization(polarization)
     eps = sea_water_permittivity(freq_hz) if permittivity is None else complex(permittivity)
@@ -652,9 +657,16 @@ def smooth_earth_diffraction_factor(
     d_km = np.maximum(np.asarray(range_m, dtype=float) / 1e3, 1e-9)
     eps_r = eps.real
     x60 = -eps.imag  # 60 lambda sigma = 18000 sigma / f_MHz in P.526 notation
-    k_h = 0.36 * (a_km * f_mhz) ** (-1 / 3) * ((eps_r - 1) ** 2 + x60**2) ** (-0.25)
-    k_adm = k_h if pol == "H" else k_h * np.sqrt(eps_r**2 + x60**2)
-    beta = (1 + 1.6 * k_adm**2 + 0.67 * k_adm**4) / (1 + 4.5 * k_adm**2 + 1.53 * k_adm**4)
+    if np.isinf(eps_r) or np.isinf(x60):
+        # a perfect conductor: K_H -> 0 and K_V -> inf (P.526's K_V = K_H |eps|), whose beta
+        # limits are 1 and 0.67/1.53; neither has the small-K floor of G(Y)
+        k_adm = 0.0 if pol == "H" else np.inf
+        beta = 1.0 if pol == "H" else 0.67 / 1.53
+    else:
+        k_h = 0.36 * (a_km * f_mhz) ** (-1 / 3) * ((eps_r - 1) ** 2 + x60**2) ** (-0.25)
+        k_adm = k_h if pol == "H" else k_h * np.sqrt(eps_r**2 + x60**2)
+        beta = (1 + 1.6 * k_adm**2 + 0.67 * k_adm**4) / (1 + 4.5 * k_adm**2 + 1.53 * k_adm**4)
+    floor_db = 2 + 20 * np.log10(k_adm) if 0.0 < k_adm < np.inf else -np.inf
     x = np.maximum(2.188 * beta * f_mhz ** (1 / 3) * a_km ** (-2 / 3) * d_km, 1e-12)
     f_x = np.where(
         x >= 1.6, 11 + 10 * np.log10(x) - 17.6 * x, -20 * np.log10(x) - 5.6488 * x**1.425
@@ -665,7 +677,7 @@ def smooth_earth_diffraction_factor(
         excess = np.maximum(b - 1.1, 1e-12)
         high = 17.6 * np.sqrt(excess) - 5 * np.log10(excess) - 8
         low = 20 * np.log10(np.maximum(b + 0.1 * b**3, 1e-300))
-        return np.maximum(np.where(b > 2, high, low), 2 + 20 * np.log10(k_adm))
+        return np.maximum(np.where(b > 2, high, low), floor_db)
 
     loss_db = f_x + g_y(antenna_height_m) + g_y(target_height_m)
     return 10 ** (loss_db / 20)
