@@ -99,7 +99,10 @@ def gaseous_specific_attenuation_db_per_km(
     Parameters
     ----------
     freq_hz : array_like
-        Frequency [Hz], 1 GHz to 1 THz (P.676 validity).
+        Frequency [Hz].  P.676-12 Annex 1 states 1 GHz to 1 THz; below 1 GHz (the schema
+        goes down to 0.5 GHz) the line-by-line sum is extrapolated: it is a physical model
+        (the lines' shapes and the non-resonant Debye spectrum of oxygen), finite and
+        decreasing towards low frequency, and the loss it gives there is below 0.01 dB/km.
     temperature_k : array_like, optional
         Air temperature [K].
     pressure_hpa : array_like, optional
@@ -401,7 +404,8 @@ def rain_specific_attenuation_db_per_km(
         are used (γ_R is then below 0.001 dB/km at 50 mm/h, and k falls with frequency, so
         this is a small upper bound).
     rain_rate_mm_h : array_like
-        Rain rate R [mm/h], ≥ 0 (0 gives 0).
+        Rain rate R [mm/h], ≥ 0 (0 gives 0).  P.838 states no upper rate: the power law is
+        extrapolated to the schema's 300 mm/h (66.7 dB/km at 100 GHz, HP).
     polarization : {"H", "V", "horizontal", "vertical", "circular"}
         Radar polarization (tilt τ = 0°, 90°, 45° in P.838).
     elevation_rad : array_like, optional

@@ -18,9 +18,10 @@ Range folding: the seed's [39]-[41] and the erratum on [41]
 -----------------------------------------------------------
 The seed computes the volume ϑ of [40] at the folded range R_c = mod(R, c/(2 f_r)) of [41]
 but divides by the *true* range R⁴ in [39].  That mixes two cells: the resolution volume
-of one cell and the R⁻⁴ of another, and at 170 km it puts the rain clutter 30-50 dB below
-any physical reading (issue 23 item 5(c); SPEC §4 item 3 already fixes the f of [41] as the
-PRF).  What the receiver sees at the delay of a target at true range R is the sum of the
+of one cell and the R⁻⁴ of another: at 170 km, for the jammed_squall radar (f_r = 5 kHz,
+R_u = 30 km) with rain everywhere, it gave -106.5 dBm where the rain folded onto that delay
+gives -69.0 dBm, 37.5 dB more (issue 23 item 5(c); docs/stability-models.md; SPEC §4 item 3
+already fixes the f of [41] as the PRF).  What the receiver sees at the delay of a target at true range R is the sum of the
 echoes of every pulse still in flight: rain at r + k R_u, k = 0, 1, 2, ..., with r = R mod
 R_u and R_u = c/(2 f_r), each with its own volume and its own R⁻⁴::
 
@@ -102,7 +103,15 @@ def reflectivity_constant(freq_hz: ArrayLike) -> NDArray[np.float64]:
     Parameters
     ----------
     freq_hz : array_like
-        Frequency [Hz], > 0 (constant beyond both ends).
+        Frequency [Hz], > 0.  The seed gives K at 6 and 35 GHz only; outside 6-35 GHz K is
+        held at its end value (clamp), so [42] keeps its f⁴ Rayleigh law with the end
+        constant: above 35 GHz, where large drops leave the Rayleigh regime, this
+        over-estimates ϑ0 (a conservative clutter level).  Refused at f ≤ 0.
+
+    Returns
+    -------
+    ndarray
+        K [s⁴/m], in [7e-48, 13e-48].
     """
     f = _f(freq_hz)
     if np.any(f <= 0.0):
