@@ -108,6 +108,7 @@ def cmd_tables_build(args) -> int:
 
     s = _load(_scenario_path(args))
     _memory_budget(args, s)
+    _announce(_build_time(args, s, include_pd=False))
     report = build_scene_tables(s, progress=sys.stderr.isatty(), log=sys.stderr)
     print(json.dumps(report, sort_keys=False))
     return EXIT_OK
@@ -125,6 +126,20 @@ def _memory_budget(args, scenario) -> None:
     from shipradar.tables.budget import check_memory_budget, memory_budget_bytes
 
     check_memory_budget(scenario, memory_budget_bytes(getattr(args, "memory_budget", None)))
+
+
+def _build_time(args, scenario, *, include_pd: bool = True) -> list[str]:
+    """Refuse, before any work, a scene whose missing tables would take longer than
+    ``--max-build-s`` to build; else the lines announcing them (tables.budget)."""
+    from shipradar.tables.budget import announce_builds, check_build_time
+
+    return announce_builds(check_build_time(scenario, getattr(args, "max_build_s", None),
+                                            include_pd=include_pd))
+
+
+def _announce(lines: list[str]) -> None:
+    for line in lines:
+        print(line, file=sys.stderr)
 
 
 class _StopOnSignal:
@@ -163,6 +178,7 @@ def _check_run(args, s):
         raise BadInput(f"--record: {args.record} exists; pass --overwrite to replace it")
     curve = _curve(args, "server")
     _memory_budget(args, s)
+    args.build_lines = _build_time(args, s)
     if args.processes > 1 and args.realtime:
         raise BadInput(f"--processes {args.processes} is for fast mode; drop --realtime or "
                        "use --processes 1")
@@ -204,8 +220,11 @@ def cmd_run(args) -> int:
 
     s = _load(_scenario_path(args))
     curve = _check_run(args, s)
-    # the tables the scene reads: from the cache, built now if missing (shown on stderr)
-    tables = load_scene_tables(s, progress=sys.stderr.isatty(), log=sys.stderr)
+    # the tables the scene reads: from the cache, built now if missing (announced with their
+    # estimated time, shown on stderr)
+    _announce(args.build_lines)
+    tables = load_scene_tables(s, progress=sys.stderr.isatty() and not args.quiet,
+                               log=sys.stderr)
     if args.record and hasattr(signal, "SIGXFSZ"):
         # past a file-size limit write() then fails with EFBIG, which the recorder reports
         # and recovers from, instead of the signal killing the process mid-record
@@ -514,6 +533,10 @@ def _budget_argument(p: argparse.ArgumentParser) -> None:
     p.add_argument("--memory-budget", type=_positive("--memory-budget"), default=None,
                    metavar="MIB", help="largest memory the scene's tables may take [MiB] "
                    "(default $SHIPRADAR_MEMORY_BUDGET_MIB or 4096)")
+    p.add_argument("--max-build-s", type=_positive("--max-build-s"), default=None,
+                   metavar="S", help="longest estimated time to build the scene's missing "
+                   "tables [s]; a scene over it is refused before any work (default "
+                   "$SHIPRADAR_MAX_BUILD_S or 600)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -702,12 +725,12 @@ def main(argv: list[str] | None = None) -> int:
     from shipradar.sim.bus import EndpointError, PublisherStalledError, SubscriberTimeoutError
     from shipradar.sim.recording import RecordingError, RecordingExistsError
     from shipradar.sim.security import CurveKeyError
-    from shipradar.tables.budget import MemoryBudgetError
+    from shipradar.tables.budget import BuildTimeError, MemoryBudgetError
 
     try:
         return args.func(args)
     except (BadInput, EndpointError, RecordingError, RecordingExistsError,
-            AsterixError, CurveKeyError, MemoryBudgetError) as exc:
+            AsterixError, CurveKeyError, MemoryBudgetError, BuildTimeError) as exc:
         print(str(exc), file=sys.stderr)
         return EXIT_BAD_INPUT
     except (SubscriberTimeoutError, PublisherStalledError) as exc:

@@ -1291,7 +1291,22 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--per-target", action="store_true",
                    help="also print one line per setting and (radar, target)")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    p.add_argument("--max-build-s", type=_number("--max-build-s", 1e-3, 1e9), default=None,
+                   metavar="S", help="longest estimated time to build the tables of every "
+                   "setting [s]; over it the study is refused before any work (default "
+                   "$SHIPRADAR_MAX_BUILD_S or 600)")
     return p
+
+
+def _build_time(scenario: Scenario, args) -> list[str]:
+    """The tables every setting of the study needs, estimated before any work (one line
+    each for the missing ones); raises tables.budget.BuildTimeError over the limit."""
+    from shipradar.tables.budget import announce_builds, check_build_time
+
+    _, settings, _ = plan_settings(scenario, include_unexercised=args.include_unexercised)
+    variants = [_with_fidelity(scenario, s.fidelity) for s in settings]
+    return announce_builds(check_build_time(scenario, args.max_build_s, suggest=False,
+                                            variants=variants, cold=args.cold))
 
 
 def cli_main(argv: Sequence[str]) -> int:
@@ -1333,6 +1348,15 @@ def cli_main(argv: Sequence[str]) -> int:
         return 2
     tol = Tolerances(args.tolerance_pd, args.tolerance_range_m, args.tolerance_fa,
                      args.max_latency_s)
+    from shipradar.tables.budget import BuildTimeError
+
+    try:
+        lines = _build_time(scenario, args)
+    except BuildTimeError as exc:
+        print(str(exc), file=sys.stderr)
+        return 2
+    for line in lines:
+        print(line, file=sys.stderr)
     old_env = os.environ.get("SHIPRADAR_TABLES")
     tmpdir = tempfile.TemporaryDirectory(prefix="shipradar-fidelity-") if args.cold else None
     try:

@@ -18,7 +18,8 @@ from scipy import constants
 from shipradar.sensors import atmosphere as atm
 from shipradar.tables.store import Table, get_or_build
 
-__all__ = ["TABLE_NAME", "TABLE_VERSION", "atmospheric_loss_grid", "lookup_gas_fog_loss_db"]
+__all__ = ["TABLE_NAME", "TABLE_VERSION", "atmospheric_loss_grid", "atmospheric_loss_inputs",
+           "lookup_gas_fog_loss_db"]
 
 #: Table builder name and version (bump on any change of the model in :mod:`sensors.atmosphere`).
 TABLE_NAME = "atmospheric_loss"
@@ -111,9 +112,38 @@ def atmospheric_loss_grid(
     """
     ranges = np.asarray(ranges_m, dtype=float)
     elevations = np.asarray(elevations_rad, dtype=float)
+    inputs = atmospheric_loss_inputs(
+        freq_hz, ranges, elevations, temperature_k=temperature_k, pressure_hpa=pressure_hpa,
+        water_vapour_density_g_m3=water_vapour_density_g_m3, fog_lwc_g_m3=fog_lwc_g_m3,
+        fog_top_m=fog_top_m, antenna_height_m=antenna_height_m)
+
+    def build() -> Table:
+        return _build_grid(float(freq_hz), ranges, elevations, inputs)
+
+    if not cache:
+        return build()
+    table, _ = get_or_build(TABLE_NAME, TABLE_VERSION, inputs, build, root)
+    return table
+
+
+def atmospheric_loss_inputs(
+    freq_hz: float,
+    ranges_m: ArrayLike,
+    elevations_rad: ArrayLike,
+    *,
+    temperature_k: float = atm.STANDARD_TEMPERATURE_K,
+    pressure_hpa: float = atm.STANDARD_PRESSURE_HPA,
+    water_vapour_density_g_m3: float = atm.STANDARD_WATER_VAPOUR_G_M3,
+    fog_lwc_g_m3: float = 0.0,
+    fog_top_m: float = atm.DEFAULT_FOG_TOP_M,
+    antenna_height_m: float = 0.0,
+) -> dict:
+    """The inputs of :func:`atmospheric_loss_grid` that key its table (same arguments)."""
+    ranges = np.asarray(ranges_m, dtype=float)
+    elevations = np.asarray(elevations_rad, dtype=float)
     if np.any(ranges < 0.0):
         raise ValueError("slant ranges must be >= 0")
-    inputs = {
+    return {
         "freq_hz": float(freq_hz),
         "ranges_m": ranges,
         "elevations_rad": elevations,
@@ -127,14 +157,6 @@ def atmospheric_loss_grid(
         "p676": itu676.get_version(),
         "p840": itu840.get_version(),
     }
-
-    def build() -> Table:
-        return _build_grid(float(freq_hz), ranges, elevations, inputs)
-
-    if not cache:
-        return build()
-    table, _ = get_or_build(TABLE_NAME, TABLE_VERSION, inputs, build, root)
-    return table
 
 
 def lookup_gas_fog_loss_db(

@@ -1,26 +1,40 @@
-"""Memory the off-line tables of a scene will take, checked before anything is built.
+"""Memory and time the off-line tables of a scene will take, checked before anything is built.
 
 A PE table grows with the frequency (its height step is a fraction of a wavelength) times
 the instrumented range (its range steps), and a scene with a millimetre-wave radar and a long
 range can ask for tens of gigabytes: the run would thrash or be killed by the kernel after
 minutes of work. :func:`check_memory_budget` estimates each table from the same grid rules
 the builders use and refuses the scene at once, naming the field that drives the size.
+
+The same grid rules give each table's build time (:func:`estimate_build`): a few cost
+constants per kind of table, fitted once by ``benchmarks/build_cost.py`` on this machine,
+turn the grid's work units into seconds. Before building, the commands print one line per
+table still missing from the cache, and :func:`check_build_time` refuses a scene whose
+tables would take longer than ``--max-build-s``, naming the field that drives the time and
+the cheaper ``fidelity`` setting that would fit (docs/stability-cost.md).
 """
 
 from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from shipradar.sim.scenario import Scenario
 
 __all__ = [
+    "DEFAULT_MAX_BUILD_S",
     "DEFAULT_MEMORY_BUDGET_MIB",
+    "BuildEstimate",
+    "BuildTimeError",
     "MemoryBudgetError",
     "TableEstimate",
+    "announce_builds",
+    "check_build_time",
     "check_memory_budget",
+    "estimate_build",
     "estimate_tables",
+    "max_build_seconds",
     "memory_budget_bytes",
 ]
 
@@ -165,3 +179,356 @@ def check_memory_budget(scenario: Scenario, budget_bytes: int | None = None) -> 
             f"{worst.radar_id!r}'s {worst.detail} at {_fmt(worst.bytes)}; lower that field, "
             f"use a coarser fidelity (pe_grid, propagation: two_ray) or raise the budget")
     return total
+
+
+# =========================================================================== build time
+#: Default limit on the estimated build time of a scene's missing tables [s];
+#: ``--max-build-s`` or the environment variable ``SHIPRADAR_MAX_BUILD_S`` change it.
+DEFAULT_MAX_BUILD_S: float = 600.0
+#: Above this estimate a build shows a progress bar (on a terminal) [s].
+PROGRESS_ABOVE_S: float = 3.0
+
+#: Cost constants [s per work unit], fitted by ``benchmarks/build_cost.py`` (non-negative
+#: least squares on the relative error, one kind at a time). Machine: the project's 2-core
+#: container (x86-64, numpy with OpenBLAS, one core busy with other work), 2026-11-26.
+#: Re-run the benchmark and paste its output here on another machine: the estimates are
+#: stated as estimates ("~12 s est.") and a factor 2 either way is expected.
+COST = {
+    # PE march: per (range step x height node x log2(height nodes)); the rough-sea
+    # impedance rebuilt at every step: per (range step x height node); the table's cells
+    # interpolated from the field (windowed sinc, reference phase); every table cell
+    # (alignment, modulus, saving)
+    "pe_march": 1.0e-8,
+    "pe_rough": 2.0e-8,
+    "pe_sample": 2.0e-7,
+    "pe_cell": 5.0e-8,
+    # improvement factor: per steering exponential (direct path), per filter-tap-Doppler
+    # product, per grid cell and bound
+    "if_exp": 1.5e-8,
+    "if_mac": 1.0e-9,
+    "if_cell": 1.0e-7,
+    "if_fixed": 0.05,
+    # clutter maps and P_fac, per (range x azimuth) node; atmosphere: per table
+    "sea_cell": 3.0e-6,
+    "weather_cell": 3.0e-6,
+    "pfac_cell": 1.0e-6,
+    "atmosphere": 0.5,
+    # P_d table: per (N_e x S/I) node of the exact method
+    "pd_cell": 2.0e-5,
+}
+
+
+class BuildTimeError(ValueError):
+    """The scene's missing tables would take longer than the limit (one line)."""
+
+
+@dataclass(frozen=True)
+class BuildEstimate:
+    """Estimated build of one table: time [s], size of its arrays [bytes], and why.
+
+    ``field`` is the scenario field that drives the time (its path); ``work`` the grid's
+    work units by cost constant (what :data:`COST` multiplies); ``cached`` whether the
+    table is already in the cache (then nothing is built and it does not count).
+    """
+
+    radar_id: str
+    kind: str
+    seconds: float
+    bytes: int
+    field: str
+    detail: str
+    cached: bool
+    key: str
+    work: dict[str, float]
+
+
+def max_build_seconds(seconds: float | None = None) -> float:
+    """The limit [s]: ``seconds`` if given, else the environment's, else the default."""
+    if seconds is not None:
+        return float(seconds)
+    env = os.environ.get("SHIPRADAR_MAX_BUILD_S")
+    if not env:
+        return DEFAULT_MAX_BUILD_S
+    try:
+        value = float(env)
+    except ValueError:
+        raise BuildTimeError(
+            f"SHIPRADAR_MAX_BUILD_S must be a number of seconds, got {env!r}") from None
+    if not value > 0:
+        raise BuildTimeError(f"SHIPRADAR_MAX_BUILD_S must be > 0, got {env}")
+    return value
+
+
+def fmt_seconds(t: float) -> str:
+    """A duration for a person: ``0.3 s``, ``12 s``, ``4 min``, ``1.5 h``."""
+    if t < 10:
+        return f"{t:.1f} s"
+    if t < 120:
+        return f"{t:.0f} s"
+    if t < 2 * 3600:
+        return f"{t / 60:.0f} min"
+    return f"{t / 3600:.1f} h"
+
+
+def _seconds(work: dict[str, float]) -> float:
+    return sum(COST[k] * v for k, v in work.items())
+
+
+def _pe_cost(radar, kwargs: dict) -> tuple[dict[str, float], dict]:
+    from shipradar.tables.propagation import table_grid
+
+    g = table_grid(radar.frequency_hz, **kwargs)
+    march = g["n_steps"] * g["n"] * math.log2(max(g["n"], 2))
+    cells = g["n_ranges"] * g["n_w"]
+    work = {"pe_march": march, "pe_rough": g["n_steps"] * g["n"] if g["rough"] else 0.0,
+            "pe_sample": g["sampled"], "pe_cell": cells}
+    return work, g
+
+
+#: Usual frequency [Hz] and PE range [m], against which the field that drives a PE
+#: table's time is named.
+_USUAL_HZ = 10e9
+_USUAL_RANGE_M = 100e3
+
+
+def _pe_estimate(scenario: Scenario, radar, where: str):
+    from shipradar.tables.scene import pe_table_grid_kwargs
+
+    kw = pe_table_grid_kwargs(scenario, radar)
+    work, g = _pe_cost(radar, kw)
+    # the field that drives the time: the one furthest above a usual value (X band, 100 km),
+    # weighted by how the time scales with it (the exponent of a halving)
+    t = max(_seconds(work), 1e-12)
+    half_f = _seconds(_pe_cost(radar.model_copy(
+        update={"frequency_hz": radar.frequency_hz / 2}), kw)[0])
+    half_r = _seconds(_pe_cost(radar, {**kw, "max_range_m": kw["max_range_m"] / 2})[0])
+    score_f = math.log2(t / max(half_f, 1e-12)) * math.log(radar.frequency_hz / _USUAL_HZ)
+    score_r = math.log2(t / max(half_r, 1e-12)) * math.log(kw["max_range_m"] / _USUAL_RANGE_M)
+    field = "frequency_hz" if score_f >= score_r else "instrumented_range_m"
+    detail = (f"PE table {g['n_ranges']} ranges x {g['n_w']} h/R nodes, "
+              f"{g['n_steps']} steps of {g['n']} height nodes (frequency_hz "
+              f"{radar.frequency_hz:g} Hz, to {kw['max_range_m']:g} m and "
+              f"{kw['max_height_m']:g} m, pe_grid {kw['fidelity']!r})")
+    # values, field_re, field_im (float32)
+    return work, g["n_ranges"] * g["n_w"] * 12, f"{where}.{field}", detail
+
+
+def _improvement_estimate(scenario: Scenario, radar, where: str):
+    from shipradar.tables import improvement as ti
+    from shipradar.tables.scene import improvement_kwargs
+
+    inputs = ti.improvement_table_inputs(radar.processor.type,
+                                         **improvement_kwargs(scenario, radar))
+    if inputs["processor"] == "mti":
+        n_taps, n_filters = inputs["mti_pulses"], 1
+    else:
+        n_taps = inputs["n_pulses"]
+        n_filters = inputs["n_filters"]
+    spread, doppler = ti._axes(inputs, n_taps)
+    n_s, n_d = spread.size, doppler.size
+    stagger = "stagger_prf_hz" in inputs
+    blocked = (stagger and inputs.get("pick", "response") == "response"
+               and 2 * n_filters * n_taps * n_d > ti.DIRECT_WORK_MAX)
+    # the direct path evaluates every response with its own steering vector: 2 calls
+    # (grid and white limit) per bound; the blocked one shares them, and its exponentials
+    # are negligible
+    calls = 0 if blocked else (4 if stagger else 2)
+    macs = (2 if stagger else 1) * n_filters * n_taps * n_d * (1 if blocked else 2)
+    work = {"if_exp": calls * n_d * n_taps, "if_mac": macs,
+            "if_cell": n_s * n_d * (2 if stagger else 1), "if_fixed": 1.0}
+    if stagger and ti.doppler_period(inputs) >= 4 and n_taps < 64:
+        field = "stagger_prf_hz"
+    else:
+        field = "processor.n_coherent"
+    detail = (f"improvement-factor table {n_s} spreads x {n_d} Dopplers, {n_filters} "
+              f"filters of {n_taps} taps{' (staggered PRF)' if stagger else ''}, "
+              f"improvement_grid {inputs['resolution']!r}")
+    return work, n_s * n_d * 8 * 7, f"{where}.{field}", detail
+
+
+def _clutter_estimate(kind: str, radar, where: str):
+    from shipradar.tables.scene import clutter_grid_size
+
+    n_r, n_az = clutter_grid_size(radar)
+    cost = {"sea_clutter": "sea_cell", "weather_clutter": "weather_cell", "pfac": "pfac_cell"}
+    what = {"sea_clutter": "sea-clutter map", "weather_clutter": "weather-clutter map",
+            "pfac": "P_fac map"}[kind]
+    return ({cost[kind]: n_r * n_az}, n_r * n_az * 8 * (8 if kind != "pfac" else 4),
+            f"{where}.instrumented_range_m", f"{what} {n_r} ranges x {n_az} azimuths")
+
+
+def _spec_estimate(scenario: Scenario, spec, radar, where: str):
+    if spec.kind == "propagation":
+        return _pe_estimate(scenario, radar, where)
+    if spec.kind == "improvement":
+        return _improvement_estimate(scenario, radar, where)
+    if spec.kind == "atmosphere":
+        return ({"atmosphere": 1.0}, 41 * 25 * 8 * 3, "fidelity.atmosphere",
+                "gas/fog loss table 41 ranges x 25 elevations")
+    return _clutter_estimate(spec.kind, radar, where)
+
+
+def _pd_estimates(scenario: Scenario) -> list[BuildEstimate]:
+    """The exact-P_d tables a run builds when ``fidelity.pd_method`` is ``table`` (the dwell
+    model asks for them when it starts, one per Swerling case of the scene's targets)."""
+    if scenario.fidelity.pd_method != "table" or not scenario.targets:
+        return []
+    from shipradar.sensors import detection
+    from shipradar.tables import pd as tpd
+    from shipradar.tables.store import inputs_hash, is_cached
+
+    out = []
+    cases = sorted({int(t.swerling_case) for t in scenario.targets})
+    for pi, platform in enumerate(scenario.platforms):
+        for ri, radar in enumerate(platform.radars):
+            theta_b = math.radians(radar.beamwidth_az_deg)
+            pfa = float(detection.pfa_from_false_alarm_time(
+                radar.false_alarm_time_s, theta_b, radar.scan_period_s, radar.prf_hz,
+                radar.pulse_width_s, n_channels=radar.n_channels))
+            n_max = max(1.0, float(detection.pulses_per_beam(
+                theta_b, radar.scan_period_s, radar.prf_hz)))
+            for case in cases:
+                inputs = tpd.pd_table_inputs(pfa, case, n_max)
+                n_axis, snr = tpd.pd_table_axes(inputs)
+                cells = n_axis.size * snr.size
+                work = {"pd_cell": float(cells)}
+                out.append(BuildEstimate(
+                    radar.id, "pd", _seconds(work), cells * 8,
+                    f"platforms[{pi}].radars[{ri}].prf_hz",
+                    f"P_d table (Swerling {case}) {n_axis.size} N_e x {snr.size} S/I",
+                    is_cached(tpd.NAME, tpd.VERSION, inputs),
+                    f"{tpd.NAME}-{inputs_hash(tpd.NAME, tpd.VERSION, inputs)}", work))
+    return out
+
+
+def estimate_build(scenario: Scenario, *, include_pd: bool = True) -> list[BuildEstimate]:
+    """Estimated build time and size of every table the scene reads, cached or not.
+
+    From the builders' own grid rules (:func:`tables.propagation.table_grid`,
+    :func:`tables.improvement._axes`, :func:`tables.scene.clutter_grid_size`, ...) and the
+    cost constants :data:`COST`; nothing is built. ``include_pd``: also the exact-P_d
+    tables the run's dwell model builds (``tables build`` does not build them).
+    """
+    from shipradar.tables.scene import table_specs
+    from shipradar.tables.store import inputs_hash
+
+    where = {}
+    radars = {}
+    for pi, platform in enumerate(scenario.platforms):
+        for ri, radar in enumerate(platform.radars):
+            where[radar.id] = f"platforms[{pi}].radars[{ri}]"
+            radars[radar.id] = radar
+    out: list[BuildEstimate] = []
+    seen: set[str] = set()
+    for spec in table_specs(scenario):
+        name, version, inputs = spec.key()
+        key = f"{name}-{inputs_hash(name, version, inputs)}"
+        if key in seen:  # two radars with one table: built once
+            continue
+        seen.add(key)
+        work, size, field, detail = _spec_estimate(scenario, spec, radars[spec.radar_id],
+                                                   where[spec.radar_id])
+        out.append(BuildEstimate(spec.radar_id, spec.kind, _seconds(work), int(size), field,
+                                 detail, spec.cached(), key, work))
+    if include_pd:
+        out.extend(e for e in _pd_estimates(scenario) if e.key not in seen)
+    return out
+
+
+def announce_builds(estimates: list[BuildEstimate]) -> list[str]:
+    """One line per table still to build: what, its size and its estimated time."""
+    return [f"building {e.radar_id} {e.kind} table: {e.detail}, {_fmt(e.bytes)}, "
+            f"~{fmt_seconds(e.seconds)} est." for e in estimates if not e.cached]
+
+
+def _missing_seconds(estimates: list[BuildEstimate]) -> float:
+    return sum(e.seconds for e in estimates if not e.cached)
+
+
+#: Cheaper fidelity settings tried, in order of the accuracy they give up (docs/accuracy.md):
+#: (choice, value, the table kind it makes cheaper).
+CHEAPER = (("pe_grid", "coarse", "propagation"),
+           ("improvement_grid", "coarse", "improvement"),
+           ("propagation", "two_ray", "propagation"))
+
+
+def _cheaper_setting(scenario: Scenario, limit_s: float, include_pd: bool
+                     ) -> tuple[str, float] | None:
+    """The first cheaper ``fidelity`` change (alone, then accumulated) that fits the limit."""
+    fid = scenario.fidelity.model_dump()
+    kinds = {e.kind for e in estimate_build(scenario, include_pd=include_pd) if not e.cached}
+    tried: dict[str, object] = {}
+    for choice, value, kind in CHEAPER:
+        if fid.get(choice) == value or kind not in kinds:
+            continue
+        for change in ({choice: value}, {**tried, choice: value}):
+            if change.get("propagation") == "two_ray":
+                change.pop("pe_grid", None)
+            cheaper = scenario.model_copy(update={
+                "fidelity": scenario.fidelity.model_copy(update=change)})
+            t = _missing_seconds(estimate_build(cheaper, include_pd=include_pd))
+            if t <= limit_s:
+                what = " with ".join(f"fidelity.{k}: {v}" for k, v in change.items())
+                return what, t
+        tried[choice] = value
+    return None
+
+
+def check_build_time(scenario: Scenario, limit_s: float | None = None, *,
+                     include_pd: bool = True, suggest: bool = True,
+                     variants: list[Scenario] | None = None,
+                     cold: bool = False) -> list[BuildEstimate]:
+    """Refuse a scene whose missing tables would take longer than the limit to build.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The validated scene.
+    limit_s : float or None, optional
+        The limit [s]; default :func:`max_build_seconds`.
+    include_pd : bool, optional
+        Count the exact-P_d tables of a run (see :func:`estimate_build`).
+    suggest : bool, optional
+        Name the cheaper ``fidelity`` setting that would fit, if any.
+    variants : list of Scenario, optional
+        Scenes built one after the other (``shipradar fidelity``: the scene under each
+        fidelity setting it compares); their tables are counted once each.
+    cold : bool, optional
+        Every table counts, cached or not (a build in an empty cache).
+
+    Returns
+    -------
+    list of BuildEstimate
+        Every table's estimate (the cached ones flagged), for :func:`announce_builds`.
+
+    Raises
+    ------
+    BuildTimeError
+        One line: the field that drives the longest missing table, the estimated total, the
+        limit and the cheaper setting.
+    """
+    limit = max_build_seconds(limit_s)
+    estimates = []
+    seen: set[str] = set()
+    for scene in variants or [scenario]:
+        for e in estimate_build(scene, include_pd=include_pd):
+            if e.key not in seen:
+                seen.add(e.key)
+                estimates.append(replace(e, cached=False) if cold else e)
+    total = _missing_seconds(estimates)
+    if total > limit:
+        worst = max((e for e in estimates if not e.cached), key=lambda e: e.seconds)
+        line = (f"{worst.field}: the scene's tables need an estimated {fmt_seconds(total)} "
+                f"to build, over --max-build-s {limit:g}; the longest is radar "
+                f"{worst.radar_id!r}'s {worst.detail} at ~{fmt_seconds(worst.seconds)}")
+        cheaper = _cheaper_setting(scenario, limit, include_pd) if suggest else None
+        if cheaper is not None:
+            line += f"; {cheaper[0]} would take ~{fmt_seconds(cheaper[1])}"
+        elif variants:
+            line += ("; the study builds the tables of every fidelity setting it compares "
+                     "(the reference's are the finest): lower that field or raise "
+                     "--max-build-s")
+        else:
+            line += "; lower that field or raise --max-build-s"
+        raise BuildTimeError(line)
+    return estimates

@@ -25,12 +25,24 @@ from shipradar.tables.store import Table
 
 @dataclass
 class TableSpec:
-    """One table a scene needs: which radar, what kind, and how to get it (cache or build)."""
+    """One table a scene needs: which radar, what kind, and how to get it (cache or build).
+
+    ``key`` gives the builder's name, version and inputs without building anything: the
+    cache key of the table (:func:`tables.store.is_cached`), which :mod:`tables.budget`
+    checks so that only the tables still to build are estimated and announced.
+    """
 
     radar_id: str
     kind: str
     describe: str
     make: Callable[[], Table]
+    key: Callable[[], tuple[str, int, dict[str, Any]]] | None = None
+
+    def cached(self) -> bool:
+        """Whether the table is already in the cache (False when the key is unknown)."""
+        from shipradar.tables.store import is_cached
+
+        return self.key is not None and is_cached(*self.key())
 
 
 @dataclass
@@ -81,24 +93,26 @@ def table_specs(scenario: Scenario) -> list[TableSpec]:
 
 
 def _atmosphere_spec(scenario: Scenario, platform: Platform, radar: Radar) -> TableSpec:
-    from shipradar.tables.atmosphere import atmospheric_loss_grid
+    from shipradar.tables import atmosphere as ta
 
     env = scenario.environment
     ranges, elev = atmosphere_axes(radar)
+    kw = {"temperature_k": env.temperature_c + 273.15,
+          "pressure_hpa": env.pressure_hpa,
+          "water_vapour_density_g_m3": env.water_vapour_g_m3,
+          "fog_lwc_g_m3": env.fog.liquid_water_g_m3 if env.fog else 0.0,
+          "fog_top_m": env.fog.top_m if env.fog else 100.0,
+          "antenna_height_m": radar.antenna_height_m}
 
     def make() -> Table:
-        return atmospheric_loss_grid(
-            radar.frequency_hz, ranges, elev,
-            temperature_k=env.temperature_c + 273.15,
-            pressure_hpa=env.pressure_hpa,
-            water_vapour_density_g_m3=env.water_vapour_g_m3,
-            fog_lwc_g_m3=env.fog.liquid_water_g_m3 if env.fog else 0.0,
-            fog_top_m=env.fog.top_m if env.fog else 100.0,
-            antenna_height_m=radar.antenna_height_m,
-        )
+        return ta.atmospheric_loss_grid(radar.frequency_hz, ranges, elev, **kw)
+
+    def key():
+        return (ta.TABLE_NAME, ta.TABLE_VERSION,
+                ta.atmospheric_loss_inputs(radar.frequency_hz, ranges, elev, **kw))
 
     return TableSpec(radar.id, "atmosphere", "one-way gas/fog loss vs slant range, elevation",
-                     make)
+                     make, key)
 
 
 def _optional_specs(scenario: Scenario, platform: Platform, radar: Radar) -> list[TableSpec]:
@@ -212,12 +226,17 @@ def _improvement_specs(scenario: Scenario, platform: Platform, radar: Radar) -> 
     kw = improvement_kwargs(scenario, radar)
     if kw is None or not scenario.fidelity.clutter:
         return []
-    from shipradar.tables.improvement import improvement_table
+    from shipradar.tables import improvement as ti
 
     def make() -> Table:
-        return improvement_table(radar.processor.type, **kw)[0]
+        return ti.improvement_table(radar.processor.type, **kw)[0]
 
-    return [TableSpec(radar.id, "improvement", "improvement factor vs spread and Doppler", make)]
+    def key():
+        return (ti.BUILDER_NAME, ti.BUILDER_VERSION,
+                ti.improvement_table_inputs(radar.processor.type, **kw))
+
+    return [TableSpec(radar.id, "improvement", "improvement factor vs spread and Doppler", make,
+                      key)]
 
 
 def ship_motion(platform: Platform) -> tuple[float, float]:
@@ -246,7 +265,7 @@ def _clutter_specs(scenario: Scenario, platform: Platform, radar: Radar) -> list
     if not scenario.fidelity.clutter:
         return []
     from shipradar.sensors.radar import radar_constants
-    from shipradar.tables.clutter import sea_clutter_map, weather_clutter_map
+    from shipradar.tables import clutter as tc
 
     env = scenario.environment
     k = radar_constants(scenario, radar)
@@ -271,30 +290,34 @@ def _clutter_specs(scenario: Scenario, platform: Platform, radar: Radar) -> list
         "n_range": n_range,
         "n_azimuth": n_az,
     }
+    sea = {
+        "polarization": radar.polarization,
+        "elevation_pattern": k.pattern_key(radar),
+        "noise_power_w": k.n0,
+        "wave_height_m": scenario.wave_height,
+        "sea_state": env.sea_state,
+        "duct_height_m": duct,
+        "a_min": radar.a_min,
+        **common,
+    }
     specs = [TableSpec(
         radar.id, "sea_clutter", "sea-clutter power, σ0*, Weibull a, spectrum vs range, azimuth",
-        lambda: sea_clutter_map(
-            elevation_directivity=k.elevation_pattern(radar),
-            polarization=radar.polarization,
-            elevation_pattern=k.pattern_key(radar),
-            noise_power_w=k.n0,
-            wave_height_m=scenario.wave_height,
-            sea_state=env.sea_state,
-            duct_height_m=duct,
-            a_min=radar.a_min,
-            **common,
-        )[0])]
+        lambda: tc.sea_clutter_map(elevation_directivity=k.elevation_pattern(radar), **sea)[0],
+        lambda: (tc.SEA_MAP_NAME, tc.SEA_MAP_VERSION, tc.sea_clutter_map_inputs(**sea)))]
     if env.rain is not None:
+        weather = {
+            "beamwidth_el_rad": k.phi_b,
+            "prf_hz": radar.prf_hz,
+            "rain_rate_mm_h": env.rain.rate_mm_h,
+            "cloud_base_m": env.rain.cloud_base_m,
+            "precipitation": env.rain.kind,
+            **common,
+        }
         specs.append(TableSpec(
             radar.id, "weather_clutter", "weather-clutter power and spectrum vs range, azimuth",
-            lambda: weather_clutter_map(
-                beamwidth_el_rad=k.phi_b,
-                prf_hz=radar.prf_hz,
-                rain_rate_mm_h=env.rain.rate_mm_h,
-                cloud_base_m=env.rain.cloud_base_m,
-                precipitation=env.rain.kind,
-                **common,
-            )[0]))
+            lambda: tc.weather_clutter_map(**weather)[0],
+            lambda: (tc.WEATHER_MAP_NAME, tc.WEATHER_MAP_VERSION,
+                     tc.weather_clutter_map_inputs(**weather))))
     return specs
 
 
@@ -344,7 +367,7 @@ def _pfac_specs(scenario: Scenario, platform: Platform, radar: Radar) -> list[Ta
         return []
     from shipradar.sensors.detection import pfa_from_false_alarm_time
     from shipradar.sensors.sea_clutter import is_medium_high_resolution
-    from shipradar.tables.pfac import pfac_map
+    from shipradar.tables import pfac as tp
 
     theta_b = math.radians(radar.beamwidth_az_deg)
     if not bool(is_medium_high_resolution(theta_b, radar.pulse_width_s)):
@@ -354,13 +377,18 @@ def _pfac_specs(scenario: Scenario, platform: Platform, radar: Radar) -> list[Ta
         radar.false_alarm_time_s, theta_b, radar.scan_period_s, radar.prf_hz,
         radar.pulse_width_s, n_channels=radar.n_channels))
 
+    kw = {"pfa": pfa, "k_clutter": radar.k_clutter, "p_fac_max": radar.p_fac_max,
+          "clutter_fa_model": scenario.fidelity.clutter_fa_model}
+
     def make() -> Table:
-        return pfac_map(sea_spec.make(), pfa=pfa, k_clutter=radar.k_clutter,
-                        p_fac_max=radar.p_fac_max,
-                        clutter_fa_model=scenario.fidelity.clutter_fa_model)[0]
+        return tp.pfac_map(sea_spec.make(), **kw)[0]
+
+    def key():
+        return (tp.PFAC_MAP_NAME, tp.PFAC_MAP_VERSION,
+                tp.pfac_map_inputs(sea_spec.key()[2], **kw))
 
     return [TableSpec(radar.id, "pfac", "sea-clutter false-alarm probability P_fac per sector",
-                      make)]
+                      make, key)]
 
 
 #: Highest height of a PE table [m]: above it targets are at elevations where ducts and the
@@ -400,27 +428,119 @@ def _propagation_specs(scenario: Scenario, platform: Platform, radar: Radar) -> 
     if scenario.fidelity.propagation != "pe":
         return []
     from shipradar.sensors.radar import radar_constants
-    from shipradar.tables.propagation import get_propagation_table
+    from shipradar.tables import propagation as tp
 
     k = radar_constants(scenario, radar)
-    max_height = pe_table_height_m(scenario, radar)
     kind, phi_b, sidelobe, tilt = k.pattern_key(radar)
     description = {"kind": kind, "beamwidth_rad": phi_b, "sidelobe_db": sidelobe,
                    "tilt_rad": tilt, "convention": "absolute elevation"}
+    kw = pe_table_grid_kwargs(scenario, radar)
+    kw.pop("antenna_height_m")
 
     def make() -> Table:
-        return get_propagation_table(
+        return tp.get_propagation_table(
             freq_hz=radar.frequency_hz,
             antenna_height_m=radar.antenna_height_m,
-            polarization=radar.polarization,
             elevation_pattern=k.elevation_pattern(radar),
             pattern_description=description,
-            profile=refractivity_profile(scenario),
-            wave_height_m=scenario.wave_height,
-            max_range_m=radar.instrumented_range_m,
-            max_height_m=max_height,
-            fidelity=scenario.fidelity.pe_grid,
+            **kw,
         )[0]
 
+    def key():
+        return (tp.TABLE_NAME, tp.TABLE_VERSION, tp.propagation_table_inputs(
+            radar.frequency_hz, radar.antenna_height_m, pattern_description=description, **kw))
+
     return [TableSpec(radar.id, "propagation", "propagation factor F vs range, height (PE)",
-                      make)]
+                      make, key)]
+
+
+def pe_table_grid_kwargs(scenario: Scenario, radar: Radar) -> dict[str, Any]:
+    """The grid arguments of a radar's PE table (one rule for the builder and the budget):
+    keywords of :func:`tables.propagation.table_grid` and, with the pattern, of the builder."""
+    kw = pe_table_grid_kwargs_uncapped(scenario, radar)
+    kw["max_range_m"] = pe_table_range_m(scenario, radar, kw)
+    return kw
+
+
+#: Margin on the farthest ground range a target or jammer reaches (:func:`pe_table_range_m`):
+#: relative, and absolute [m] (covers the chord/arc difference and a last range step).
+PE_RANGE_MARGIN = 0.05
+PE_RANGE_MARGIN_M = 1000.0
+
+
+def pe_table_range_m(scenario: Scenario, radar: Radar, grid: dict[str, Any] | None = None
+                     ) -> float:
+    """Last range of a radar's PE table [m]: the instrumented range, or less on a large grid.
+
+    F is read only at the targets' and jammers' positions (sensors.dwell). When the table to
+    the instrumented range is a large grid (:data:`tables.propagation.LARGE_GRID_WORK`, e.g.
+    a 100 GHz radar or a 1000 km instrumented range), it stops at the farthest ground range
+    from the radar's platform that any target or jammer of the scene reaches, plus
+    :data:`PE_RANGE_MARGIN` and :data:`PE_RANGE_MARGIN_M`: beyond it nothing is there to
+    look up (a look beyond would fall back to the two-ray model and be counted). Targets
+    exist only along their tracks and platforms and jammers hold their ends, so the farthest
+    range holds for any run duration. Smaller grids keep the instrumented range (the shipped
+    scenes' tables are unchanged).
+    """
+    from shipradar.tables.propagation import LARGE_GRID_WORK, table_grid
+
+    full = radar.instrumented_range_m
+    if grid is None:
+        grid = pe_table_grid_kwargs_uncapped(scenario, radar)
+    g = table_grid(radar.frequency_hz, **{**grid, "max_range_m": full})
+    if g["n"] * g["n_steps"] <= LARGE_GRID_WORK:
+        return full
+    reach = farthest_mover_range_m(scenario, radar)
+    return float(min(full, reach * (1 + PE_RANGE_MARGIN) + PE_RANGE_MARGIN_M))
+
+
+def pe_table_grid_kwargs_uncapped(scenario: Scenario, radar: Radar) -> dict[str, Any]:
+    """:func:`pe_table_grid_kwargs` to the instrumented range."""
+    return {
+        "antenna_height_m": radar.antenna_height_m,
+        "polarization": radar.polarization,
+        "profile": refractivity_profile(scenario),
+        "wave_height_m": scenario.wave_height,
+        "max_range_m": radar.instrumented_range_m,
+        "max_height_m": pe_table_height_m(scenario, radar),
+        "fidelity": scenario.fidelity.pe_grid,
+    }
+
+
+#: Times sampled between the first and the last time of any track (besides every piece's
+#: start) by :func:`farthest_mover_range_m`.
+_REACH_SAMPLES = 4001
+
+
+def farthest_mover_range_m(scenario: Scenario, radar: Radar) -> float:
+    """Largest horizontal distance [m] between a radar's platform and any target (while it
+    exists) or jammer, over the whole scene.
+
+    Exact for straight legs (the distance between two straight legs is largest at an end of
+    a common interval, and every piece start is sampled); turns and weaves are sampled at
+    :data:`_REACH_SAMPLES` times. 0 for a scene without targets or jammers.
+    """
+    from shipradar.sim.kinematics import LocalFrame
+    from shipradar.sim.trajectory import trajectories
+
+    platform = next(p for p, r in scenario.radars() if r.id == radar.id)
+    frame = LocalFrame(scenario.origin)
+    ship = trajectories([platform], frame, hold=True)
+    best = 0.0
+    for movers, hold in ((scenario.targets, False), (scenario.jammers, True)):
+        if not movers:
+            continue
+        tr = trajectories(movers, frame, hold=hold)
+        starts = [ship.times[0][np.isfinite(ship.times[0])], tr.t_last, ship.t_last]
+        starts += [row[np.isfinite(row)] for row in tr.times]
+        times = np.concatenate([np.ravel(x) for x in starts])
+        lo, hi = float(times.min()), float(times.max())
+        times = np.unique(np.concatenate([times, np.linspace(lo, hi, _REACH_SAMPLES)]))
+        rows = np.repeat(np.arange(tr.n), times.size)
+        t = np.tile(times, tr.n)
+        pos, _, active = tr.state(t, rows)
+        own, _, _ = ship.state(t, np.zeros(t.size, dtype=int))
+        d = np.hypot(pos[:, 0] - own[:, 0], pos[:, 1] - own[:, 1])
+        if np.any(active):
+            best = max(best, float(d[active].max()))
+    return best

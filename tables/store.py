@@ -237,6 +237,12 @@ def cache_path(name: str, key: str, root: Path | None = None) -> Path:
     return (root or cache_dir()) / f"{name}-{key}.npz"
 
 
+def is_cached(name: str, version: int, inputs: dict[str, Any], root: Path | None = None) -> bool:
+    """Whether the table keyed by these inputs is in the cache (the key :func:`get_or_build`
+    reads), without loading it."""
+    return cache_path(name, inputs_hash(name, version, inputs), root).exists()
+
+
 def load_cached(name: str, version: int, inputs: dict[str, Any], root: Path | None = None):
     """Return the cached table for these inputs, or ``None`` if it has not been built."""
     path = cache_path(name, inputs_hash(name, version, inputs), root)
