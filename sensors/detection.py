@@ -66,17 +66,46 @@ Choices where the seed is silent or wrong
   correlated branch is capped at ⌊N_n⌋ and N_n' is continuous at the switch.
 * **N_rc ≤ 0 or P_fa ∉ (0, 1) in [68]-[72] (SPEC §4 item 14)** raise ``ValueError``.
 * **N_e < 1 (SPEC §4 item 16)**: :func:`effective_pulses` never returns less than 1.
+* **[68]-[72] against [90] (erratum, issue 23 item 5a).**  The seed names t_fa "the mean
+  time between false alarms" but sets P_fa = 0.69/n' (Marcum's false-alarm time: the
+  probability of at least one false alarm in t_fa is 1/2, i.e. 0.69 false alarms per t_fa
+  on average) over n_0 = N_ch N_rc decisions per sweep, while its generator [90] draws
+  N_cells P_fa per scan over N_cells = 2π R_inst/(θ_b C_R) cells, without N_ch and with
+  R_inst in place of the N_rc gates of an interpulse period.  The emitted rate was
+  0.69 R_inst/(N_ch N_rc C_R) / t_fa: 0.46-1.15 / t_fa on the shipped radars.  Here t_fa is
+  what the user says it is, the mean time between the false alarms the radar *reports*:
+  P_fa = 1/n' (:data:`FALSE_ALARMS_PER_T_FA`), and n_0 = N_ch N_rep counts the decisions
+  that can be reported, N_rep = min(N_rc, R_inst/C_R) range gates per sweep
+  (:func:`reported_range_cells`: the gates of one interpulse period that fall inside the
+  instrumented range; a radar cannot decide in more gates than its interpulse period
+  holds, nor report beyond R_inst).  :func:`sensors.false_alarms.noise_false_alarms_per_scan`
+  draws η = N_ch N_rep (2π/θ_b) P_fa per revolution, so η = t_scan/t_fa exactly.  The
+  seed's letter stays available as ``t_fa_definition="median"`` (P_fa = 0.69/n').
+* **MTI cascaded with a bank, [76] against [77] (erratum, issue 23 item 5b).**  The seed
+  gives [76] for an MTI and [77] for a bank and is silent on the cascade; taking [77] alone
+  ignores the canceller.  A cascade is a sliding canceller (an output per pulse after its
+  N_pc fill pulses, Trunk's correlated sequence of [76]) whose outputs the bank integrates
+  in disjoint blocks of N_b = N_c - N_pc taps ([77]'s batches), so the non-coherent
+  integrator receives (N_n - N_pc)/N_b outputs, correlated only through the canceller's
+  N_pc-pulse memory at the block edges: see :func:`effective_pulses`.
 """
 
 from __future__ import annotations
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import special, stats
+from scipy import constants, special, stats
 
 # ----------------------------------------------------------------------------- constants
 #: Number of decision channels per range cell N_ch of [71] (seed 6.2: 2 for any radar).
 N_CHANNELS = 2
+#: False alarms per t_fa on average: 1 for t_fa the *mean* time between false alarms (the
+#: seed's own definition of t_fa and the user's), against the seed's 0.69 of [68]
+#: (Marcum's median time; see the module notes).
+FALSE_ALARMS_PER_T_FA = 1.0
+#: The readings of t_fa in :func:`pfa_from_false_alarm_time`: "mean" (P_fa = 1/n', the
+#: default) or "median" (the seed's letter, P_fa = 0.69/n').
+T_FA_DEFINITIONS = ("mean", "median")
 #: The seed's 0.69 ≈ ln 2 of [68] and of the Bernoulli limit of [92]: P_fa = 0.69/n' makes
 #: the probability of at least one false alarm in t_fa equal to 1/2 (Nathanson 1991, p. 82).
 LN2_SEED = 0.69
@@ -237,6 +266,45 @@ def pulses_per_beam(
     return sweep_time(beamwidth_rad, scan_period_s) * f_r
 
 
+def reported_range_cells(
+    prf_hz: ArrayLike, pulse_width_s: ArrayLike, instrumented_range_m: ArrayLike | None = None
+) -> NDArray[np.float64]:
+    """Range gates per sweep whose decisions can be reported, N_rep = min(N_rc, R_inst/C_R).
+
+    The decisions of [71] that can give a reported plot: the N_rc gates of one interpulse
+    period [72] that lie inside the instrumented range R_inst, with C_R = c τ'/2.  Erratum
+    to [68]-[72] against [90] (issue 23 item 5a, module notes): a gate beyond R_inst is not
+    reported, and a radar whose R_inst exceeds the unambiguous range c/(2 f_r) still decides
+    in N_rc gates per pulse.
+
+    Parameters
+    ----------
+    prf_hz : array_like
+        Pulse repetition frequency f_r [Hz].
+    pulse_width_s : array_like
+        Compressed pulse length τ' [s].
+    instrumented_range_m : array_like, optional
+        R_inst [m], > 0.  None: every gate, N_rc of [72] (the seed's n_0).
+
+    Returns
+    -------
+    ndarray
+        N_rep [-] (not rounded), in (0, N_rc].
+
+    Raises
+    ------
+    ValueError
+        As :func:`range_cells`, or if R_inst is not positive.
+    """
+    n_rc = range_cells(prf_hz, pulse_width_s)
+    if instrumented_range_m is None:
+        return n_rc
+    r_inst = np.asarray(instrumented_range_m, dtype=float)
+    _require_positive("instrumented_range_m", r_inst)
+    c_r = constants.c * np.asarray(pulse_width_s, dtype=float) / 2.0
+    return np.minimum(n_rc, r_inst / c_r)
+
+
 def pfa_from_false_alarm_time(
     t_fa_s: ArrayLike,
     beamwidth_rad: ArrayLike,
@@ -244,11 +312,19 @@ def pfa_from_false_alarm_time(
     prf_hz: ArrayLike,
     pulse_width_s: ArrayLike,
     n_channels: ArrayLike = N_CHANNELS,
+    *,
+    instrumented_range_m: ArrayLike | None = None,
+    t_fa_definition: str = "mean",
 ) -> NDArray[np.float64]:
     """Probability of false alarm from the mean time between false alarms, seed [68]-[72].
 
-    P_fa = 0.69 / n',  n' = n_0 t_fa / t_swp,  t_swp = θ_b t_scan / (2π),
-    n_0 = N_ch N_rc,  N_rc = 1/(f_r τ') - 2.
+    P_fa = k / n',  n' = n_0 t_fa / t_swp,  t_swp = θ_b t_scan / (2π),  n_0 = N_ch N_rep,
+
+    with k = 1 (t_fa the mean time between false alarms; the seed's [68] has k = 0.69) and
+    N_rep = min(N_rc, R_inst/C_R) the reported gates (:func:`reported_range_cells`; the
+    seed's [71] has N_rc).  Erratum, issue 23 item 5a (module notes): with both, the noise
+    false alarms of :func:`sensors.false_alarms.noise_false_alarms_per_scan` come at
+    exactly 1/t_fa.
 
     Parameters
     ----------
@@ -264,6 +340,14 @@ def pfa_from_false_alarm_time(
         Compressed pulse length τ' [s].
     n_channels : array_like, optional
         Decision channels per range cell N_ch [-] (seed: :data:`N_CHANNELS` = 2).
+    instrumented_range_m : array_like, optional
+        R_inst [m]: decisions in gates beyond it are not reported and do not count.  None:
+        every gate of the interpulse period (N_rc, the seed's n_0) -- the same for a radar
+        whose R_inst is at least its unambiguous range (every shipped radar).
+    t_fa_definition : {"mean", "median"}, optional
+        ``"mean"``: one false alarm per t_fa on average, P_fa = 1/n'.  ``"median"``: the
+        seed's letter, P_fa = 0.69/n' (probability 1/2 of at least one false alarm in t_fa;
+        Marcum's false-alarm time), 0.69 false alarms per t_fa.
 
     Returns
     -------
@@ -273,21 +357,26 @@ def pfa_from_false_alarm_time(
     Raises
     ------
     ValueError
-        If N_rc ≤ 0 (f_r τ' ≥ 1/2), an input is not positive, or the result is not in
-        (0, 1) (n' ≤ 0.69: t_fa shorter than about one sweep; SPEC §4 item 14).
+        If N_rc ≤ 0 (f_r τ' ≥ 1/2), an input is not positive, ``t_fa_definition`` is
+        unknown, or the result is not in (0, 1) (n' ≤ k: t_fa shorter than about one
+        sweep; SPEC §4 item 14).
     """
+    if t_fa_definition not in T_FA_DEFINITIONS:
+        raise ValueError(f"pfa_from_false_alarm_time: t_fa_definition must be one of "
+                         f"{T_FA_DEFINITIONS}, got {t_fa_definition!r}")
     t_fa = np.asarray(t_fa_s, dtype=float)
     n_ch = np.asarray(n_channels, dtype=float)
     _require_positive("t_fa_s", t_fa)
     _require_positive("n_channels", n_ch)
     t_swp = sweep_time(beamwidth_rad, scan_period_s)
-    n_0 = n_ch * range_cells(prf_hz, pulse_width_s)
+    n_0 = n_ch * reported_range_cells(prf_hz, pulse_width_s, instrumented_range_m)
     n_prime = n_0 * t_fa / t_swp
-    pfa = LN2_SEED / n_prime
+    k = FALSE_ALARMS_PER_T_FA if t_fa_definition == "mean" else LN2_SEED
+    pfa = k / n_prime
     if np.any(~((pfa > 0) & (pfa < 1))):
         bad = np.asarray(pfa)[~((pfa > 0) & (pfa < 1))].flat[0]
         raise ValueError(
-            f"pfa_from_false_alarm_time: P_fa = 0.69 / n' must be in (0, 1), got {bad:g} "
+            f"pfa_from_false_alarm_time: P_fa = {k:g} / n' must be in (0, 1), got {bad:g} "
             "(false alarm time too short for the number of opportunities n')"
         )
     return pfa
@@ -316,8 +405,34 @@ def effective_pulses(
       target t_ot = θ_b/ω_rot [s] [74] (the seed's "6" is its rpm-to-degrees/s conversion,
       see the module notes), capped at ⌊N_n⌋;
     * N_e' = max(N_n / N_fc, N_n') with frequency agility [75];
-    * with a filter bank or coherent integrator (``n_coherent`` > 1): N_e = N_n / N_c [77];
-      otherwise with an N_pc-pulse MTI: N_e = N_e' / (1 + 0.53 N_pc) [76]; otherwise N_e'.
+    * with a filter bank or coherent integrator alone (``n_coherent`` N_c > 1, no MTI):
+      N_e = N_n / N_c [77];
+    * with an N_pc-order MTI alone: N_e = N_e' / (1 + 0.53 N_pc) [76];
+    * with an N_pc-order MTI feeding a bank, the cascade's N_c pulses being the canceller's
+      N_pc + 1 convolved with the bank's N_b = N_c - N_pc taps ([61], the convention of
+      the I_F table): N_e = (N_n - N_pc) / (N_b (1 + 0.53 N_pc / N_b²));
+    * otherwise N_e'.
+
+    The cascade (erratum, issue 23 item 5b; the seed gives no rule and the code used to
+    apply [77] alone, as if the canceller were not there).  The canceller slides along the
+    dwell: after its N_pc fill pulses it gives one output per pulse, N_n - N_pc in all,
+    adjacent ones correlated (Trunk, seed Ref. 25: the loss 1 + 0.53 N_pc of [76]).  The
+    bank integrates these outputs coherently in disjoint blocks of N_b (the batches of
+    [77]; Nathanson 1991, ch. 9; the MTD's canceller-then-DFT, Skolnik 2001, §3.6), so
+    (N_n - N_pc)/N_b outputs reach the non-coherent integrator.  Two adjacent blocks share
+    input pulses only through the canceller's N_pc-pulse memory, so the correlation of [76]
+    falls with the block length; 1 + 0.53 N_pc / N_b² keeps [76]'s value at N_b = 1 and
+    tends to 1 as N_b grows, like the exact factor 1 + Σ_{m≠0} |ρ(m)|² of the cascade's
+    own weights at a stride of N_b pulses, averaged over the bank's filters (1.000-1.12
+    for Hann or Hamming windows at N_b ≥ 3 and N_pc ≤ 6, where the interpolation gives
+    1.002-1.35; within 25 % of it, checked in ``tests/test_detection.py``).  Limits: N_pc = 0 gives [77]; N_b = 1 (a one-tap bank:
+    the canceller alone) gives [76] applied to the canceller's N_n - N_pc outputs, i.e.
+    [76] with decorrelated pulses (N_e' = N_n), the premise under which [76] is stated,
+    less the N_pc fill pulses that its long-train fit ignores.  For the shipped Giraffe
+    ``mti_bank`` (N_n = 25, N_pc = 1, N_c = 8): 3.392 instead of [77]'s 3.125 (the old
+    value read N_c as a batch that restarts the canceller every N_c pulses).  Like [77],
+    this counts the processor's outputs and not the clutter's own independent samples
+    N_e' of [74]-[75]; the seed does the same for a bank.
 
     The result is never below 1 (SPEC §4 item 16).
 
@@ -341,9 +456,11 @@ def effective_pulses(
         Pulses before a frequency change N_fc [-] (1 = pulse-to-pulse agility; default inf:
         a fixed frequency, N_n / N_fc = 0).
     mti_order : array_like
-        Order N_pc of the MTI canceller [-] (0: no MTI).
+        Order N_pc of the MTI canceller [-] (0: no MTI; it uses N_pc + 1 pulses).
     n_coherent : array_like
-        Pulses integrated coherently by the filter bank N_c [-] (1: none).
+        Pulses integrated coherently N_c [-] (1: none).  Behind an MTI it counts the whole
+        cascade (the canceller's fill pulses and the bank's taps, > N_pc), as the
+        scenario's ``processor.n_coherent`` of an ``mti_bank`` does.
 
     Returns
     -------
@@ -382,9 +499,16 @@ def effective_pulses(
     )
     n_clutter = np.minimum(n_clutter, np.floor(n_n))  # "a number between 1 and N_n"
     n_e_prime = np.maximum(n_n / n_fc, n_clutter)  # [75]
-    n_e_clutter = np.where(
-        n_c > 1.0, n_n / n_c, n_e_prime / (1.0 + MTI_PULSE_FACTOR * n_pc)
-    )  # [77] or [76]
+    bank = n_c > 1.0
+    if np.any(bank & ~(n_c > n_pc)):
+        raise ValueError(
+            "effective_pulses: an MTI feeding a bank needs n_coherent > mti_order (the bank's "
+            "taps are n_coherent - mti_order)"
+        )
+    # the cascade (N_pc = 0: [77]); its block correlation, see the docstring
+    n_taps = np.where(bank, n_c - n_pc, 1.0)
+    n_e_bank = (n_n - n_pc) / (n_taps * (1.0 + MTI_PULSE_FACTOR * n_pc / n_taps**2))
+    n_e_clutter = np.where(bank, n_e_bank, n_e_prime / (1.0 + MTI_PULSE_FACTOR * n_pc))
     return np.maximum(np.where(dominated, n_e_clutter, n_n), 1.0)
 
 
@@ -902,12 +1026,14 @@ def _pd_seed(snr_db, pfa, n, sw, h_n, zeta):
 
 __all__ = [
     "DECORRELATED_SPREAD_RATIO",
+    "FALSE_ALARMS_PER_T_FA",
     "LN2_SEED",
     "N_CHANNELS",
     "SEED_PD_RANGE",
     "SEED_PFA_RANGE",
     "TABLE_I",
     "TABLE_II",
+    "T_FA_DEFINITIONS",
     "effective_pulses",
     "equivalent_pulses",
     "fluctuation_k",
@@ -917,6 +1043,7 @@ __all__ = [
     "probability_of_detection",
     "pulses_per_beam",
     "range_cells",
+    "reported_range_cells",
     "required_snr_db",
     "sweep_time",
 ]

@@ -105,16 +105,21 @@ class DwellModel:
         self.elevation_pattern = k.elevation_pattern(radar)
         self.high_resolution = bool(sea_clutter.is_medium_high_resolution(
             self.theta_b, radar.pulse_width_s))
-        # false alarms and pulses [68]-[73], [90]
+        # false alarms and pulses [68]-[73], [90]: P_fa for one reported false alarm per
+        # t_fa and the count over the same decisions, so the noise false alarms come at 1/t_fa
+        # (the seed's [68] and [90] disagree; detection and false_alarms module notes)
         self.pfa = float(detection.pfa_from_false_alarm_time(
             radar.false_alarm_time_s, self.theta_b, radar.scan_period_s, radar.prf_hz,
-            radar.pulse_width_s, n_channels=radar.n_channels))
+            radar.pulse_width_s, n_channels=radar.n_channels,
+            instrumented_range_m=radar.instrumented_range_m))
         # N_n >= 1 to rounding (the schema refuses fewer, sim.scenario.PULSES_PER_BEAM_ULP)
         self.n_pulses = max(1.0, float(detection.pulses_per_beam(
             self.theta_b, radar.scan_period_s, radar.prf_hz)))
         self.n_cells = float(false_alarms.resolution_cells(
             radar.instrumented_range_m, self.theta_b, self.range_cell))
-        self.noise_false_alarms_per_scan = self.n_cells * self.pfa
+        self.noise_false_alarms_per_scan = float(false_alarms.noise_false_alarms_per_scan(
+            self.pfa, self.theta_b, radar.prf_hz, radar.pulse_width_s,
+            radar.instrumented_range_m, radar.n_channels))
         if self.method == "table":
             # the exact P_d tabulated against (N_e, S/I) for this P_fa, N_e in [1, N_n]
             from shipradar.tables.pd import PdTables
@@ -726,7 +731,10 @@ class DwellModel:
             doppler_hz, self.radar.prf_hz, self.n_doppler_filters), dtype=np.int64)
 
     def _pulse_args(self, clutter, lead):
-        """Keyword arguments of :func:`sensors.detection.effective_pulses` for [74]-[77]."""
+        """Keyword arguments of :func:`sensors.detection.effective_pulses` for [74]-[77]:
+        ``mti_order`` N_pc for an MTI (alone or feeding a bank), ``n_coherent`` N_c for a
+        bank (an ``mti_bank``'s N_c counts the whole cascade, N_pc + its bank's taps, as
+        ``effective_pulses`` expects)."""
         proc = self.radar.processor
         spread = np.zeros(lead.size) if clutter is None else clutter["spread_mps"][lead]
         return {

@@ -9,6 +9,26 @@ Choices where the seed is silent or wrong
 * **[90] units (SPEC §4 item 7).**  The seed's 360 R_inst/(θ_b C_R) takes θ_b in degrees;
   here θ_b is in radians: N_cells = 2π R_inst / (θ_b C_R) (beam positions per revolution
   times range cells).
+* **[90] against [68]-[72] (erratum, issue 23 item 5a).**  The seed draws η = N_cells P_fa
+  per scan over the N_cells = 2π R_inst/(θ_b C_R) cells of the instrumented disc, while
+  [68]-[72] set P_fa for 0.69 false alarms per t_fa over N_ch N_rc decisions per sweep:
+  η t_fa/t_scan was 0.69 R_inst/(N_ch N_rc C_R), 0.46-1.15 on the shipped radars instead
+  of 1.  The count here is over the decisions that [68]-[72] count
+  (:func:`noise_false_alarms_per_scan`): N_ch channels in each of the N_rep =
+  min(N_rc, R_inst/C_R) reported gates of each of the 2π/θ_b beam positions, every channel's
+  crossing a plot of its own; with P_fa = 1/n' (:func:`sensors.detection.pfa_from_false_alarm_time`)
+  η = t_scan/t_fa exactly, whatever the radar.  The positions stay uniform over the
+  instrumented disc (R_inst > c/(2 f_r): the N_rc gates' crossings are reported over it,
+  as the targets are, the ambiguity resolution not being modelled).
+  :func:`resolution_cells` keeps [90]'s geometric count of the disc's cells.
+* **Sea-clutter counts and P_fa.**  A sector's η = P_fac × cells counts one decision per
+  cell, not N_ch: a spike is one return of one cell, seen alike by every channel, unlike
+  noise, whose channels cross independently.  The P_fac of [94]-[95] depends on P_fa
+  through the threshold: P_fa = 1/n' instead of 0.69/n' (shipped radars: ×1.45) lowers
+  Y/σ0 = (ln(1/P_fa)/ln 2)^a_min by 2 % (0.1 dB): on the demo scene the clutter false
+  alarms rise by 3.4 % (388.3 → 401.4 per scan at K_clutter = 1; ``weibull_median``:
+  33.7 → 35.8), per sector by 2-19 % (most where P_fac is smallest), and the HP default
+  P_facmax by 5 % (docs/stability-seed-points.md).
 * **[91] (SPEC §4 item 1).**  The normal density lacks its square; the density used is
   exp(-(x-η)²/(2η)) / sqrt(2πη), mean and variance η.
 * **Sampling.**  Every regime is drawn by the seed's inverse-CDF ("innovation filter",
@@ -69,7 +89,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import special
 
-from shipradar.sensors.detection import LN2_SEED, N_CHANNELS
+from shipradar.sensors.detection import LN2_SEED, N_CHANNELS, reported_range_cells
 from shipradar.sensors.measurement import expected_errors
 from shipradar.sensors.sea_clutter import STANDARD_K_FACTOR, slant_range_m
 
@@ -82,6 +102,9 @@ def resolution_cells(
     instrumented_range_m: ArrayLike, beamwidth_rad: ArrayLike, range_cell_m: ArrayLike
 ) -> NDArray[np.float64]:
     """Resolution cells in the instrumented domain, N_cells = 2π R_inst/(θ_b C_R), seed [90].
+
+    The geometry of [90].  The noise false-alarm count is not N_cells P_fa (the seed's
+    letter) but :func:`noise_false_alarms_per_scan` (erratum, module notes).
 
     Parameters
     ----------
@@ -111,6 +134,60 @@ def resolution_cells(
             "range_cell_m > 0"
         )
     return TWO_PI * r / (theta * c_r)
+
+
+def noise_false_alarms_per_scan(
+    pfa: ArrayLike,
+    beamwidth_rad: ArrayLike,
+    prf_hz: ArrayLike,
+    pulse_width_s: ArrayLike,
+    instrumented_range_m: ArrayLike,
+    n_channels: ArrayLike = N_CHANNELS,
+) -> NDArray[np.float64]:
+    """Expected noise false alarms per revolution, η = N_ch N_rep (2π/θ_b) P_fa, seed [90].
+
+    The decisions that [68]-[72] count, over one revolution: N_ch channels (each crossing a
+    plot) in each of the N_rep = min(N_rc, R_inst/C_R) reported range gates
+    (:func:`sensors.detection.reported_range_cells`) of each of the 2π/θ_b beam positions.
+    Erratum to [90] (issue 23 item 5a, module notes): the seed's N_cells P_fa, with
+    N_cells = 2π R_inst/(θ_b C_R) (:func:`resolution_cells`), leaves out N_ch and counts the
+    disc's cells instead of the gates decided.  With P_fa of
+    :func:`sensors.detection.pfa_from_false_alarm_time` for the same R_inst, η = t_scan/t_fa.
+
+    Parameters
+    ----------
+    pfa : array_like
+        P_fa per decision [-], in [0, 1].
+    beamwidth_rad : array_like
+        Horizontal 3 dB beamwidth θ_b [rad], > 0.
+    prf_hz : array_like
+        Pulse repetition frequency f_r [Hz].
+    pulse_width_s : array_like
+        Compressed pulse length τ' [s].
+    instrumented_range_m : array_like
+        R_inst [m], > 0.
+    n_channels : array_like, optional
+        Decision channels per cell N_ch [-].
+
+    Returns
+    -------
+    ndarray
+        η [-] per revolution.
+
+    Raises
+    ------
+    ValueError
+        If P_fa ∉ [0, 1], θ_b or N_ch is not positive, or as
+        :func:`sensors.detection.reported_range_cells`.
+    """
+    p = np.asarray(pfa, dtype=float)
+    theta = np.asarray(beamwidth_rad, dtype=float)
+    n_ch = np.asarray(n_channels, dtype=float)
+    if np.any(~((p >= 0) & (p <= 1))) or np.any(~(theta > 0)) or np.any(~(n_ch > 0)):
+        raise ValueError("noise_false_alarms_per_scan: need 0 <= pfa <= 1, beamwidth_rad > 0 "
+                         "and n_channels > 0")
+    n_rep = reported_range_cells(prf_hz, pulse_width_s, instrumented_range_m)
+    return n_ch * n_rep * (TWO_PI / theta) * p
 
 
 def bernoulli_limit(n_channels: ArrayLike = N_CHANNELS) -> NDArray[np.float64]:
@@ -1017,4 +1094,5 @@ __all__ = [
     "weibull_median_exceedance",
     "weibull_median_ratio",
     "log_weibull_median_ratio",
+    "noise_false_alarms_per_scan",
 ]

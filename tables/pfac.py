@@ -192,7 +192,9 @@ def build_pfac_map(
     sea_map : Table
         The radar's sea-clutter map (:func:`tables.clutter.sea_clutter_map`).
     pfa : float
-        P_fa per cell [-] of [68]-[72] (:func:`sensors.detection.pfa_from_false_alarm_time`).
+        P_fa per cell [-] of [68]-[72] (:func:`sensors.detection.pfa_from_false_alarm_time`,
+        the same call as the radar's model, R_inst included, so that the map's threshold
+        [95] is the model's; issue 23 item 5a: P_fa = 1/n', not the seed's 0.69/n').
     k_clutter : float, optional
         K_clutter ≥ 1 [96].
     p_fac_max : float, optional

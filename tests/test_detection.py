@@ -76,10 +76,24 @@ def test_pfa_from_false_alarm_time_hand_computation():
     assert float(sweep_time(theta, 2.0)) == pytest.approx(t_swp, rel=1e-12)
     assert float(range_cells(1e3, 1e-6)) == pytest.approx(998.0, rel=1e-12)
     assert float(pulses_per_beam(theta, 2.0, 1e3)) == pytest.approx(1000 * t_swp, rel=1e-12)
+    # t_fa the mean time between false alarms: one per t_fa, P_fa = 1/n' (issue 23 item 5a;
+    # the seed's [68] has 0.69/n', kept as t_fa_definition="median")
     pfa = float(pfa_from_false_alarm_time(100.0, theta, 2.0, 1e3, 1e-6))
-    assert pfa == pytest.approx(0.69 / n_prime, rel=1e-12)
-    assert pfa == pytest.approx(2.8808e-8, rel=1e-4)  # 0.69 / (2*998*100/8.3333e-3), by hand
+    assert pfa == pytest.approx(1.0 / n_prime, rel=1e-12)
+    assert pfa == pytest.approx(4.1750e-8, rel=1e-4)  # 1 / (2*998*100/8.3333e-3), by hand
+    seed = float(pfa_from_false_alarm_time(100.0, theta, 2.0, 1e3, 1e-6,
+                                           t_fa_definition="median"))
+    assert seed == pytest.approx(2.8808e-8, rel=1e-4)  # 0.69 / n', the seed's letter
     assert detection.N_CHANNELS == 2 and detection.LN2_SEED == pytest.approx(np.log(2), abs=0.01)
+    # R_inst = 60 km inside c/(2 f_r) = 149.9 km: n_0 counts the 300.2 gates within it
+    c_r = 299_792_458.0 * 1e-6 / 2
+    inside = float(pfa_from_false_alarm_time(100.0, theta, 2.0, 1e3, 1e-6,
+                                             instrumented_range_m=60e3))
+    assert inside == pytest.approx(t_swp / (2 * (60e3 / c_r) * 100.0), rel=1e-12)
+    assert float(pfa_from_false_alarm_time(100.0, theta, 2.0, 1e3, 1e-6,
+                                           instrumented_range_m=200e3)) == pfa
+    with pytest.raises(ValueError, match="t_fa_definition"):
+        pfa_from_false_alarm_time(100.0, theta, 2.0, 1e3, 1e-6, t_fa_definition="marcum")
 
 
 def test_pfa_vectorized_over_t_fa():
@@ -141,6 +155,82 @@ def test_effective_pulses_clutter_branches():
     # long time on target: 1 + 5*1*0.02/(0.05*0.01) = 201 → capped at N_n = 30
     slow = dict(common, rotation_rate_rad_s=0.01)
     assert float(effective_pulses(30.0, clutter_velocity_spread_mps=1.0, **slow)) == 30.0
+
+
+def test_effective_pulses_mti_feeding_a_bank_limits_and_hand_value():
+    """[76]/[77] cascade (issue 23 item 5b): (N_n - N_pc) / (N_b (1 + 0.53 N_pc / N_b²)),
+    N_b = N_c - N_pc the bank's taps."""
+    common = dict(clutter_dominated=True, wavelength_m=0.05, prf_hz=1000.0,
+                  beamwidth_rad=0.02, rotation_rate_rad_s=np.pi, pulses_per_frequency=1)
+    n_n = 25.0
+    # N_pc = 0: [77] exactly
+    for n_c in (2, 8, 16):
+        assert float(effective_pulses(n_n, mti_order=0, n_coherent=n_c, **common)) == \
+            pytest.approx(n_n / n_c, rel=1e-12)
+    # a one-tap bank (N_c = N_pc + 1): [76] on the canceller's N_n - N_pc outputs, i.e. [76]
+    # with decorrelated pulses (N_fc = 1: N_e' = N_n) less the N_pc fill pulses
+    for n_pc in (1, 2, 4):
+        mti_alone = float(effective_pulses(n_n, mti_order=n_pc, **common))
+        assert mti_alone == pytest.approx(n_n / (1 + 0.53 * n_pc), rel=1e-12)  # [76]
+        cascade = float(effective_pulses(n_n, mti_order=n_pc, n_coherent=n_pc + 1, **common))
+        assert cascade == pytest.approx(mti_alone * (n_n - n_pc) / n_n, rel=1e-12)
+    # by hand, the shipped Giraffe mti_bank: N_n = 25, N_pc = 1, N_c = 8 (7 bank taps):
+    # 24 / (7 (1 + 0.53/49)) = 24 / 7.075714 = 3.39188 (the old [77] alone: 25/8 = 3.125)
+    assert float(effective_pulses(n_n, mti_order=1, n_coherent=8, **common)) == \
+        pytest.approx(3.39188, rel=1e-5)
+    # noise dominated: the filters are off, N_n [73]
+    assert float(effective_pulses(n_n, clutter_dominated=False, mti_order=1, n_coherent=8)) \
+        == n_n
+    # a bank with no tap left after the canceller is refused (the schema refuses it first)
+    with pytest.raises(ValueError, match="n_coherent > mti_order"):
+        effective_pulses(n_n, mti_order=3, n_coherent=3, **common)
+    # never below 1, even with fewer pulses than the canceller's fill
+    assert float(effective_pulses(1.5, mti_order=2, n_coherent=4, **common)) == 1.0
+
+
+def _block_correlation_factor(n_pc: int, n_taps: int, window: str) -> float:
+    """1 + Σ_{m≠0} |ρ(m)|² of the cascade's outputs N_b pulses apart, white input, averaged
+    over the bank's filters: the exact counterpart of 1 + 0.53 N_pc / N_b² (Trunk's
+    square-law reasoning behind [76], at the bank's stride)."""
+    from shipradar.sensors import doppler_filters as df
+
+    a = df.canceller_weights(n_pc + 1)
+    out = []
+    for b in df.bank_weights(n_taps, window=window):
+        h = np.convolve(a, b)
+        var = np.sum(np.abs(h) ** 2)
+        s = 0.0
+        for m in range(1, h.size // n_taps + 1):
+            shift = m * n_taps
+            if shift < h.size:
+                s += 2.0 * abs(np.sum(h[shift:] * np.conj(h[: h.size - shift])) / var) ** 2
+        out.append(1.0 + s)
+    return float(np.mean(out))
+
+
+@pytest.mark.parametrize("window", ["hann", "hamming"])
+@pytest.mark.parametrize("n_pc", [1, 2, 3, 6])
+@pytest.mark.parametrize("n_taps", [3, 4, 7, 8, 16])
+def test_cascade_block_correlation_against_the_cascade_weights(window, n_pc, n_taps):
+    """The interpolated loss 1 + 0.53 N_pc / N_b² is within 25 % of the exact block
+    correlation of the cascade's own weights (both near 1 for tapered banks); at N_b = 1
+    the exact value is Trunk's, which [76]'s 0.53 fits."""
+    exact = _block_correlation_factor(n_pc, n_taps, window)
+    fit = 1.0 + 0.53 * n_pc / n_taps**2
+    assert 1.0 <= exact < 1.2
+    assert fit == pytest.approx(exact, rel=0.25)
+
+
+def test_cascade_stride_one_is_trunks_mti_correlation():
+    """At a stride of one pulse the cascade's outputs are the canceller's, whose factor
+    1 + Σ|ρ|² is 1.5, 1.944, 2.31 for N_pc = 1, 2, 3: [76]'s fit gives 1.53, 2.06, 2.59."""
+    from shipradar.sensors import doppler_filters as df
+
+    for n_pc, exact in ((1, 1.5), (2, 1.9444), (3, 2.31)):
+        a = df.canceller_weights(n_pc + 1)
+        rho = np.correlate(a, a, "full") / np.sum(a**2)
+        assert float(np.sum(rho**2)) == pytest.approx(exact, rel=1e-4)
+        assert 1 + 0.53 * n_pc == pytest.approx(exact, rel=0.13)
 
 
 X_BAND = dict(clutter_dominated=True, wavelength_m=0.03, prf_hz=1000.0,

@@ -85,7 +85,7 @@ def _noise_counts(t_fa, scans, rpm=60.0, seed=5):
 @pytest.mark.parametrize("t_fa,rpm,scans,regime", [
     (0.2, 6.0, 300, "normal"),      # η >= 9
     (1.0, 60.0, 800, "poisson"),    # 0.69/(2 N_ch) <= η < 9
-    (5.0, 60.0, 1500, "bernoulli"),  # η < 0.69/(2 N_ch)
+    (8.0, 60.0, 1500, "bernoulli"),  # η = t_scan/t_fa < 0.69/(2 N_ch)
 ])
 def test_noise_false_alarm_counts(t_fa, rpm, scans, regime):
     model, counts, ranges, azs = _noise_counts(t_fa, scans, rpm=rpm)

@@ -2,7 +2,7 @@
 
 The demo scene (``scenarios/single_missile.yaml``: C band, 1.8° × 0.25 µs VP, 25 m antenna,
 sea state 3, wind 7 m/s from 45°, 10 m duct, t_fa = 60 s) produces about 390 sea-clutter
-false alarms per 1 s scan with K_clutter = 1 (the file sets 10: about 39). This file
+false alarms per 1 s scan with K_clutter = 1 (the file sets 10: about 40). This file
 recomputes that figure without the project's physics code: P_fa from [68]-[72], σ0* from the
 GIT formulas (Horst, Dyer & Tuley 1978, VV 3-10 GHz form) on the 4/3-earth grazing angle
 with the ducting extension [22]-[29], a from [31]-[32] (SPEC §4 item 2), the clutter power
@@ -41,10 +41,12 @@ COMPRESSION = example("single_missile")["platforms"][0]["radars"][0].get(
     "transmitted_pulse_width_s", TAU_S) / TAU_S
 
 
-def hand_pfa():
+def hand_pfa(k=1.0):
+    # k = 1: t_fa the mean time between false alarms (issue 23 item 5a); the seed's [68]
+    # has k = 0.69.  R_inst = 60 km > c/(2 f_r) = 30 km: every gate of [72] is reported
     n_rc = 1.0 / (PRF_HZ * TAU_S) - 2.0                      # [72]
     n_prime = N_CH * n_rc * T_FA_S / (TH / (2 * math.pi) * T_SCAN_S)  # [69]-[71]
-    return 0.69 / n_prime                                     # [68]
+    return k / n_prime                                        # [68]
 
 
 def slant(d):
@@ -132,7 +134,8 @@ def test_scene_is_what_this_file_assumes(demo_tables):
 
 def test_pfa_by_hand(demo_tables):
     _, tab = demo_tables
-    assert hand_pfa() == pytest.approx(3.6028e-8, rel=1e-4)
+    assert hand_pfa() == pytest.approx(5.2214e-8, rel=1e-4)  # 1/n' (the seed's 0.69/n': 3.6028e-8)
+    assert hand_pfa(0.69) == pytest.approx(3.6028e-8, rel=1e-4)
     assert tab.inputs["pfa"] == pytest.approx(hand_pfa(), rel=1e-12)
 
 
@@ -150,9 +153,11 @@ def test_map_nodes_by_hand(demo_tables, d, az_deg):
 
 
 @pytest.mark.parametrize("d,az_deg,expected", [
-    # sector (d, d + 100 m) × (az, az + 1°); P_fac by hand, rounded (documents the scale)
-    (300.0, 45.0, 0.072), (1000.0, 45.0, 0.047), (1000.0, 225.0, 0.020),
-    (2000.0, 45.0, 0.0100), (2000.0, 225.0, 7.6e-4), (3000.0, 45.0, 6.2e-5),
+    # sector (d, d + 100 m) × (az, az + 1°); P_fac by hand, rounded (documents the scale;
+    # P_fa = 1/n', issue 23 item 5a: 2-19 % above the seed's 0.69/n' values 0.071, 0.046,
+    # 0.019, 0.0100, 7.6e-4, 6.2e-5)
+    (300.0, 45.0, 0.073), (1000.0, 45.0, 0.048), (1000.0, 225.0, 0.020),
+    (2000.0, 45.0, 0.0106), (2000.0, 225.0, 8.5e-4), (3000.0, 45.0, 7.4e-5),
     (4000.0, 45.0, 0.0),
 ])
 def test_sector_pfac_by_hand(demo_tables, d, az_deg, expected):
@@ -171,15 +176,15 @@ def test_sector_pfac_by_hand(demo_tables, d, az_deg, expected):
 
 
 def test_clutter_false_alarms_per_scan_by_hand(demo_tables):
-    """η = Σ P_fac × cells over the whole map: 388.3 per scan by hand for K_clutter = 1
-    (≈390 in runs), divided by the scene's K_clutter [96]."""
+    """η = Σ P_fac × cells over the whole map: 401.4 per scan by hand for K_clutter = 1
+    (388.3 with the seed's P_fa = 0.69/n'), divided by the scene's K_clutter [96]."""
     sea, tab = demo_tables
     n0 = sea.inputs["noise_power_w"]
     d, az = sea.axes[0], sea.axes[1]
     _, a, p_sc, p = hand_state(d[:, None], az[None, :], n0)
     # trapezoid over range and azimuth nodes, cells per m per rad = 1/(C_R θ_b)
     eta = np.trapezoid(np.trapezoid(p, az, axis=1), d) / (C_R * TH)
-    assert eta == pytest.approx(388.3, rel=0.01)  # with K_clutter = 1
+    assert eta == pytest.approx(401.4, rel=0.01)  # with K_clutter = 1
     k = tab.inputs["k_clutter"]  # [96]: the scene may divide it down
     assert tab.extra["expected_count"].sum() == pytest.approx(eta / k, rel=0.01)
     # the clutter false alarms stop where a reaches a_min, before P_sc falls to 2 N0':
@@ -190,16 +195,21 @@ def test_clutter_false_alarms_per_scan_by_hand(demo_tables):
         assert 2500.0 < r_a < 3700.0 < 4000.0 < r_n
         last = tab.axes[0][np.nonzero(tab.values[:, col])[0].max()]
         assert last == pytest.approx(r_a, abs=200.0)
-    # the noise false alarms of the same radar: N_cells P_fa = 0.0115 per scan [90]
+    # the noise false alarms of the same radar: N_ch N_rc (2π/θ_b) P_fa = t_scan/t_fa =
+    # 1/60 per scan (issue 23 item 5a; the seed's N_cells P_fa over R_inst was 0.0115)
+    n_rc = 1.0 / (PRF_HZ * TAU_S) - 2.0
+    assert N_CH * n_rc * 2 * math.pi / TH * hand_pfa() == pytest.approx(T_SCAN_S / T_FA_S,
+                                                                        rel=1e-12)
     n_cells = 2 * math.pi * 60_000.0 / (TH * C_R)
-    assert n_cells * hand_pfa() == pytest.approx(0.0115, rel=0.01)
+    assert n_cells * hand_pfa(0.69) == pytest.approx(0.0115, rel=0.01)
 
 
 def test_weibull_median_model_per_scan_by_hand(demo_tables):
     """The median-consistent option (``fidelity.clutter_fa_model: weibull_median``) on the
     same map: threshold on the mean, Y = σ0 ln(1/P_fa), exceeded by Weibull clutter of mean
-    σ0 (scipy's weibull_min with [94]'s shape 1/a, scaled to mean 1).  By hand 33.7 per scan
-    for K_clutter = 1 (11.5 times less than the seed's 388.3)."""
+    σ0 (scipy's weibull_min with [94]'s shape 1/a, scaled to mean 1).  By hand 35.8 per scan
+    for K_clutter = 1 (11.2 times less than the seed's 401.4; 33.7 and 388.3 with the seed's
+    P_fa = 0.69/n')."""
     from scipy import stats
 
     from shipradar.tables.pfac import build_pfac_map
@@ -213,8 +223,8 @@ def test_weibull_median_model_per_scan_by_hand(demo_tables):
     p = np.where((a <= 1.0) | (p_sc < 2 * n0), 0.0, p)
     eta = np.trapezoid(np.trapezoid(p, az, axis=1), d) / (C_R * TH)
     eta_seed = np.trapezoid(np.trapezoid(p_seed, az, axis=1), d) / (C_R * TH)
-    assert eta == pytest.approx(33.7, rel=0.01)
-    assert eta_seed / eta == pytest.approx(11.5, rel=0.01)
+    assert eta == pytest.approx(35.8, rel=0.01)
+    assert eta_seed / eta == pytest.approx(11.2, rel=0.01)
     med = build_pfac_map(sea, pfa=tab.inputs["pfa"], k_clutter=1.0,
                          clutter_fa_model="weibull_median")
     assert med.extra["expected_count"].sum() == pytest.approx(eta, rel=0.01)
