@@ -336,6 +336,8 @@ def _max_altitude(obj) -> float:
 #: radar with exactly one pulse per beamwidth (0.9 deg, 90 rpm, 600 Hz gives 1 - 1.1e-16)
 #: is accepted, and the dwell model counts it as one (sensors.dwell.DwellModel.n_pulses).
 PULSES_PER_BEAM_ULP = 1e-9
+#: c [m/s] (scipy.constants.c; the schema imports nothing heavy)
+SPEED_OF_LIGHT_MPS = 299_792_458.0
 
 class AzimuthPattern(_Model):
     """Azimuth cut of the antenna directivity ([8]-[13])."""
@@ -558,6 +560,23 @@ class Radar(_Model):
                 f"{self.rotation_rpm:g}) = {n_n:.3g}); needs prf_hz >= {math.ceil(need):d} for "
                 f"this rotation and beamwidth (or a wider beam or a slower rotation), got "
                 f"{self.prf_hz:g}")
+        # [68]-[72] with the reported gates (sensors.detection.pfa_from_false_alarm_time):
+        # P_fa = 1/n', n' = N_ch N_rep t_fa / t_swp, N_rep = min(N_rc, R_inst / C_R). A t_fa
+        # shorter than one sweep's decisions asks for P_fa >= 1: more false alarms than
+        # decisions. (N_rc > 0 is the duty-cycle rule below, checked first when it fails.)
+        duty = self.prf_hz * self.pulse_width_s
+        if duty < 0.5:
+            n_rep = min(1.0 / duty - 2.0,
+                        self.instrumented_range_m / (SPEED_OF_LIGHT_MPS * self.pulse_width_s / 2))
+            t_swp = math.radians(self.beamwidth_az_deg) / (2.0 * math.pi) * self.scan_period_s
+            t_min = t_swp / (self.n_channels * n_rep)
+            if not self.false_alarm_time_s > t_min:
+                raise ValueError(
+                    f".false_alarm_time_s: asks for more false alarms than the radar makes "
+                    f"decisions (P_fa [68] would be >= 1): one sweep of {t_swp:.3g} s has "
+                    f"{self.n_channels * n_rep:.3g} decisions (n_channels x reported range "
+                    f"cells), so false_alarm_time_s must be > {t_min:.3g} s, got "
+                    f"{self.false_alarm_time_s:g}")
         return self
 
     @property
@@ -568,7 +587,7 @@ class Radar(_Model):
 
     @property
     def wavelength_m(self) -> float:
-        return 299_792_458.0 / self.frequency_hz
+        return SPEED_OF_LIGHT_MPS / self.frequency_hz
 
     @property
     def scan_period_s(self) -> float:

@@ -198,3 +198,53 @@ def test_hann_window_of_two_taps_is_all_zero():
 
     assert np.all(hann(2, sym=True) == 0.0)
     assert np.any(hann(3, sym=True) > 0.0)
+
+
+# -- a false-alarm time shorter than one sweep's decisions [68]-[72] -------------------------
+_SHORT_TFA = {"false_alarm_time_s": 0.1, "beamwidth_az_deg": 20, "rotation_rpm": 0.6,
+              "prf_hz": 249, "pulse_width_s": 1e-3, "transmitted_pulse_width_s": None,
+              "n_channels": 1}
+
+
+def test_false_alarm_time_below_one_per_decision_is_refused(tmp_path, capsys):
+    err = _cli_refuses(tmp_path, capsys, _scene(_SHORT_TFA),
+                       "platforms[0].radars[0].false_alarm_time_s")
+    assert "must be > 13.9 s, got 0.1" in err
+
+
+@pytest.mark.parametrize("radar", [
+    _SHORT_TFA,
+    {**_SHORT_TFA, "pulse_width_s": 1e-6, "prf_hz": 50, "n_channels": 3},
+    {"false_alarm_time_s": 0.1, "beamwidth_az_deg": 20, "rotation_rpm": 0.6},
+])
+def test_schema_false_alarm_time_bound_is_the_physics_one(radar):
+    """Just above the schema's least t_fa, P_fa of [68]-[72] is < 1; just below, >= 1."""
+    from shipradar.sensors.detection import pfa_from_false_alarm_time
+
+    base = {**BASE["platforms"][0]["radars"][0], **radar}
+    d = _scene(radar)
+    try:
+        parse_scenario(d)
+        line = None
+    except ScenarioError as exc:
+        line = exc.lines[0]
+    t_swp = math.radians(base["beamwidth_az_deg"]) / (2 * math.pi) * 60 / base["rotation_rpm"]
+    args = (t_swp * 2 * math.pi / math.radians(base["beamwidth_az_deg"]),)
+
+    def pfa(t_fa: float) -> float:
+        return float(pfa_from_false_alarm_time(
+            t_fa, math.radians(base["beamwidth_az_deg"]), *args, base["prf_hz"],
+            base["pulse_width_s"], n_channels=base.get("n_channels", 2),
+            instrumented_range_m=base["instrumented_range_m"]))
+
+    if line is None:  # accepted: the physics agrees
+        assert 0 < pfa(base["false_alarm_time_s"]) < 1
+        return
+    t_min = float(line.split("must be > ")[1].split(" s,")[0])
+    above = dict(radar, false_alarm_time_s=t_min * 1.01)
+    parse_scenario(_scene(above))
+    assert 0 < pfa(t_min * 1.01) < 1
+    with pytest.raises(ValueError, match="must be in"):
+        pfa(t_min * 0.99)
+    with pytest.raises(ScenarioError):
+        parse_scenario(_scene(dict(radar, false_alarm_time_s=t_min * 0.99)))
