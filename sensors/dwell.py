@@ -45,6 +45,7 @@ from shipradar.sensors import (
     noise,
     rcs,
     sea_clutter,
+    weather_clutter,
 )
 from shipradar.sensors.radar import radar_constants
 from shipradar.sim.scenario import Platform, Radar, Scenario
@@ -135,6 +136,13 @@ class DwellModel:
             self.tables.sea_clutter, (*spectrum, "weibull_a"), periodic1=True))
         self._wx_reader = (None if self.tables.weather_clutter is None else StackedLookup2D(
             self.tables.weather_clutter, spectrum, periodic1=True))
+        # a rain region: each trip of the range-folded sum [39]-[41] is weighted by whether
+        # its own cell is in the rain, so the one-trip power is read and summed here
+        rain = scenario.environment.rain
+        self._wx_trip_reader = (
+            None if self.tables.weather_clutter is None or rain is None or rain.region is None
+            else StackedLookup2D(self.tables.weather_clutter, ("single_trip_power_w",),
+                                 periodic1=True))
         # the spectrum's mean and spread alone, for the Doppler of every one of a scan's
         # thousands of sea-clutter false alarms (half the gathers of the full reader)
         self._sea_spectrum_reader = (None if self.tables.sea_clutter is None else
@@ -505,7 +513,8 @@ class DwellModel:
         p_wc = mean_wc = spread_wc = zero
         if self._wx_reader is not None:
             v = np.nan_to_num(self._wx_reader(geom.ground_range, geom.azimuth))
-            p_wc = self._inside_rain(tpos) * v[:, 0]
+            p_wc = v[:, 0] if self._wx_trip_reader is None else \
+                self._folded_rain_power(geom, antenna_en)
             mean_wc, spread_wc = v[:, 1], v[:, 2]
         if platform_vel is not None and not self.radar.processor.motion_compensated:
             # the tables' μ_c [35] holds f1 [34] of the first leg: swap in the ship's
@@ -543,20 +552,30 @@ class DwellModel:
             "coherent_gain": noise.power_ratio(cg_db),
         }
 
-    def _inside_rain(self, tpos):
-        """1 where a target's range-azimuth cell is inside the rain region, else 0.
+    def _folded_rain_power(self, geom, antenna_en):
+        """Weather clutter P_wc at each target's delay with a rain region [W], [39]-[41].
 
-        The weather clutter of [40] fills the cell's beam from the surface up to
-        d_h = min(h_cloud, R_c φ_b) [43] whatever the target's own height, so only the
-        horizontal position decides (seed 4.1.4: "only inside the rain region").
+        The rain of every pulse in flight, at ground ranges r + k R_u along the target's
+        azimuth (:func:`sensors.weather_clutter.range_folded_power_w`), each trip's cell
+        counted only when it is inside the rain region. The weather clutter of [40] fills
+        the cell's beam from the surface up to d_h = min(h_cloud, R_c φ_b) [43] whatever the
+        target's own height, so only a cell's horizontal position decides (seed 4.1.4: "only
+        inside the rain region"). Without a region every cell is in the rain and the map's
+        own trip sum is read instead.
         """
-        rain = self.scenario.environment.rain
-        if rain is None:
-            return np.zeros(tpos.shape[0])
-        if rain.region is None:
-            return np.ones(tpos.shape[0])
-        d = np.hypot(tpos[:, 0] - rain.region.east_m, tpos[:, 1] - rain.region.north_m)
-        return (d <= rain.region.radius_m).astype(float)
+        region = self.scenario.environment.rain.region
+        az = geom.azimuth
+        east0, north0 = antenna_en[:, 0], antenna_en[:, 1]
+        sin_az, cos_az = np.sin(az), np.cos(az)
+        reader = self._wx_trip_reader
+
+        def one_trip(x):
+            inside = np.hypot(east0 + x * sin_az - region.east_m,
+                              north0 + x * cos_az - region.north_m) <= region.radius_m
+            return np.where(inside, np.nan_to_num(reader(x, az)[:, 0]), 0.0)
+
+        return weather_clutter.range_folded_power_w(
+            one_trip, geom.ground_range, self.radar.prf_hz, self.radar.instrumented_range_m)
 
     # ------------------------------------------------------------------ dwell
     def signal_to_interference(self, p_r, clutter_w, jam_w, improvement, dist_loss,

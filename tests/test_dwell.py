@@ -95,15 +95,56 @@ def test_mti_only_radar_never_separates_by_doppler():
     assert set(m._doppler_filter(np.linspace(-300, 300, 7))) == {0}
 
 
-def test_rain_cell_decided_by_horizontal_position_only():
-    m = _model(rain={"rate_mm_h": 4.0, "cloud_base_m": 2000.0,
-                     "region": {"east_m": 10e3, "north_m": 0.0, "radius_m": 5e3}})
-    tpos = np.array([[10e3, 0.0, 50.0],      # in the cylinder, low
-                     [12e3, 1e3, 6000.0],    # in the cylinder, above the cloud base
-                     [20e3, 0.0, 50.0]])     # outside
-    assert m._inside_rain(tpos).tolist() == [1.0, 1.0, 0.0]
-    everywhere = _model(rain={"rate_mm_h": 4.0})
-    assert everywhere._inside_rain(tpos).tolist() == [1.0, 1.0, 1.0]
+def _rain_model(region):
+    from types import SimpleNamespace
+
+    from shipradar.sim.scenario import parse_scenario
+    from shipradar.tables.scene import load_scene_tables
+
+    r = quiet_radar(prf_hz=5000, instrumented_range_m=100e3, pulse_width_s=1e-6,
+                    processor={"type": "fir_bank", "n_coherent": 8})
+    d = bare_scene(r).model_dump(mode="json")
+    d["environment"]["rain"] = {"rate_mm_h": 4.0, "cloud_base_m": 2000.0, "region": region}
+    d["fidelity"].update(clutter=True)
+    s = parse_scenario(d)
+    p = s.platforms[0]
+    m = DwellModel(s, p, p.radars[0], load_scene_tables(s))
+
+    def power(ground_range_m, azimuth_rad):
+        g = SimpleNamespace(ground_range=np.asarray(ground_range_m, float),
+                            azimuth=np.asarray(azimuth_rad, float))
+        return m._folded_rain_power(g, np.zeros((g.ground_range.size, 2)))
+
+    return m, power
+
+
+def test_rain_region_counts_each_trip_by_its_own_cell(table_cache):
+    """A rain cell east at 10 +- 5 km; R_u = c / 2 f_r = 29.98 km at 5 kHz."""
+    m, power = _rain_model({"east_m": 10e3, "north_m": 0.0, "radius_m": 5e3})
+    trip = m._wx_trip_reader
+    east, north = np.pi / 2, 0.0
+    r_u = 299_792_458.0 / (2 * 5000)
+    p = power([10e3, 30e3, 10e3 + r_u, 10e3 + 2 * r_u, 10e3], [east, east, east, east, north])
+    one = trip(np.array([10e3]), np.array([east]))[0, 0]
+    assert one > 0
+    # inside the rain, first trip only (its second trip at 40 km is outside the cell)
+    assert p[0] == pytest.approx(one, rel=1e-12)
+    # outside the rain and no trip of its delay inside: nothing (the old code gave 0 too)
+    assert p[1] == 0.0
+    # outside the rain, but the rain at 10 km shares its delay: the second-trip echo
+    assert p[2] == pytest.approx(one, rel=1e-12)
+    assert p[3] == pytest.approx(one, rel=1e-12)
+    # the same range due north: the beam misses the cell
+    assert p[4] == 0.0
+
+
+def test_rain_everywhere_reads_the_maps_trip_sum(table_cache):
+    """No region: every trip is in the rain, the map's own sum is read (and agrees)."""
+    m, power = _rain_model({"east_m": 0.0, "north_m": 0.0, "radius_m": 2e6})
+    ranges = np.array([5e3, 20e3, 45e3, 80e3])
+    az = np.full(4, 1.0)
+    summed = m._wx_reader(ranges, az)[:, 0]
+    assert power(ranges, az) == pytest.approx(summed, rel=0.02)  # interpolation of a sum
 
 
 def _jam_scene(propagation, rain=None):
