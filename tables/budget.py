@@ -189,32 +189,34 @@ DEFAULT_MAX_BUILD_S: float = 600.0
 PROGRESS_ABOVE_S: float = 3.0
 
 #: Cost constants [s per work unit], fitted by ``benchmarks/build_cost.py`` (non-negative
-#: least squares on the relative error, one kind at a time). Machine: the project's 2-core
-#: container (x86-64, numpy with OpenBLAS, one core busy with other work), 2026-11-26.
-#: Re-run the benchmark and paste its output here on another machine: the estimates are
-#: stated as estimates ("~12 s est.") and a factor 2 either way is expected.
+#: least squares on the relative error, one kind at a time) on 43 tables of 0.01-5 s:
+#: fitted/measured 0.32-1.29 on the tables over 0.5 s (0.56-1.29 for the PE). Machine: the
+#: project's container, x86_64, 2 cores shared with other work, Python 3.11.7,
+#: numpy/OpenBLAS, 2026-11-26. Re-run the benchmark and paste its output here on another
+#: machine: the estimates are stated as estimates ("~12 s est."), a factor 2 either way is
+#: expected.
 COST = {
     # PE march: per (range step x height node x log2(height nodes)); the rough-sea
     # impedance rebuilt at every step: per (range step x height node); the table's cells
     # interpolated from the field (windowed sinc, reference phase); every table cell
     # (alignment, modulus, saving)
-    "pe_march": 1.0e-8,
-    "pe_rough": 2.0e-8,
-    "pe_sample": 2.0e-7,
-    "pe_cell": 5.0e-8,
+    "pe_march": 3.09e-09,
+    "pe_rough": 8.58e-08,
+    "pe_sample": 1.24e-06,
+    "pe_cell": 3.04e-08,
     # improvement factor: per steering exponential (direct path), per filter-tap-Doppler
-    # product, per grid cell and bound
-    "if_exp": 1.5e-8,
-    "if_mac": 1.0e-9,
-    "if_cell": 1.0e-7,
-    "if_fixed": 0.05,
+    # product, per grid cell and bound, per table
+    "if_exp": 7.29e-08,
+    "if_mac": 1.49e-10,
+    "if_cell": 1.88e-07,
+    "if_fixed": 0.0255,
     # clutter maps and P_fac, per (range x azimuth) node; atmosphere: per table
-    "sea_cell": 3.0e-6,
-    "weather_cell": 3.0e-6,
-    "pfac_cell": 1.0e-6,
-    "atmosphere": 0.5,
+    "sea_cell": 2.86e-07,
+    "weather_cell": 7.72e-08,
+    "pfac_cell": 2.29e-07,
+    "atmosphere": 0.00356,
     # P_d table: per (N_e x S/I) node of the exact method
-    "pd_cell": 2.0e-5,
+    "pd_cell": 7.43e-07,
 }
 
 

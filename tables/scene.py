@@ -135,18 +135,38 @@ def provider(fn):
 
 # --------------------------------------------------------------------------- build / load
 def _made(scenario: Scenario, progress: bool):
-    """Yield ``(spec, table, seconds)`` for every table of the scene, cache first."""
+    """Yield ``(spec, table, seconds)`` for every table of the scene, cache first.
+
+    ``progress`` (a terminal, or asked): when the missing tables are estimated to take more
+    than :data:`tables.budget.PROGRESS_ABOVE_S`, a bar over their estimated seconds with
+    tqdm's ETA (the PE march and a large I_F table add their own bar beneath it).
+    """
     specs = table_specs(scenario)
+    bar = None
     if progress:
         from tqdm import tqdm
 
-        specs = tqdm(specs, desc="tables", unit="table", file=sys.stderr, leave=False)
-    for spec in specs:
-        if progress:
-            specs.set_postfix_str(f"{spec.radar_id} {spec.kind}")
-        t0 = time.perf_counter()
-        table = spec.make()
-        yield spec, table, time.perf_counter() - t0
+        from shipradar.tables.budget import PROGRESS_ABOVE_S, estimate_build
+
+        est = {(e.radar_id, e.kind): (0.0 if e.cached else e.seconds)
+               for e in estimate_build(scenario, include_pd=False)}
+        total = sum(est.values())
+        if total > PROGRESS_ABOVE_S:
+            bar = tqdm(total=round(total, 1), desc="tables", unit="s est.", file=sys.stderr,
+                       leave=False, bar_format="{desc}: {percentage:3.0f}%|{bar}| "
+                       "{n:.0f}/{total:.0f} s est. [{elapsed}<{remaining}] {postfix}")
+    try:
+        for spec in specs:
+            if bar is not None:
+                bar.set_postfix_str(f"{spec.radar_id} {spec.kind}")
+            t0 = time.perf_counter()
+            table = spec.make()
+            if bar is not None:
+                bar.update(round(est.get((spec.radar_id, spec.kind), 0.0), 1))
+            yield spec, table, time.perf_counter() - t0
+    finally:
+        if bar is not None:
+            bar.close()
 
 
 def _say(line: str, log: TextIO | None, progress: bool) -> None:
@@ -375,7 +395,8 @@ def _pfac_specs(scenario: Scenario, platform: Platform, radar: Radar) -> list[Ta
     sea_spec = next(s for s in _clutter_specs(scenario, platform, radar) if s.kind == "sea_clutter")
     pfa = float(pfa_from_false_alarm_time(
         radar.false_alarm_time_s, theta_b, radar.scan_period_s, radar.prf_hz,
-        radar.pulse_width_s, n_channels=radar.n_channels))
+        radar.pulse_width_s, n_channels=radar.n_channels,
+        instrumented_range_m=radar.instrumented_range_m))
 
     kw = {"pfa": pfa, "k_clutter": radar.k_clutter, "p_fac_max": radar.p_fac_max,
           "clutter_fa_model": scenario.fidelity.clutter_fa_model}
