@@ -126,15 +126,10 @@ def build_and_time(label: str, d: dict, kinds=None) -> list[dict]:
 
         inputs_case = int(e.detail.split("Swerling ")[1].split(")")[0])
         radar = s.platforms[0].radars[0]
-        import math
+        from shipradar.sensors.radar import false_alarm_probability, pulses_per_beamwidth
 
-        from shipradar.sensors import detection
-        theta_b = math.radians(radar.beamwidth_az_deg)
-        pfa = float(detection.pfa_from_false_alarm_time(
-            radar.false_alarm_time_s, theta_b, radar.scan_period_s, radar.prf_hz,
-            radar.pulse_width_s, n_channels=radar.n_channels))
-        n_max = max(1.0, float(detection.pulses_per_beam(theta_b, radar.scan_period_s,
-                                                         radar.prf_hz)))
+        pfa = false_alarm_probability(radar)
+        n_max = pulses_per_beamwidth(radar)
         t0 = time.perf_counter()
         tpd.PdTables(pfa, n_max, [inputs_case])
         rows.append({"label": label, "kind": "pd", "work": e.work, "estimate": e.seconds,

@@ -47,7 +47,11 @@ from shipradar.sensors import (
     sea_clutter,
     weather_clutter,
 )
-from shipradar.sensors.radar import radar_constants
+from shipradar.sensors.radar import (
+    false_alarm_probability,
+    pulses_per_beamwidth,
+    radar_constants,
+)
 from shipradar.sim.scenario import Platform, Radar, Scenario
 from shipradar.tables.store import StackedLookup2D
 
@@ -109,13 +113,8 @@ class DwellModel:
         # false alarms and pulses [68]-[73], [90]: P_fa for one reported false alarm per
         # t_fa and the count over the same decisions, so the noise false alarms come at 1/t_fa
         # (the seed's [68] and [90] disagree; detection and false_alarms module notes)
-        self.pfa = float(detection.pfa_from_false_alarm_time(
-            radar.false_alarm_time_s, self.theta_b, radar.scan_period_s, radar.prf_hz,
-            radar.pulse_width_s, n_channels=radar.n_channels,
-            instrumented_range_m=radar.instrumented_range_m))
-        # N_n >= 1 to rounding (the schema refuses fewer, sim.scenario.PULSES_PER_BEAM_ULP)
-        self.n_pulses = max(1.0, float(detection.pulses_per_beam(
-            self.theta_b, radar.scan_period_s, radar.prf_hz)))
+        self.pfa = false_alarm_probability(radar)
+        self.n_pulses = pulses_per_beamwidth(radar)
         self.n_cells = float(false_alarms.resolution_cells(
             radar.instrumented_range_m, self.theta_b, self.range_cell))
         self.noise_false_alarms_per_scan = float(false_alarms.noise_false_alarms_per_scan(

@@ -9,10 +9,11 @@ from dataclasses import dataclass
 
 from scipy import constants
 
-from shipradar.sensors import antenna, noise
+from shipradar.sensors import antenna, detection, noise
 from shipradar.sim.scenario import Radar, Scenario
 
-__all__ = ["RadarConstants", "radar_constants"]
+__all__ = ["RadarConstants", "false_alarm_probability", "pulses_per_beamwidth",
+           "radar_constants"]
 
 
 @dataclass(frozen=True)
@@ -108,3 +109,28 @@ def radar_constants(scenario: Scenario, radar: Radar) -> RadarConstants:
         l_b=float(noise.power_ratio(los.beam_shape_db)),
         l_r=l_r,
     )
+
+
+def false_alarm_probability(radar: Radar) -> float:
+    """P_fa of a radar for one reported false alarm per t_fa [-], seed [68]-[72].
+
+    :func:`shipradar.sensors.detection.pfa_from_false_alarm_time` over the reported decisions
+    (N_ch channels in the range gates inside the instrumented range): the one P_fa that the
+    dwell model, the P_fac map and the P_d table all use. The schema refuses a t_fa that
+    would make it 1 or more.
+    """
+    return float(detection.pfa_from_false_alarm_time(
+        radar.false_alarm_time_s, math.radians(radar.beamwidth_az_deg), radar.scan_period_s,
+        radar.prf_hz, radar.pulse_width_s, n_channels=radar.n_channels,
+        instrumented_range_m=radar.instrumented_range_m))
+
+
+def pulses_per_beamwidth(radar: Radar) -> float:
+    """N_n of a radar, pulses per beam sweep of a point target [-], seed [73], >= 1.
+
+    The schema refuses fewer than one pulse (to 1e-9,
+    :data:`shipradar.sim.scenario.PULSES_PER_BEAM_ULP`); exactly one, which θ_b t_scan f_r / 2π
+    can round to 1 - 1e-16, is one.
+    """
+    return max(1.0, float(detection.pulses_per_beam(
+        math.radians(radar.beamwidth_az_deg), radar.scan_period_s, radar.prf_hz)))

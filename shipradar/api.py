@@ -38,7 +38,13 @@ def build_tables(scenario: ScenarioLike, *, progress: bool = False):
     """
     from shipradar.tables.scene import load_scene_tables
 
-    return load_scene_tables(_scenario(scenario), progress=progress)
+    s = _scenario(scenario)
+    estimated_s = None
+    if progress:
+        from shipradar.tables.budget import build_seconds, estimate_build
+
+        estimated_s = build_seconds(estimate_build(s, include_pd=False))
+    return load_scene_tables(s, progress=progress, estimated_s=estimated_s)
 
 
 def _simulation(scenario, tables, seed, duration_s, bus=None) -> Simulation:

@@ -104,12 +104,15 @@ def cmd_validate(args) -> int:
 
 
 def cmd_tables_build(args) -> int:
+    from shipradar.tables.budget import build_seconds
     from shipradar.tables.scene import build_scene_tables
 
     s = _load(_scenario_path(args))
     _memory_budget(args, s)
-    _announce(_build_time(args, s, include_pd=False))
-    report = build_scene_tables(s, progress=sys.stderr.isatty(), log=sys.stderr)
+    estimates = _build_time(args, s, include_pd=False)
+    _announce(estimates)
+    report = build_scene_tables(s, progress=sys.stderr.isatty(), log=sys.stderr,
+                                estimated_s=build_seconds(estimates))
     print(json.dumps(report, sort_keys=False))
     return EXIT_OK
 
@@ -128,17 +131,21 @@ def _memory_budget(args, scenario) -> None:
     check_memory_budget(scenario, memory_budget_bytes(getattr(args, "memory_budget", None)))
 
 
-def _build_time(args, scenario, *, include_pd: bool = True) -> list[str]:
+def _build_time(args, scenario, *, include_pd: bool = True):
     """Refuse, before any work, a scene whose missing tables would take longer than
-    ``--max-build-s`` to build; else the lines announcing them (tables.budget)."""
-    from shipradar.tables.budget import announce_builds, check_build_time
+    ``--max-build-s`` to build; else every table's estimate
+    (:func:`shipradar.tables.budget.check_build_time`)."""
+    from shipradar.tables.budget import check_build_time
 
-    return announce_builds(check_build_time(scenario, getattr(args, "max_build_s", None),
-                                            include_pd=include_pd))
+    return check_build_time(scenario, getattr(args, "max_build_s", None),
+                            include_pd=include_pd)
 
 
-def _announce(lines: list[str]) -> None:
-    for line in lines:
+def _announce(estimates) -> None:
+    """One line on stderr per table to build, with its estimated size and time."""
+    from shipradar.tables.budget import announce_builds
+
+    for line in announce_builds(estimates):
         print(line, file=sys.stderr)
 
 
@@ -178,7 +185,7 @@ def _check_run(args, s):
         raise BadInput(f"--record: {args.record} exists; pass --overwrite to replace it")
     curve = _curve(args, "server")
     _memory_budget(args, s)
-    args.build_lines = _build_time(args, s)
+    args.build_estimates = _build_time(args, s)
     if args.processes > 1 and args.realtime:
         raise BadInput(f"--processes {args.processes} is for fast mode; drop --realtime or "
                        "use --processes 1")
@@ -216,15 +223,16 @@ def cmd_run(args) -> int:
     from shipradar.sim.bus import Bus, Publisher, RunInterrupted
     from shipradar.sim.engine import Simulation
     from shipradar.sim.recording import Recorder, RecordingWriteError
+    from shipradar.tables.budget import build_seconds
     from shipradar.tables.scene import load_scene_tables
 
     s = _load(_scenario_path(args))
     curve = _check_run(args, s)
     # the tables the scene reads: from the cache, built now if missing (announced with their
     # estimated time, shown on stderr)
-    _announce(args.build_lines)
+    _announce(args.build_estimates)
     tables = load_scene_tables(s, progress=sys.stderr.isatty() and not args.quiet,
-                               log=sys.stderr)
+                               log=sys.stderr, estimated_s=build_seconds(args.build_estimates))
     if args.record and hasattr(signal, "SIGXFSZ"):
         # past a file-size limit write() then fails with EFBIG, which the recorder reports
         # and recovers from, instead of the signal killing the process mid-record

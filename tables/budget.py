@@ -32,6 +32,7 @@ __all__ = [
     "announce_builds",
     "check_build_time",
     "check_memory_budget",
+    "build_seconds",
     "estimate_build",
     "estimate_tables",
     "max_build_seconds",
@@ -185,8 +186,6 @@ def check_memory_budget(scenario: Scenario, budget_bytes: int | None = None) -> 
 #: Default limit on the estimated build time of a scene's missing tables [s];
 #: ``--max-build-s`` or the environment variable ``SHIPRADAR_MAX_BUILD_S`` change it.
 DEFAULT_MAX_BUILD_S: float = 600.0
-#: Above this estimate a build shows a progress bar (on a terminal) [s].
-PROGRESS_ABOVE_S: float = 3.0
 
 #: Cost constants [s per work unit], fitted by ``benchmarks/build_cost.py`` (non-negative
 #: least squares on the relative error, one kind at a time) on 43 tables of 0.01-5 s:
@@ -375,7 +374,7 @@ def _pd_estimates(scenario: Scenario) -> list[BuildEstimate]:
     model asks for them when it starts, one per Swerling case of the scene's targets)."""
     if scenario.fidelity.pd_method != "table" or not scenario.targets:
         return []
-    from shipradar.sensors import detection
+    from shipradar.sensors.radar import false_alarm_probability, pulses_per_beamwidth
     from shipradar.tables import pd as tpd
     from shipradar.tables.store import inputs_hash, is_cached
 
@@ -383,12 +382,8 @@ def _pd_estimates(scenario: Scenario) -> list[BuildEstimate]:
     cases = sorted({int(t.swerling_case) for t in scenario.targets})
     for pi, platform in enumerate(scenario.platforms):
         for ri, radar in enumerate(platform.radars):
-            theta_b = math.radians(radar.beamwidth_az_deg)
-            pfa = float(detection.pfa_from_false_alarm_time(
-                radar.false_alarm_time_s, theta_b, radar.scan_period_s, radar.prf_hz,
-                radar.pulse_width_s, n_channels=radar.n_channels))
-            n_max = max(1.0, float(detection.pulses_per_beam(
-                theta_b, radar.scan_period_s, radar.prf_hz)))
+            pfa = false_alarm_probability(radar)
+            n_max = pulses_per_beamwidth(radar)
             for case in cases:
                 inputs = tpd.pd_table_inputs(pfa, case, n_max)
                 n_axis, snr = tpd.pd_table_axes(inputs)
@@ -434,6 +429,16 @@ def estimate_build(scenario: Scenario, *, include_pd: bool = True) -> list[Build
                                  detail, spec.cached(), key, work))
     if include_pd:
         out.extend(e for e in _pd_estimates(scenario) if e.key not in seen)
+    return out
+
+
+def build_seconds(estimates: list[BuildEstimate]) -> dict[tuple[str, str], float]:
+    """Estimated seconds by (radar id, table kind), 0 for a cached table: the progress bar's
+    input (:func:`shipradar.tables.scene.load_scene_tables` ``estimated_s``)."""
+    out: dict[tuple[str, str], float] = {}
+    for e in estimates:
+        key = (e.radar_id, e.kind)
+        out[key] = out.get(key, 0.0) + (0.0 if e.cached else e.seconds)
     return out
 
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any, TextIO
 
@@ -134,27 +134,31 @@ def provider(fn):
 
 
 # --------------------------------------------------------------------------- build / load
-def _made(scenario: Scenario, progress: bool):
+#: Missing tables estimated to take longer than this to build show a progress bar [s].
+PROGRESS_ABOVE_S: float = 3.0
+
+#: Estimated build seconds of a scene's tables, by (radar id, table kind); a cached table 0.
+BuildSeconds = Mapping[tuple[str, str], float]
+
+
+def _made(scenario: Scenario, progress: bool, estimated_s: BuildSeconds | None):
     """Yield ``(spec, table, seconds)`` for every table of the scene, cache first.
 
-    ``progress`` (a terminal, or asked): when the missing tables are estimated to take more
-    than :data:`tables.budget.PROGRESS_ABOVE_S`, a bar over their estimated seconds with
-    tqdm's ETA (the PE march and a large I_F table add their own bar beneath it).
+    ``progress`` (a terminal, or asked) with ``estimated_s`` (the cost model's seconds,
+    :func:`shipradar.tables.budget.build_seconds`): when the missing tables are estimated to
+    take more than :data:`PROGRESS_ABOVE_S`, a bar over their estimated seconds with tqdm's
+    ETA (the PE march and a large I_F table add their own bar beneath it).
     """
     specs = table_specs(scenario)
     bar = None
-    if progress:
+    est = dict(estimated_s or {})
+    total = sum(est.values())
+    if progress and total > PROGRESS_ABOVE_S:
         from tqdm import tqdm
 
-        from shipradar.tables.budget import PROGRESS_ABOVE_S, estimate_build
-
-        est = {(e.radar_id, e.kind): (0.0 if e.cached else e.seconds)
-               for e in estimate_build(scenario, include_pd=False)}
-        total = sum(est.values())
-        if total > PROGRESS_ABOVE_S:
-            bar = tqdm(total=round(total, 1), desc="tables", unit="s est.", file=sys.stderr,
-                       leave=False, bar_format="{desc}: {percentage:3.0f}%|{bar}| "
-                       "{n:.0f}/{total:.0f} s est. [{elapsed}<{remaining}] {postfix}")
+        bar = tqdm(total=round(total, 1), desc="tables", unit="s est.", file=sys.stderr,
+                   leave=False, bar_format="{desc}: {percentage:3.0f}%|{bar}| "
+                   "{n:.0f}/{total:.0f} s est. [{elapsed}<{remaining}] {postfix}")
     try:
         for spec in specs:
             if bar is not None:
@@ -182,16 +186,18 @@ def _say(line: str, log: TextIO | None, progress: bool) -> None:
 
 
 def load_scene_tables(scenario: Scenario, *, progress: bool = False,
-                      log: TextIO | None = None) -> SceneTables:
+                      log: TextIO | None = None,
+                      estimated_s: BuildSeconds | None = None) -> SceneTables:
     """Load every table the scene needs from the cache, building the missing ones.
 
-    ``progress`` shows a bar over the tables on stderr; ``log`` gets a line for each table
-    that took more than a second (a build rather than a cache hit).
+    ``progress`` shows a bar over the estimated build seconds (``estimated_s``, see
+    :func:`_made`) on stderr; ``log`` gets a line for each table that took more than a
+    second (a build rather than a cache hit).
     """
     scene = SceneTables()
     for _platform, radar in scenario.radars():
         scene.for_radar(radar.id)
-    for spec, table, dt in _made(scenario, progress):
+    for spec, table, dt in _made(scenario, progress, estimated_s):
         if dt > 1.0:
             _say(f"{spec.radar_id}: {spec.kind} table ready in {dt:.1f} s", log, progress)
         setattr(scene.for_radar(spec.radar_id), spec.kind, table)
@@ -199,12 +205,16 @@ def load_scene_tables(scenario: Scenario, *, progress: bool = False,
 
 
 def build_scene_tables(scenario: Scenario, *, progress: bool = False,
-                       log: TextIO | None = sys.stderr) -> dict[str, Any]:
-    """Build (or find in the cache) every table of the scene; a JSON-able report."""
+                       log: TextIO | None = sys.stderr,
+                       estimated_s: BuildSeconds | None = None) -> dict[str, Any]:
+    """Build (or find in the cache) every table of the scene; a JSON-able report.
+
+    ``progress`` and ``estimated_s`` as :func:`load_scene_tables`.
+    """
     from shipradar.tables.store import cache_path
 
     rows = []
-    for spec, table, dt in _made(scenario, progress):
+    for spec, table, dt in _made(scenario, progress, estimated_s):
         rows.append({
             "radar": spec.radar_id,
             "kind": spec.kind,
@@ -385,7 +395,7 @@ def _pfac_specs(scenario: Scenario, platform: Platform, radar: Radar) -> list[Ta
     """
     if not scenario.fidelity.clutter:
         return []
-    from shipradar.sensors.detection import pfa_from_false_alarm_time
+    from shipradar.sensors.radar import false_alarm_probability
     from shipradar.sensors.sea_clutter import is_medium_high_resolution
     from shipradar.tables import pfac as tp
 
@@ -393,10 +403,7 @@ def _pfac_specs(scenario: Scenario, platform: Platform, radar: Radar) -> list[Ta
     if not bool(is_medium_high_resolution(theta_b, radar.pulse_width_s)):
         return []
     sea_spec = next(s for s in _clutter_specs(scenario, platform, radar) if s.kind == "sea_clutter")
-    pfa = float(pfa_from_false_alarm_time(
-        radar.false_alarm_time_s, theta_b, radar.scan_period_s, radar.prf_hz,
-        radar.pulse_width_s, n_channels=radar.n_channels,
-        instrumented_range_m=radar.instrumented_range_m))
+    pfa = false_alarm_probability(radar)
 
     kw = {"pfa": pfa, "k_clutter": radar.k_clutter, "p_fac_max": radar.p_fac_max,
           "clutter_fa_model": scenario.fidelity.clutter_fa_model}

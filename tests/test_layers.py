@@ -3,7 +3,9 @@
 Read from the source with ``ast`` (nothing is executed), lazy imports inside functions
 included. The layers, bottom to top (README, "Layers"):
 
-0. schema: ``shipradar.sim.scenario``, the scenario as plain, validated data;
+0. world: ``shipradar.sim.scenario``, the scenario as plain, validated data, and the motion it
+   declares (``shipradar.sim.kinematics``, ``shipradar.sim.trajectory``: positions and
+   velocities of its objects at any time, from the schema alone);
 1. physics: ``shipradar.sensors.*`` (one module per phenomenon), which imports nothing of ours
    but the schema;
 2. tables: ``shipradar.tables.*``, the off-line level, building and reading tables from the
@@ -32,6 +34,8 @@ PACKAGE_DIRS = {
     "shipradar.scenarios": "scenarios",
 }
 SCHEMA, PHYSICS, TABLES, ONLINE, SERVICE = range(5)
+#: Layer 0: the scenario and the motion it declares.
+WORLD = {"shipradar.sim.scenario", "shipradar.sim.kinematics", "shipradar.sim.trajectory"}
 
 
 def _modules() -> dict[str, Path]:
@@ -51,7 +55,7 @@ MODULES = _modules()
 
 
 def layer(name: str) -> int:
-    if name == "shipradar.sim.scenario":
+    if name in WORLD:
         return SCHEMA
     if name == "shipradar.sensors.dwell":
         return ONLINE
