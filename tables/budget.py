@@ -91,7 +91,7 @@ def _fmt(n: float) -> str:
 
 
 def estimate_tables(scenario: Scenario) -> list[TableEstimate]:
-    """Estimated build memory of each PE table and clutter map of the scene.
+    """Estimated build memory of each PE table, I_F table and clutter map of the scene.
 
     Uses the builders' own grid rules (:func:`tables.propagation.grid_steps`,
     :func:`tables.scene.clutter_grid_size`) without building anything; the estimate covers
@@ -138,6 +138,10 @@ def estimate_tables(scenario: Scenario) -> list[TableEstimate]:
                     f"{radar.frequency_hz:g} Hz, instrumented_range_m "
                     f"{radar.instrumented_range_m:g} m, heights to {max_height:g} m, "
                     f"pe_grid {fid.pe_grid!r})"))
+            if radar.processor.type != "none":
+                _, size, field, detail = _improvement_estimate(scenario, radar, where)
+                out.append(TableEstimate((pi, ri), radar.id, "improvement", size, field,
+                                         detail))
             if fid.clutter:
                 n_range, n_az = clutter_grid_size(radar)
                 maps = 2 if scenario.environment.rain is not None else 1
