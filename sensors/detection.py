@@ -426,9 +426,10 @@ def effective_pulses(
     own weights at a stride of N_b pulses, averaged over the bank's filters (1.000-1.12
     for Hann or Hamming windows at N_b ≥ 3 and N_pc ≤ 6, where the interpolation gives
     1.002-1.35; within 25 % of it, checked in ``tests/test_detection.py``).  Limits:
-    N_pc = 0 gives [77]; N_b = 1 (a one-tap bank: the canceller alone) gives [76] applied to the canceller's N_n - N_pc outputs, i.e.
-    [76] with decorrelated pulses (N_e' = N_n), the premise under which [76] is stated,
-    less the N_pc fill pulses that its long-train fit ignores.  For the shipped Giraffe
+    N_pc = 0 gives [77]; N_b = 1 (a one-tap bank: the canceller alone) gives [76] applied
+    to the canceller's N_n - N_pc outputs, i.e. [76] with decorrelated pulses (N_e' = N_n),
+    the premise under which [76] is stated, less the N_pc fill pulses that its long-train
+    fit ignores.  For the shipped Giraffe
     ``mti_bank`` (N_n = 25, N_pc = 1, N_c = 8): 3.392 instead of [77]'s 3.125 (the old
     value read N_c as a batch that restarts the canceller every N_c pulses).  Like [77],
     this counts the processor's outputs and not the clutter's own independent samples
