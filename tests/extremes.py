@@ -774,6 +774,29 @@ def interaction_cases() -> list[Case]:
                     ((*_RADAR, "pattern_az"), {"type": "sinc", "sidelobe_db": sl,
                                                "jamming_sidelobe_db": jsl})))
 
+    # jammer range x frequency x fog/rain: the one-way loss of a jammer far beyond the
+    # horizon at millimetre wave reaches thousands of dB
+    far = {"id": "jam1", "waypoints": [{"time_s": 0, "east_m": -2.0e6, "north_m": 2.0e6,
+                                        "altitude_m": 3000.0}],
+           "power_w": 1000.0, "gain_db": 0.0, "bandwidth_hz": 1.0e5}
+    for f, weather in ((1.0e11, {"fog": {"liquid_water_g_m3": 1.0}}),
+                       (1.0e11, {"fog": {"liquid_water_g_m3": 5.0, "top_m": 10000.0}}),
+                       (3.5e10, {"rain": {"rate_mm_h": 300.0, "region": {"radius_m": 2.0e6}}}),
+                       (1.0e11, {})):
+        add("jammer range x frequency x weather", (
+            (("jammers",), [far]), *_radar(frequency_hz=f),
+            *((("environment", k), v) for k, v in weather.items())), pe=False)
+
+    # values that are not at any bound, found by the random scenes (scene_strategy)
+    add("found", _radar(instrumented_range_m=6931.684596912009))  # P_fac edge at -3.6e-15 m
+
+    # receiver noise: noise figure x antenna temperature x transmit/receive loss (all three
+    # at 0 make a noiseless receiver, T_s = 0 K)
+    for nf, ta, ltr in ((0.0, 0.0, 0.0), (0.0, 0.0, 20.0), (20.0, 5000.0, 20.0),
+                        (0.0, 5000.0, 0.0)):
+        add("receiver noise", _radar(noise_figure_db=nf, antenna_temperature_k=ta,
+                                     loss_tr_db=ltr))
+
     # sectors per scan x rotation (sector length from 0.1 ms to 30 s)
     for sectors in (4, 3600):
         for rpm in (_just_above(0.5), 120.0):
@@ -1275,6 +1298,7 @@ def run_scene(data: dict, name: str, group: str, workdir: Path,
         scene, stage = None, "validate"
     except Exception:  # noqa: BLE001 - the schema itself crashed; main() will show where
         scene, stage = None, "validate"
+    validate_code, validate_err, validate_exc = _call_main(["validate", str(scene_path)])
     argv = ["run", str(scene_path), "--record", str(rec_path), "--overwrite", "--quiet"]
     if scene is not None and scene.duration_s > CASE_DURATION_S:
         argv += ["--duration", repr(CASE_DURATION_S)]
@@ -1305,6 +1329,13 @@ def run_scene(data: dict, name: str, group: str, workdir: Path,
                           + (f" (+{len(runtime) - 1} more)" if len(runtime) > 1 else ""))
     if exc_text:
         o.problems.append(exc_text)
+    if validate_exc and validate_exc != exc_text:
+        o.problems.append(f"validate: {validate_exc}")
+    elif validate_code == 2 and code == 2 and validate_err != err.getvalue():
+        o.problems.append(f"validate and run refuse differently: {validate_err.strip()!r} vs "
+                          f"{err.getvalue().strip()!r}")
+    elif validate_code in (0, 2) and code in (0, 2) and validate_code != code and stage != "run":
+        o.problems.append(f"validate exits {validate_code}, run exits {code}")
     stderr = err.getvalue()
     if "Traceback" in stderr:
         o.problems.append(f"traceback on stderr: {stderr[-800:]}")
@@ -1342,6 +1373,20 @@ def run_scene(data: dict, name: str, group: str, workdir: Path,
         if o.status != "failed":
             p.unlink(missing_ok=True)
     return o
+
+
+def _call_main(argv: list[str]) -> tuple[int | None, str, str]:
+    """``shipradar ARGV`` in-process: exit code, stderr, and the exception if one escaped."""
+    from shipradar.sim.cli import main
+
+    out, err = io.StringIO(), io.StringIO()
+    try:
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            return main(argv), err.getvalue(), ""
+    except SystemExit as exc:
+        return (exc.code if isinstance(exc.code, int) else 1), err.getvalue(), ""
+    except Exception as exc:  # noqa: BLE001 - reported by the caller
+        return None, err.getvalue(), _last_frames(exc)
 
 
 _MAX_BUILD: bool | None = None
