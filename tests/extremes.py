@@ -34,6 +34,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import copy
+import functools
 import io
 import json
 import math
@@ -295,9 +296,6 @@ def member_for(models: Sequence[type[BaseModel]], data: Any) -> type[BaseModel] 
         leaf = field_leaf(m, "type") if "type" in m.model_fields else None
         if leaf is not None and leaf.kind == "literal" and tag in leaf.choices:
             return m
-        if tag is None and m.model_fields.get("type") is not None:
-            if m.model_fields["type"].default == tag:
-                return m
     return None
 
 
@@ -605,11 +603,11 @@ def field_cases(slots: Sequence[Slot] | None = None) -> list[Case]:
             if leaf.kind in ("number", "int"):
                 if value is None and q in given:
                     continue  # another slot sets it; here it belongs to a one-of group
-                values = [(lbl, v) for lbl, v in bound_values(leaf)]
+                values: list[tuple[str, Any]] = list(bound_values(leaf))
                 path = (*s.path, name)
             elif leaf.kind == "list" and leaf.item is not None and leaf.item.kind in (
                     "number", "int") and value:
-                values = [(lbl, v) for lbl, v in bound_values(leaf.item)]
+                values = list(bound_values(leaf.item))
                 path = (*s.path, name, len(value) - 1)
             elif leaf.kind in ("literal", "bool"):
                 values = [(repr(c), c) for c in leaf.choices if c != value]
@@ -637,18 +635,20 @@ def _is_union_tag(s: Slot) -> bool:
     return s.model in _union_members()
 
 
-def _union_members() -> set[type[BaseModel]]:
+@functools.cache
+def _union_members() -> frozenset[type[BaseModel]]:
     """Models that are members of a union of several models somewhere in the schema."""
-    return {m for parent in _all_models() for n in parent.model_fields
-            for leaf in [_unwrap_items(field_leaf(parent, n))]
-            if leaf.kind == "union" for m in leaf.models}
+    return frozenset(m for parent in _all_models() for n in parent.model_fields
+                     for leaf in [_unwrap_items(field_leaf(parent, n))]
+                     if leaf.kind == "union" for m in leaf.models)
 
 
 def _unwrap_items(leaf: Leaf) -> Leaf:
     return leaf.item if leaf.kind == "list" and leaf.item is not None else leaf
 
 
-def _all_models() -> list[type[BaseModel]]:
+@functools.cache
+def _all_models() -> tuple[type[BaseModel], ...]:
     """Every model class reachable from :class:`Scenario`."""
     out: list[type[BaseModel]] = []
     todo: list[type[BaseModel]] = [schema.Scenario]
@@ -660,7 +660,7 @@ def _all_models() -> list[type[BaseModel]]:
         for n in m.model_fields:
             leaf = _unwrap_items(field_leaf(m, n))
             todo.extend(leaf.models)
-    return out
+    return tuple(out)
 
 
 def schema_fields() -> set[str]:
