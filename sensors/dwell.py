@@ -81,6 +81,11 @@ class _Jammers:
     bandwidth_hz: np.ndarray
 
 
+#: Largest one-way atmospheric loss used [dB]: 10^100, an echo or a jammer 1000 dB down is
+#: nothing against any receiver's noise, and L_atm² (two ways) stays finite in float64.
+MAX_ATMOSPHERIC_LOSS_DB = 1000.0
+
+
 class DwellModel:
     """On-line radar model of one radar in one scene."""
 
@@ -406,7 +411,11 @@ class DwellModel:
         return f, int(np.count_nonzero(bad))
 
     def atmospheric_loss(self, slant_range, elevation, radar_en, target_en, target_up):
-        """One-way atmospheric loss L_atm [16] (power ratio >= 1)."""
+        """One-way atmospheric loss L_atm [16] (power ratio >= 1).
+
+        Held at :data:`MAX_ATMOSPHERIC_LOSS_DB`: a path through more is opaque (a jammer
+        2800 km away at 100 GHz in fog is over 3000 dB, which 10^(x/10) overflows).
+        """
         if self.tables.atmosphere is None:
             return np.ones_like(slant_range)
         from shipradar.tables.atmosphere import lookup_gas_fog_loss_db
@@ -422,7 +431,7 @@ class DwellModel:
             length = rain_path_length_m(radar_en, target_en, self.radar.antenna_height_m,
                                         target_up, centre, radius, rain.cloud_base_m)
             loss_db = loss_db + rain_loss_db(self.rain_gamma_db_per_km, length)
-        return noise.power_ratio(loss_db)
+        return noise.power_ratio(np.minimum(loss_db, MAX_ATMOSPHERIC_LOSS_DB))
 
     def jamming_power(self, beam_azimuth, jam_geom, jam_pos=None, antenna_en=None):
         """Total jamming power P_j [W] at each beam azimuth [47] (0 without jammers).

@@ -312,6 +312,11 @@ def _check_motion(obj, prefix: str = "") -> None:
                      (z if s.to_altitude_m is None else s.to_altitude_m, s.dive_s, "dive_s")])
             for z_to, dur, name in legs:
                 vz = 0.5 * abs(z_to - z) * math.pi / dur
+                if vz > 0.0 and v <= 0.0:
+                    raise ValueError(
+                        f"{where}.{name}: changing altitude {z:g} -> {z_to:g} m needs a path "
+                        f"speed > 0 (the climb is along the course at the current speed; "
+                        f"accelerate first), got speed {v:g} m/s")
                 if vz >= v:
                     raise ValueError(
                         f"{where}.{name}: changing altitude {z:g} -> {z_to:g} m at {v:g} m/s "
@@ -546,6 +551,14 @@ class Radar(_Model):
                     f"beamwidth_el_deg / 2 = {junction:g} deg) must be above the horizon; "
                     f"tilt_deg must be > {-self.beamwidth_el_deg / 2.0:g} with beamwidth_el_deg "
                     f"{self.beamwidth_el_deg:g}, got {pe.tilt_deg:g}")
+        # [17]-[19]: T_s = 0 K (an antenna at 0 K, no loss and a noise figure of 0 dB) is a
+        # receiver without noise: N0' = 0 and every S/N infinite
+        if (self.antenna_temperature_k == 0.0 and self.noise_figure_db == 0.0
+                and self.loss_tr_db == 0.0):
+            raise ValueError(
+                ".antenna_temperature_k: a receiver without noise (antenna_temperature_k 0 K, "
+                "noise_figure_db 0 and loss_tr_db 0 give T_s = 0 K [18] and N0' = 0 [19]); "
+                "give one of them > 0, got 0")
         # [73]: N_n = θ_b t_scan f_r / (2π) pulses hit a point target per sweep, computed as
         # sensors.detection.pulses_per_beam does. Below one, the target is lit by a pulse in
         # some sweeps and missed in others, which [73]-[89] (integration, error model) do not

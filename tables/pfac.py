@@ -132,7 +132,9 @@ def sector_edges(table: Table) -> tuple[np.ndarray, np.ndarray]:
     for ax in table.axes:
         step = (ax[-1] - ax[0]) / (len(ax) - 1)
         out.append(np.linspace(ax[0] - 0.5 * step, ax[-1] + 0.5 * step, len(ax) + 1))
-    return out[0], out[1]
+    # the first range centre is half a step out, so its inner edge is 0 but for rounding
+    # (-3.6e-15 m at R_inst = 6931.68 m), which the false-alarm generator refuses
+    return np.maximum(out[0], 0.0), out[1]
 
 
 def node_pfac(sea_map: Table, *, pfa: float | None, k_clutter: float = 1.0,

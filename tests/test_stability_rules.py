@@ -248,3 +248,58 @@ def test_schema_false_alarm_time_bound_is_the_physics_one(radar):
         pfa(t_min * 0.99)
     with pytest.raises(ScenarioError):
         parse_scenario(_scene(dict(radar, false_alarm_time_s=t_min * 0.99)))
+
+
+# -- found by the extremes campaign (tests/extremes.py) --------------------------------------
+def test_climb_from_rest_is_refused_not_divided_by_zero(tmp_path, capsys):
+    d = _scene()
+    d["targets"][0] = {"id": "m", "kind": "missile", "heading_deg": 0, "speed_mps": 0,
+                       "waypoints": [{"east_m": 5000, "north_m": 0, "altitude_m": 5}],
+                       "segments": [{"type": "climb", "to_altitude_m": 200, "duration_s": 10}],
+                       "rcs": {"type": "constant", "sigma_m2": 1.0}}
+    err = _cli_refuses(tmp_path, capsys, d, "targets[0].segments[0].duration_s")
+    assert "needs a path speed > 0" in err
+
+
+def test_receiver_without_noise_is_refused(tmp_path, capsys):
+    d = _scene({"antenna_temperature_k": 0.0, "noise_figure_db": 0.0, "loss_tr_db": 0.0})
+    err = _cli_refuses(tmp_path, capsys, d, "platforms[0].radars[0].antenna_temperature_k")
+    assert "T_s = 0 K" in err
+
+
+def test_receiver_with_one_noise_source_runs(tmp_path, capsys):
+    d = _scene({"antenna_temperature_k": 0.0, "noise_figure_db": 0.0, "loss_tr_db": 0.01},
+               duration_s=2.0)
+    _runs_clean(tmp_path, capsys, d)
+
+
+def test_opaque_jammer_path_is_held_finite(tmp_path, capsys):
+    """A jammer 2800 km away at 100 GHz in fog: over 3000 dB of one-way loss, held at
+    MAX_ATMOSPHERIC_LOSS_DB (10^(x/10) overflowed), and so no jamming at all."""
+    d = _scene({"frequency_hz": 1e11}, duration_s=2.0)
+    d["environment"]["fog"] = {"liquid_water_g_m3": 1.0}
+    d["jammers"] = [{"id": "j", "waypoints": [{"east_m": -2e6, "north_m": 2e6,
+                                               "altitude_m": 3000}],
+                     "power_w": 1e6, "gain_db": 40, "bandwidth_hz": 1e8}]
+    summary = _runs_clean(tmp_path, capsys, d)
+    assert summary["dominant_interference"]["jamming"] == 0
+
+
+def test_pfac_sector_edges_never_below_zero_range():
+    """R_inst = 6931.684596912009 m put the first ground-range edge at -3.6e-15 m."""
+    from shipradar.tables.pfac import sector_edges
+    from shipradar.tables.store import Table
+
+    n = 37
+    step = 6931.684596912009 / n
+    centres = (np.arange(n) + 0.5) * step
+    table = Table("pfac", 1, (centres, np.linspace(0, 2 * np.pi, 10)),
+                  ("ground_range_m", "azimuth_rad"), ("m", "rad"), np.zeros((n, 10)),
+                  "p_fac", "1")
+    edges, _ = sector_edges(table)
+    assert edges[0] == 0.0 and np.all(np.diff(edges) > 0)
+
+
+def test_instrumented_range_with_a_rounding_edge_runs(tmp_path, capsys):
+    d = _scene({"instrumented_range_m": 6931.684596912009}, duration_s=2.0)
+    _runs_clean(tmp_path, capsys, d)
