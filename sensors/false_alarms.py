@@ -28,7 +28,7 @@ Choices where the seed is silent or wrong
   Y/σ0 = (ln(1/P_fa)/ln 2)^a_min by 2 % (0.1 dB): on the demo scene the clutter false
   alarms rise by 3.4 % (388.3 → 401.4 per scan at K_clutter = 1; ``weibull_median``:
   33.7 → 35.8), per sector by 2-19 % (most where P_fac is smallest), and the HP default
-  P_facmax by 5 % (docs/stability-seed-points.md).
+  P_facmax by 5 % (docs/stability.md §5a).
 * **[91] (SPEC §4 item 1).**  The normal density lacks its square; the density used is
   exp(-(x-η)²/(2η)) / sqrt(2πη), mean and variance η.
 * **Sampling.**  Every regime is drawn by the seed's inverse-CDF ("innovation filter",

@@ -20,7 +20,7 @@ The seed computes the volume ϑ of [40] at the folded range R_c = mod(R, c/(2 f_
 but divides by the *true* range R⁴ in [39].  That mixes two cells: the resolution volume
 of one cell and the R⁻⁴ of another: at 170 km, for the jammed_squall radar (f_r = 5 kHz,
 R_u = 30 km) with rain everywhere, it gave -106.5 dBm where the rain folded onto that delay
-gives -69.0 dBm, 37.5 dB more (issue 23 item 5(c); docs/stability-models.md; SPEC §4 item 3
+gives -69.0 dBm, 37.5 dB more (issue 23 item 5(c); docs/stability.md §5c; SPEC §4 item 3
 already fixes the f of [41] as the PRF).  What the receiver sees at the delay of a target
 at true range R is the sum of the echoes of every pulse still in flight: rain at r + k R_u,
 k = 0, 1, 2, ..., with r = R mod R_u and R_u = c/(2 f_r), each with its own volume and its

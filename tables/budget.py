@@ -11,7 +11,7 @@ constants per kind of table, fitted once by ``benchmarks/build_cost.py`` on this
 turn the grid's work units into seconds. Before building, the commands print one line per
 table still missing from the cache, and :func:`check_build_time` refuses a scene whose
 tables would take longer than ``--max-build-s``, naming the field that drives the time and
-the cheaper ``fidelity`` setting that would fit (docs/stability-cost.md).
+the cheaper ``fidelity`` setting that would fit (docs/stability.md §4).
 """
 
 from __future__ import annotations

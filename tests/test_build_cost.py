@@ -211,6 +211,6 @@ def test_shipped_scene_tables_stay_below_the_large_grid_rules():
 def test_cost_constants_are_positive_and_documented():
     assert all(v >= 0 for v in budget.COST.values())
     assert budget.DEFAULT_MAX_BUILD_S == 600.0
-    doc = (ROOT / "docs/stability-cost.md").read_text()
+    doc = (ROOT / "docs/stability.md").read_text()
     assert "--max-build-s" in doc and "build_cost.py" in doc
 

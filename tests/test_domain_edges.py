@@ -6,7 +6,7 @@ range, 300 mm/h, the Weibull shape's limits, S/I of +150 and -60 dB) and checks 
 against something the code does not compute itself: a closed form, a limiting law, a
 literature value or a second method.  numpy floating-point errors raise here
 (tests/conftest.py), so an overflow, a log of 0 or a 0/0 anywhere is a failure.
-docs/stability-models.md lists, per model, its fitted range and what the code does outside
+docs/stability.md §2 lists, per model, its fitted range and what the code does outside
 it (clamp, extrapolate or refuse); the tests named there hold those choices.
 """
 
@@ -498,7 +498,7 @@ def test_patterns_at_the_schema_beamwidth_ends(pattern):
             1.0, rel=1e-12)
     # the widest sinc has no first null before the back ([12] edge), and [10]-[11] put its
     # half-power point at φ_b/2 only up to the obliquity factor: g² = ½ ((1 + cos φ_b/2)/2)²
-    # there (seed-literal: -0.07 dB at φ_b = 20°, -1.4 dB at 90°; docs/stability-models.md)
+    # there (seed-literal: -0.07 dB at φ_b = 20°, -1.4 dB at 90°; docs/stability.md §2)
     for bw_deg in (20.0, 90.0):
         bw = math.radians(bw_deg)
         assert an.sinc_directivity(0.5 * bw, bw) ** 2 == pytest.approx(
