@@ -35,8 +35,9 @@ serve: $(STAMP)
 tail: $(STAMP)
 	$(VENV)/bin/shipradar tail $(ENDPOINT) $(TAIL_ARGS)
 
+# the tests in two processes (pytest-xdist; this machine has 2 cores): about 4 minutes
 test: $(STAMP) tshark chromium
-	MPLBACKEND=Agg $(PY) -m pytest -q
+	MPLBACKEND=Agg $(PY) -m pytest -q -n 2
 
 # Wireshark's ASTERIX dissector checks our CAT048/CAT034 bytes (tests/test_asterix.py);
 # installed when missing and we are root, never failing here (the tests say what is missing)
