@@ -57,7 +57,7 @@ chromium:
 # docs/viewer.png: the viewer on the demo recording (made by `make demo` when missing)
 viewer-screenshot: $(STAMP) chromium
 	test -f $(OUT)/demo.rec || $(MAKE) demo
-	$(PY) -m shipradar.sim.viewer.screenshot $(OUT)/demo.rec docs/viewer.png --at 84.3 \
+	$(PY) -m shipradar.sim.adapters.viewer.screenshot $(OUT)/demo.rec docs/viewer.png --at 84.3 \
 	  --zoom 2.5 --fade 10
 
 bench: $(STAMP)

@@ -5,12 +5,13 @@
 
 In one process:
 1. the messages of a run of the scenario are collected (no bus), then encoded (a) to
-   ASTERIX by :class:`sim.asterix.AsterixStream` message by message (CAT048 records and the
-   CAT034 messages they trigger), as ``replay --asterix`` and ``export`` do; (b) the same,
-   with each revolution's CAT048 records made at once when it starts
+   ASTERIX by :class:`shipradar.sim.adapters.asterix.AsterixStream` message by message (CAT048
+   records and the CAT034 messages they trigger), as ``replay --asterix`` and ``export`` do; (b) the
+   same, with each revolution's CAT048 records made at once when it starts
    (:meth:`AsterixStream.encode_ahead`, then :meth:`AsterixStream.feed_encoded` per
    sector), as a run does (the engine hands the ASTERIX bus the revolution's plots); (c)
-   every ``plots`` message to the msgpack stream by :func:`sim.protocol.encode`: plots/s;
+   every ``plots`` message to the msgpack stream by :func:`shipradar.sim.stream.protocol.encode`:
+   plots/s;
 2. the run itself with a recording, with and without ``--asterix`` (datagrams to a loopback
    UDP socket that nobody reads, so only the sender's cost counts): the real-time factor of
    each and the share of the run that ASTERIX costs. Target: at most 10 %.
@@ -33,13 +34,13 @@ from pathlib import Path
 
 import numpy as np
 
-from shipradar.sim import protocol
-from shipradar.sim.asterix import AsterixStream
-from shipradar.sim.asterix.udp import AsterixBus, UdpSender
-from shipradar.sim.bus import Bus
-from shipradar.sim.engine import Simulation
-from shipradar.sim.recording import Recorder
-from shipradar.sim.scenario import load_scenario
+from shipradar.sim.adapters.asterix import AsterixStream
+from shipradar.sim.adapters.asterix.udp import AsterixBus, UdpSender
+from shipradar.sim.engine.simulation import Simulation
+from shipradar.sim.stream import protocol
+from shipradar.sim.stream.bus import Bus
+from shipradar.sim.stream.recording import Recorder
+from shipradar.sim.world.scenario import load_scenario
 from shipradar.tables.scene import load_scene_tables
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -1,4 +1,4 @@
-"""Calibrate the build-time model of tables.budget, and time the slow cases of issue 23.
+"""Calibrate the build-time model of shipradar.tables.budget, and time the slow cases of issue 23.
 
     python benchmarks/build_cost.py            # calibration: fit COST, fitted vs measured
     python benchmarks/build_cost.py --slow     # the four slow cases, estimate vs measured
@@ -7,7 +7,7 @@
 
 Calibration builds about thirty tables of varied size (PE, I_F, clutter, P_fac, atmosphere,
 P_d) from variants of scenarios/single_missile.yaml in a private empty cache, each timed
-around the builder (saving included), and fits the constants of ``tables.budget.COST`` one
+around the builder (saving included), and fits the constants of ``shipradar.tables.budget.COST`` one
 kind at a time by non-negative least squares on the relative error. It prints each table's
 measured time, the time the fitted constants give and their ratio, then the constants to
 paste into tables/budget.py (with the machine and the date).
@@ -101,7 +101,7 @@ def slow_scenes() -> list[tuple[str, dict]]:
 
 def build_and_time(label: str, d: dict, kinds=None) -> list[dict]:
     """Build every missing table of a scene (and its P_d tables), timed one by one."""
-    from shipradar.sim.scenario import parse_scenario
+    from shipradar.sim.world.scenario import parse_scenario
     from shipradar.tables.budget import estimate_build
     from shipradar.tables.scene import table_specs
 
@@ -220,7 +220,7 @@ def accuracy() -> None:
     three times (30 GHz, 30 km, the missile from 10 km): the large-grid rules forced on."""
     import shipradar.tables.propagation as tp
     from shipradar.sensors.radar import radar_constants
-    from shipradar.sim.scenario import parse_scenario
+    from shipradar.sim.world.scenario import parse_scenario
     from shipradar.tables.scene import pe_table_grid_kwargs
 
     def m(d):

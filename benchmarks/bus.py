@@ -1,8 +1,8 @@
 """Bus throughput: plots/s end to end over loopback TCP, per-plot vs columnar framing.
 
-End to end = encode + publish (``sim.bus.Publisher``, pace mode) in this process, receive +
-decode (``sim.protocol.decode``) in a subscriber process, timed until the subscriber has
-decoded the last plot. Also the recorder's write and read rates.
+End to end = encode + publish (``shipradar.sim.stream.bus.Publisher``, pace mode) in this process,
+receive + decode (``shipradar.sim.stream.protocol.decode``) in a subscriber process, timed until the
+subscriber has decoded the last plot. Also the recorder's write and read rates.
 
 Usage::
 
@@ -23,9 +23,9 @@ from pathlib import Path
 
 import numpy as np
 
-from shipradar.sim.bus import Publisher
-from shipradar.sim.protocol import TOPIC_EOS, TOPIC_PLOTS, decode, encode
-from shipradar.sim.recording import Recorder, read_recording
+from shipradar.sim.stream.bus import Publisher
+from shipradar.sim.stream.protocol import TOPIC_EOS, TOPIC_PLOTS, decode, encode
+from shipradar.sim.stream.recording import Recorder, read_recording
 
 COLUMNS = ("time_s", "range_m", "azimuth_rad", "snr_db", "sigma_range_m", "sigma_azimuth_rad")
 

@@ -3,8 +3,8 @@ on-line cost per dwell of reading them.
 
 Radars: ``scenarios/raid.yaml`` as written (the SPS-49-like UHF radar, 0.9 GHz HP, 30 m,
 2 µs, 250 km; the Sea Giraffe-like C-band radar, 5.6 GHz VP, 25 m, 0.25 µs, 100 km), with the
-scene's own grid (:func:`tables.scene.clutter_grid_size`), through the same table specs a run
-uses (:func:`tables.scene.table_specs`).
+scene's own grid (:func:`shipradar.tables.scene.clutter_grid_size`), through the same table specs a
+run uses (:func:`shipradar.tables.scene.table_specs`).
 
 Measured, in-process with ``time.perf_counter`` (best of N):
 
@@ -12,10 +12,11 @@ Measured, in-process with ``time.perf_counter`` (best of N):
   once per radar and environment); load: the same map read back from the cache (what every
   later run pays);
 * the same builds on a 4x finer range grid, to show the cost scales with the cell count;
-* on-line, per dwell: :meth:`sensors.dwell.DwellModel.clutter_at` for the targets in one beam
+* on-line, per dwell: :meth:`shipradar.sim.dwell.model.DwellModel.clutter_at` for the targets in one
+beam
   (power, μ_c, σ_s, Weibull a read from the map; the I_F table lookup; the distribution loss),
-  and the bare map read (:class:`tables.store.StackedLookup2D`) it is built on, for 1, 24 and
-  1000 targets in the beam.
+  and the bare map read (:class:`shipradar.tables.store.StackedLookup2D`) it is built on, for 1, 24
+  and 1000 targets in the beam.
 
 Run ``python benchmarks/clutter.py``; numbers are disturbed by other jobs on a shared machine.
 """
@@ -53,9 +54,9 @@ def _fresh_cache():
 
 
 def main() -> None:
-    from shipradar.sensors.dwell import DwellModel
     from shipradar.sensors.radar import radar_constants
-    from shipradar.sim.scenario import load_scenario
+    from shipradar.sim.dwell.model import DwellModel
+    from shipradar.sim.world.scenario import load_scenario
     from shipradar.tables import scene as ts
     from shipradar.tables.clutter import build_sea_clutter_map
     from shipradar.tables.store import StackedLookup2D

@@ -32,8 +32,8 @@ SUBPACKAGES = ("sim", "sensors", "tables", "scenarios")
 
 def counts(scenario_path: str, duration: float, seeds: int) -> dict:
     """Summed counts by origin and CPU time of the runs at seeds 1..``seeds``."""
-    from shipradar.sim.engine import Simulation
-    from shipradar.sim.scenario import load_scenario
+    from shipradar.sim.engine.simulation import Simulation
+    from shipradar.sim.world.scenario import load_scenario
     from shipradar.tables.scene import load_scene_tables
 
     base = load_scenario(scenario_path)
@@ -91,10 +91,10 @@ def main() -> None:
     ap.add_argument("--worker", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.worker:
-        import shipradar.sim.engine
+        import shipradar.sim.engine.simulation
 
         out = counts(args.worker, args.duration, args.seeds)
-        out["code"] = str(Path(shipradar.sim.engine.__file__).resolve().parents[1])
+        out["code"] = str(Path(shipradar.sim.engine.simulation.__file__).resolve().parents[1])
         print(json.dumps(out))
         return
     print(f"{args.seeds} seeds x {args.duration:g} simulated s; baseline {args.baseline}; "

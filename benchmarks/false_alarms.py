@@ -3,9 +3,9 @@
     python benchmarks/false_alarms.py [--duration 600] [--scenario scenarios/raid.yaml]
 
 1. Generator alone: sea-clutter false alarms per second of
-   :meth:`sensors.false_alarms.ClutterFalseAlarms.scan` (counts per sector [91]-[93], uniform
-   positions, beam times, spike S/I, errors [84]-[85]) on the scenario's P_fac map, and noise
-   false alarms per second of the model's noise path (count, positions, plot columns).
+   :meth:`shipradar.sensors.false_alarms.ClutterFalseAlarms.scan` (counts per sector [91]-[93],
+   uniform positions, beam times, spike S/I, errors [84]-[85]) on the scenario's P_fac map, and
+   noise false alarms per second of the model's noise path (count, positions, plot columns).
 2. In a run (fast mode, no bus): the time spent inside the model's false-alarm generators
    (timed by wrapping them) as a share of the run's wall time, and the end-to-end cost (also
    merging, sorting and emitting those plots): the same run with the clutter false alarms
@@ -25,9 +25,9 @@ from pathlib import Path
 
 import numpy as np
 
-from shipradar.sensors.dwell import DwellModel
-from shipradar.sim.engine import Simulation
-from shipradar.sim.scenario import load_scenario
+from shipradar.sim.dwell.model import DwellModel
+from shipradar.sim.engine.simulation import Simulation
+from shipradar.sim.world.scenario import load_scenario
 from shipradar.tables.pfac import clutter_false_alarm_generator
 from shipradar.tables.scene import load_scene_tables
 
@@ -83,7 +83,7 @@ class _EncodeBus:
     """Encodes every message as a publisher would (msgpack frames), then drops it."""
 
     def emit(self, topic, t, payload):
-        from shipradar.sim import protocol
+        from shipradar.sim.stream import protocol
 
         protocol.encode(topic, t, payload)
 

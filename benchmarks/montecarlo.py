@@ -26,7 +26,7 @@ ROOT = Path(__file__).resolve().parents[1]
 def measure(scenario, runs: int, workers: int, out_dir: Path) -> dict:
     from distributed import Client, LocalCluster
 
-    from shipradar.sim.montecarlo import run_study
+    from shipradar.sim.studies.montecarlo import run_study
 
     t0 = time.perf_counter()
     with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
@@ -49,7 +49,7 @@ def main(argv=None) -> int:
     ap.add_argument("--scenario", default=str(ROOT / "scenarios" / "single_missile.yaml"))
     ap.add_argument("--runs", type=int, default=16)
     a = ap.parse_args(argv)
-    from shipradar.sim.scenario import load_scenario
+    from shipradar.sim.world.scenario import load_scenario
     from shipradar.tables.scene import load_scene_tables
 
     sc = load_scenario(a.scenario)

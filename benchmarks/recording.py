@@ -19,10 +19,10 @@ import tempfile
 import time
 from pathlib import Path
 
-from shipradar.sim import protocol
-from shipradar.sim.engine import Simulation
-from shipradar.sim.recording import Recorder, read_recording
-from shipradar.sim.scenario import load_scenario
+from shipradar.sim.engine.simulation import Simulation
+from shipradar.sim.stream import protocol
+from shipradar.sim.stream.recording import Recorder, read_recording
+from shipradar.sim.world.scenario import load_scenario
 from shipradar.tables.scene import load_scene_tables
 
 ROOT = Path(__file__).resolve().parents[1]

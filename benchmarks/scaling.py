@@ -32,10 +32,10 @@ from pathlib import Path
 
 import numpy as np
 
-from shipradar.sim.bus import Bus
-from shipradar.sim.engine import Simulation
-from shipradar.sim.recording import Recorder
-from shipradar.sim.scenario import Scenario, load_scenario
+from shipradar.sim.engine.simulation import Simulation
+from shipradar.sim.stream.bus import Bus
+from shipradar.sim.stream.recording import Recorder
+from shipradar.sim.world.scenario import Scenario, load_scenario
 from shipradar.tables.scene import load_scene_tables
 
 ROOT = Path(__file__).resolve().parents[1]

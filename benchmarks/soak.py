@@ -28,7 +28,7 @@ from pathlib import Path
 
 import zmq
 
-from shipradar.sim.protocol import decode
+from shipradar.sim.stream.protocol import decode
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -118,7 +118,7 @@ class _EncodeBus:
         self.frames = 0
 
     def emit(self, topic, t, payload):
-        from shipradar.sim import protocol
+        from shipradar.sim.stream import protocol
 
         protocol.encode(topic, t, payload)
         self.frames += 1
@@ -128,8 +128,8 @@ class _EncodeBus:
 
 
 def shipradar_run(seconds: float, repeats: int = 3) -> dict:
-    from shipradar.sim.engine import Simulation
-    from shipradar.sim.scenario import load_scenario
+    from shipradar.sim.engine.simulation import Simulation
+    from shipradar.sim.world.scenario import load_scenario
     from shipradar.tables.scene import load_scene_tables
 
     sc = load_scenario(ROOT / "scenarios" / "single_missile.yaml")
@@ -155,8 +155,8 @@ def main(argv=None) -> int:
                          "the whole scan's clutter at every 5 ms step: slow)")
     a = ap.parse_args(argv)
     sr = shipradar_run(a.seconds)
-    from shipradar.sim.engine import Simulation
-    from shipradar.sim.scenario import load_scenario
+    from shipradar.sim.engine.simulation import Simulation
+    from shipradar.sim.world.scenario import load_scenario
 
     sc = load_scenario(ROOT / "scenarios" / "single_missile.yaml")
     model = Simulation(sc).radars[0].model

@@ -49,9 +49,9 @@ def stalled_page(port: int) -> socket.socket:
 def main() -> int:
     import aiohttp
 
-    from shipradar.sim.scenario import load_scenario
-    from shipradar.sim.viewer.server import ViewerServer, ViewerThread
-    from shipradar.sim.viewer.wire import unpack_batch
+    from shipradar.sim.adapters.viewer.server import ViewerServer, ViewerThread
+    from shipradar.sim.adapters.viewer.wire import unpack_batch
+    from shipradar.sim.world.scenario import load_scenario
     from shipradar.tables.scene import load_scene_tables
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])

@@ -11,9 +11,9 @@ or on a recording::
 
 The tracker: extended Kalman filter (:class:`ExtendedKalmanPredictor`/``Updater``) on a
 nearly-constant-velocity model in the scenario's local east/north frame; detections with
-their own bearing-range models (:mod:`sim.stonesoup_reader`); PDA hypotheses scored with the
-clutter density of the radar's noise false alarms and associated by global nearest neighbour
-(:class:`GNNWith2DAssignment`); tracks confirmed by a :class:`MultiMeasurementInitiator`
+their own bearing-range models (:mod:`shipradar.sim.adapters.stonesoup_reader`); PDA hypotheses
+scored with the clutter density of the radar's noise false alarms and associated by global nearest
+neighbour (:class:`GNNWith2DAssignment`); tracks confirmed by a :class:`MultiMeasurementInitiator`
 (``confirm`` updates) and deleted after ``delete_after`` scans without an update (8 by
 default, enough to coast a sea-skimmer across a multipath null).
 
@@ -84,7 +84,7 @@ from stonesoup.types.state import GaussianState, State
 from stonesoup.types.update import GaussianStateUpdate
 from stonesoup.updater.kalman import ExtendedKalmanUpdater
 
-from shipradar.sim.stonesoup_reader import ShipradarDetectionReader
+from shipradar.sim.adapters.stonesoup_reader import ShipradarDetectionReader
 
 __all__ = ["ClutterMap", "clutter_density", "main", "radar_clutter_profile", "track",
            "tracks_payload"]
@@ -342,7 +342,7 @@ def track(
     ----------
     source : str, path-like or iterable
         Endpoint (``tcp://...``), recording file, or encoded messages
-        (:class:`sim.stonesoup_reader.ShipradarDetectionReader`).
+        (:class:`shipradar.sim.adapters.stonesoup_reader.ShipradarDetectionReader`).
     sensor : str or None
         Radar id; None: the first one in the stream.
     q_m2_s3 : float
@@ -370,7 +370,7 @@ def track(
         are not offered to the associator [m].
     idle_timeout_s : float
         Live source: stop after this long without a message [s].
-    curve : shipradar.sim.security.CurveClient or None
+    curve : shipradar.sim.stream.security.CurveClient or None
         Keys for a CURVE publisher (``--curve-secret-key``, ``--curve-server-key``).
     out : TextIO or None
         Print one JSON line per scan there.
@@ -396,7 +396,7 @@ def track(
     """
     publisher = None
     if publish_tracks is not None:
-        from shipradar.sim.bus import Publisher
+        from shipradar.sim.stream.bus import Publisher
 
         publisher = Publisher(publish_tracks, on_slow="drop")
     try:
@@ -518,7 +518,7 @@ def _track(source, *, sensor, q_m2_s3, prob_detect, confirm, delete_after,
         }
         scans.append(row)
         if publisher is not None:
-            from shipradar.sim.protocol import encode
+            from shipradar.sim.stream.protocol import encode
 
             time_s = (when - dt.datetime.fromisoformat(reader.meta["start_time"])
                       ).total_seconds()
@@ -536,7 +536,7 @@ def _track(source, *, sensor, q_m2_s3, prob_detect, confirm, delete_after,
 
 
 def main(argv: list[str] | None = None) -> int:
-    from shipradar.sim.security import CurveKeyError, add_curve_arguments, curve_from_args
+    from shipradar.sim.stream.security import CurveKeyError, add_curve_arguments, curve_from_args
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("source", help="endpoint (tcp://host:port) or recording file")

@@ -23,8 +23,8 @@ package:
   magnitude below liquid water at microwave frequencies, so its specific attenuation is
   negligible below ~100 GHz (ITU-R P.840 §2 note; Blake 1986 §5.4 "ice clouds... negligible").
 
-Gas and fog depend only on slant range and elevation: :mod:`tables.atmosphere` tabulates them
-once per scene from the functions here and the dwell model reads that table per look.
+Gas and fog depend only on slant range and elevation: :mod:`shipradar.tables.atmosphere` tabulates
+them once per scene from the functions here and the dwell model reads that table per look.
 """
 
 from __future__ import annotations

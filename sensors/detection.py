@@ -78,9 +78,10 @@ Choices where the seed is silent or wrong
   that can be reported, N_rep = min(N_rc, R_inst/C_R) range gates per sweep
   (:func:`reported_range_cells`: the gates of one interpulse period that fall inside the
   instrumented range; a radar cannot decide in more gates than its interpulse period
-  holds, nor report beyond R_inst).  :func:`sensors.false_alarms.noise_false_alarms_per_scan`
-  draws η = N_ch N_rep (2π/θ_b) P_fa per revolution, so η = t_scan/t_fa exactly.  The
-  seed's letter stays available as ``t_fa_definition="median"`` (P_fa = 0.69/n').
+  holds, nor report beyond R_inst).
+  :func:`shipradar.sensors.false_alarms.noise_false_alarms_per_scan` draws η = N_ch N_rep (2π/θ_b)
+  P_fa per revolution, so η = t_scan/t_fa exactly.  The seed's letter stays available as
+  ``t_fa_definition="median"`` (P_fa = 0.69/n').
 * **MTI cascaded with a bank, [76] against [77] (erratum, issue 23 item 5b).**  The seed
   gives [76] for an MTI and [77] for a bank and is silent on the cascade; taking [77] alone
   ignores the canceller.  A cascade is a sliding canceller (an output per pulse after its
@@ -323,7 +324,7 @@ def pfa_from_false_alarm_time(
     with k = 1 (t_fa the mean time between false alarms; the seed's [68] has k = 0.69) and
     N_rep = min(N_rc, R_inst/C_R) the reported gates (:func:`reported_range_cells`; the
     seed's [71] has N_rc).  Erratum, issue 23 item 5a (module notes): with both, the noise
-    false alarms of :func:`sensors.false_alarms.noise_false_alarms_per_scan` come at
+    false alarms of :func:`shipradar.sensors.false_alarms.noise_false_alarms_per_scan` come at
     exactly 1/t_fa.
 
     Parameters

@@ -16,11 +16,11 @@ Choices where the seed is silent or wrong
   of 1.  The count here is over the decisions that [68]-[72] count
   (:func:`noise_false_alarms_per_scan`): N_ch channels in each of the N_rep =
   min(N_rc, R_inst/C_R) reported gates of each of the 2π/θ_b beam positions, every channel's
-  crossing a plot of its own; with P_fa = 1/n' (:func:`sensors.detection.pfa_from_false_alarm_time`)
-  η = t_scan/t_fa exactly, whatever the radar.  The positions stay uniform over the
-  instrumented disc (R_inst > c/(2 f_r): the N_rc gates' crossings are reported over it,
-  as the targets are, the ambiguity resolution not being modelled).
-  :func:`resolution_cells` keeps [90]'s geometric count of the disc's cells.
+  crossing a plot of its own; with P_fa = 1/n'
+  (:func:`shipradar.sensors.detection.pfa_from_false_alarm_time`) η = t_scan/t_fa exactly, whatever
+  the radar.  The positions stay uniform over the instrumented disc (R_inst > c/(2 f_r): the N_rc
+  gates' crossings are reported over it, as the targets are, the ambiguity resolution not being
+  modelled). :func:`resolution_cells` keeps [90]'s geometric count of the disc's cells.
 * **Sea-clutter counts and P_fa.**  A sector's η = P_fac × cells counts one decision per
   cell, not N_ch: a spike is one return of one cell, seen alike by every channel, unlike
   noise, whose channels cross independently.  The P_fac of [94]-[95] depends on P_fa
@@ -148,11 +148,12 @@ def noise_false_alarms_per_scan(
 
     The decisions that [68]-[72] count, over one revolution: N_ch channels (each crossing a
     plot) in each of the N_rep = min(N_rc, R_inst/C_R) reported range gates
-    (:func:`sensors.detection.reported_range_cells`) of each of the 2π/θ_b beam positions.
+    (:func:`shipradar.sensors.detection.reported_range_cells`) of each of the 2π/θ_b beam positions.
     Erratum to [90] (issue 23 item 5a, module notes): the seed's N_cells P_fa, with
     N_cells = 2π R_inst/(θ_b C_R) (:func:`resolution_cells`), leaves out N_ch and counts the
     disc's cells instead of the gates decided.  With P_fa of
-    :func:`sensors.detection.pfa_from_false_alarm_time` for the same R_inst, η = t_scan/t_fa.
+    :func:`shipradar.sensors.detection.pfa_from_false_alarm_time` for the same R_inst, η =
+    t_scan/t_fa.
 
     Parameters
     ----------
@@ -178,7 +179,7 @@ def noise_false_alarms_per_scan(
     ------
     ValueError
         If P_fa ∉ [0, 1], θ_b or N_ch is not positive, or as
-        :func:`sensors.detection.reported_range_cells`.
+        :func:`shipradar.sensors.detection.reported_range_cells`.
     """
     p = np.asarray(pfa, dtype=float)
     theta = np.asarray(beamwidth_rad, dtype=float)
@@ -830,7 +831,7 @@ _REGIME_BERNOULLI, _REGIME_POISSON, _REGIME_NORMAL = 0, 1, 2
 class ClutterFalseAlarms:
     """Per-scan generator of sea-clutter-induced false alarms, seed 7.2 with 7.1's method.
 
-    Built once per radar from the P_fac map (:mod:`tables.pfac`); only the sectors with
+    Built once per radar from the P_fac map (:mod:`shipradar.tables.pfac`); only the sectors with
     P_fac > 0 are kept.  :meth:`scan` draws one revolution, vectorized over sectors and
     plots: the count of each sector by [91]-[93] from η = P_fac × cells
     (:func:`false_alarm_count`, one uniform per sector), positions uniform in ground range

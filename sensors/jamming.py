@@ -6,7 +6,7 @@ Choices (the seed is terse or wrong here)
 ----------------------------------------
 * ``G_r L_sl``, the receive gain times a constant azimuth sidelobe level, becomes the
   radar's actual pattern toward the jammer: ``G g_az(Δθ)² g_el(φ_j)²`` with the field
-  factors of :mod:`sensors.antenna` (Δθ the azimuth from the beam axis to the jammer, φ_j
+  factors of :mod:`shipradar.sensors.antenna` (Δθ the azimuth from the beam axis to the jammer, φ_j
   the jammer's elevation).  When the rotating beam sweeps across the jammer the same
   formula gives main-beam jamming, with no special case.  ``sidelobe_floor`` (a power ratio
   relative to the main beam) keeps the seed's constant L_sl as a lower bound, so a Gaussian
@@ -17,7 +17,7 @@ Choices (the seed is terse or wrong here)
   makes sense for two bandwidths.  The ratio is capped at 1: a jammer narrower than the
   receiver (spot jamming) puts all its power in the band, not more.
 * F_j is the one-way propagation factor (field), L_atm the one-way atmospheric loss, L_r the
-  receive loss of [17] (:func:`sensors.noise.receive_loss`).
+  receive loss of [17] (:func:`shipradar.sensors.noise.receive_loss`).
 """
 
 from __future__ import annotations
@@ -85,7 +85,8 @@ def jammer_power_w(
         G, radar maximum antenna gain (power ratio).
     g_az, g_el : array_like
         Radar directivity FIELD factors toward the jammer, azimuth and elevation
-        (:func:`sensors.antenna.directivity`, :func:`~sensors.antenna.elevation_directivity`).
+        (:func:`shipradar.sensors.antenna.directivity`,
+        :func:`~shipradar.sensors.antenna.elevation_directivity`).
     wavelength_m : array_like
         λ [m].
     range_m : array_like

@@ -2,13 +2,14 @@
 
 Reference temperatures and the seed's typical losses are named once here; the other
 modules import them.  Losses are power ratios ≥ 1 inside the functions; the ``_DB``
-constants are the seed's values in dB (scenario defaults, see ``sim.scenario.Losses``).
+constants are the seed's values in dB (scenario defaults, see
+``shipradar.sim.world.scenario.Losses``).
 
 Choices where the seed is silent (SPEC §4 item 21)
 -------------------------------------------------
 T'_a, the sky temperature of Blake's Fig. 4.8, is computed, not read from a figure, by
-radiative transfer through the model atmosphere of :mod:`sensors.atmosphere` (ITU-R P.372-16
-§5: ``T_b = ∫ T(s) dA(s) + T_ext e^{-τ}``), with the ITU-R P.835 lapse rate for the air
+radiative transfer through the model atmosphere of :mod:`shipradar.sensors.atmosphere` (ITU-R
+P.372-16 §5: ``T_b = ∫ T(s) dA(s) + T_ext e^{-τ}``), with the ITU-R P.835 lapse rate for the air
 temperature, the 2.725 K cosmic background and the median galactic noise of ITU-R P.372-16
 eq. (13), ``F_am = 52 - 23 log10 f[MHz]`` dB above k T0 b, extended above 100 MHz with the
 same power law (the straight galactic line of Blake 1986 Fig. 4.8; under 1 K above 3 GHz).
@@ -199,10 +200,11 @@ def sky_temperature_k(
 ) -> NDArray[np.float64]:
     """Sky noise temperature T'_a seen by a lossless antenna (Blake's Fig. 4.8 quantity).
 
-    ITU-R P.372-16 §5 radiative transfer along the slant path of :mod:`sensors.atmosphere`:
-    ``T'_a = ∫_0^S T(h(s)) κ(s) e^{-τ(s)} ds + (T_cosmic + T_gal) e^{-τ(S)}``, with κ the
-    gaseous absorption (P.676 with the P.676 Annex 2 exponential profiles), τ its running
-    integral, T(h) = T_surface - Γ min(h, 11 km) (ITU-R P.835), S the path to 100 km.
+    ITU-R P.372-16 §5 radiative transfer along the slant path of
+    :mod:`shipradar.sensors.atmosphere`: ``T'_a = ∫_0^S T(h(s)) κ(s) e^{-τ(s)} ds + (T_cosmic +
+    T_gal) e^{-τ(S)}``, with κ the gaseous absorption (P.676 with the P.676 Annex 2 exponential
+    profiles), τ its running integral, T(h) = T_surface - Γ min(h, 11 km) (ITU-R P.835), S the path
+    to 100 km.
 
     Parameters
     ----------

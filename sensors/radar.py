@@ -10,7 +10,7 @@ from dataclasses import dataclass
 from scipy import constants
 
 from shipradar.sensors import antenna, detection, noise
-from shipradar.sim.scenario import Radar, Scenario
+from shipradar.sim.world.scenario import Radar, Scenario
 
 __all__ = ["RadarConstants", "false_alarm_probability", "pulses_per_beamwidth",
            "radar_constants"]
@@ -129,8 +129,8 @@ def pulses_per_beamwidth(radar: Radar) -> float:
     """N_n of a radar, pulses per beam sweep of a point target [-], seed [73], >= 1.
 
     The schema refuses fewer than one pulse (to 1e-9,
-    :data:`shipradar.sim.scenario.PULSES_PER_BEAM_ULP`); exactly one, which θ_b t_scan f_r / 2π
-    can round to 1 - 1e-16, is one.
+    :data:`shipradar.sim.world.scenario.PULSES_PER_BEAM_ULP`); exactly one, which θ_b t_scan f_r /
+    2π can round to 1 - 1e-16, is one.
     """
     return max(1.0, float(detection.pulses_per_beam(
         math.radians(radar.beamwidth_az_deg), radar.scan_period_s, radar.prf_hz)))

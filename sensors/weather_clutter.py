@@ -418,7 +418,7 @@ def weather_spread_hz(
     turbulence_spread_mps : array_like, optional
         σ_turb [m/s].
     rotation_spread : array_like, optional
-        σ_r [Hz] (:func:`sensors.sea_clutter.rotation_spread_hz`).
+        σ_r [Hz] (:func:`shipradar.sensors.sea_clutter.rotation_spread_hz`).
 
     Returns
     -------

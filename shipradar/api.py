@@ -11,8 +11,8 @@ from pathlib import Path
 from typing import Any
 
 from shipradar.scenarios import example_path
-from shipradar.sim.engine import CallbackSink, Simulation
-from shipradar.sim.scenario import Scenario, load_scenario
+from shipradar.sim.engine.simulation import CallbackSink, Simulation
+from shipradar.sim.world.scenario import Scenario, load_scenario
 
 __all__ = ["build_tables", "example", "messages", "run"]
 

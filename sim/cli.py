@@ -43,7 +43,7 @@ def _scenario_path(args) -> str:
 
 
 def _load(path: str):
-    from shipradar.sim.scenario import ScenarioError, load_scenario
+    from shipradar.sim.world.scenario import ScenarioError, load_scenario
 
     try:
         return load_scenario(path)
@@ -80,7 +80,7 @@ def _count(name: str):
 # --------------------------------------------------------------------------- commands
 def cmd_examples(args) -> int:
     from shipradar.scenarios import example_names, example_path
-    from shipradar.sim.scenario import load_scenario
+    from shipradar.sim.world.scenario import load_scenario
 
     for name in example_names():
         s = load_scenario(example_path(name))
@@ -95,8 +95,8 @@ def cmd_validate(args) -> int:
     print(f"{args.scenario}: valid ({len(s.targets)} targets, radars: {radars}, "
           f"{s.duration_s:g} s)")
     if getattr(args, "explain", False):
-        from shipradar.sim.fidelity import explain_lines
-        from shipradar.sim.trajectory import resolved_scene_lines
+        from shipradar.sim.studies.fidelity import explain_lines
+        from shipradar.sim.world.trajectory import resolved_scene_lines
 
         print("\n".join(explain_lines(s)))
         print("\n".join(resolved_scene_lines(s)))
@@ -119,7 +119,7 @@ def cmd_tables_build(args) -> int:
 
 def _curve(args, role: str):
     """The ``--curve-*`` options as a CurveServer/CurveClient (None when not given)."""
-    from shipradar.sim.security import curve_from_args
+    from shipradar.sim.stream.security import curve_from_args
 
     return curve_from_args(args, role)
 
@@ -190,13 +190,13 @@ def _check_run(args, s):
         raise BadInput(f"--processes {args.processes} is for fast mode; drop --realtime or "
                        "use --processes 1")
     if args.publish:
-        from shipradar.sim.bus import check_bind_endpoint
+        from shipradar.sim.stream.bus import check_bind_endpoint
 
         check_bind_endpoint(args.publish, allow_remote=args.allow_remote,
                             secured=curve is not None)
     if args.asterix:
-        from shipradar.sim.asterix.stream import scenario_problems
-        from shipradar.sim.asterix.udp import parse_udp_url
+        from shipradar.sim.adapters.asterix.stream import scenario_problems
+        from shipradar.sim.adapters.asterix.udp import parse_udp_url
 
         parse_udp_url(args.asterix, allow_remote=args.allow_remote)
         problems = scenario_problems(s)
@@ -220,9 +220,9 @@ def _stopped_summary(sim, core_bus, wall0: float, signum) -> dict:
 
 
 def cmd_run(args) -> int:
-    from shipradar.sim.bus import Bus, Publisher, RunInterrupted
-    from shipradar.sim.engine import Simulation
-    from shipradar.sim.recording import Recorder, RecordingWriteError
+    from shipradar.sim.engine.simulation import Simulation
+    from shipradar.sim.stream.bus import Bus, Publisher, RunInterrupted
+    from shipradar.sim.stream.recording import Recorder, RecordingWriteError
     from shipradar.tables.budget import build_seconds
     from shipradar.tables.scene import load_scene_tables
 
@@ -249,7 +249,7 @@ def cmd_run(args) -> int:
         if publisher or recorder:
             bus = core_bus = Bus(publisher, recorder)
         if args.asterix:
-            from shipradar.sim.asterix.udp import AsterixBus, UdpSender
+            from shipradar.sim.adapters.asterix.udp import AsterixBus, UdpSender
 
             bus = AsterixBus(bus, UdpSender(args.asterix, allow_remote=args.allow_remote),
                              args.asterix_max_datagram)
@@ -302,14 +302,14 @@ def cmd_run(args) -> int:
 
 
 def cmd_replay(args) -> int:
-    from shipradar.sim.bus import replay
+    from shipradar.sim.stream.bus import replay
 
     if not Path(args.recording).exists():
         raise BadInput(f"replay: recording {args.recording} does not exist")
     curve = _curve(args, "server")
     asterix = None
     if args.asterix:
-        from shipradar.sim.asterix.udp import AsterixBus, UdpSender
+        from shipradar.sim.adapters.asterix.udp import AsterixBus, UdpSender
 
         asterix = AsterixBus(None, UdpSender(args.asterix, allow_remote=args.allow_remote),
                              args.asterix_max_datagram)
@@ -343,7 +343,7 @@ def cmd_replay(args) -> int:
 
 
 def cmd_export(args) -> int:
-    from shipradar.sim.export import ExportError, export
+    from shipradar.sim.stream.export import ExportError, export
 
     if not Path(args.recording).exists():
         raise BadInput(f"export: recording {args.recording} does not exist")
@@ -360,7 +360,7 @@ def cmd_export(args) -> int:
 
 
 def _datagram_size(text: str) -> int:
-    from shipradar.sim.asterix.encode import MAX_BLOCK_BYTES, MIN_BLOCK_BYTES
+    from shipradar.sim.adapters.asterix.encode import MAX_BLOCK_BYTES, MIN_BLOCK_BYTES
 
     try:
         v = int(text)
@@ -392,7 +392,7 @@ def _asterix_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def cmd_tail(args) -> int:
-    from shipradar.sim.bus import tail
+    from shipradar.sim.stream.bus import tail
 
     topics = [t.encode() for t in args.topic] if args.topic else None
     tail(args.endpoint, topics=topics, max_messages=args.count, timeout_s=args.timeout,
@@ -401,7 +401,7 @@ def cmd_tail(args) -> int:
 
 
 def cmd_recording_verify(args) -> int:
-    from shipradar.sim.recording import verify_recording
+    from shipradar.sim.stream.recording import verify_recording
 
     if not Path(args.recording).is_file():
         raise BadInput(f"recording verify: {args.recording} does not exist or is not a file")
@@ -417,7 +417,7 @@ def cmd_recording_verify(args) -> int:
 
 
 def cmd_recording_repair(args) -> int:
-    from shipradar.sim.recording import repair_recording
+    from shipradar.sim.stream.recording import repair_recording
 
     if not Path(args.recording).is_file():
         raise BadInput(f"recording repair: {args.recording} does not exist or is not a file")
@@ -428,7 +428,7 @@ def cmd_recording_repair(args) -> int:
 
 
 def cmd_keys_generate(args) -> int:
-    from shipradar.sim.security import generate_keys
+    from shipradar.sim.stream.security import generate_keys
 
     out = generate_keys(args.directory, clients=args.name or ["client"])
     print(json.dumps(out))
@@ -436,8 +436,8 @@ def cmd_keys_generate(args) -> int:
 
 
 def cmd_view(args) -> int:
-    from shipradar.sim.bus import EndpointError
-    from shipradar.sim.viewer.server import HostError, ViewerServer, run_viewer
+    from shipradar.sim.adapters.viewer.server import HostError, ViewerServer, run_viewer
+    from shipradar.sim.stream.bus import EndpointError
 
     source = args.source
     if "://" not in source and not Path(source).is_file():
@@ -446,7 +446,7 @@ def cmd_view(args) -> int:
     for ep in args.tracks or []:
         if "://" not in ep:
             raise BadInput(f"--tracks {ep!r} is not a ZeroMQ endpoint (tcp://HOST:PORT)")
-    from shipradar.sim.security import curve_from_args
+    from shipradar.sim.stream.security import curve_from_args
 
     curve = curve_from_args(args, "client")
     if curve is not None and "://" not in source:
@@ -497,11 +497,11 @@ def _float_range(name: str, lo: float, hi: float):
 
 
 def cmd_plot(args) -> int:
-    from shipradar.sim.figures.scene import render
+    from shipradar.sim.studies.figures.scene import render
 
     s = _load(args.scenario)
     if args.what == "geometry":  # the scene's map, no tables needed
-        from shipradar.sim.figures.geometry import render_geometry
+        from shipradar.sim.studies.figures.geometry import render_geometry
 
         written = render_geometry(s, Path(args.out), height_m=args.height, radar_id=args.radar)
     else:
@@ -513,19 +513,19 @@ def cmd_plot(args) -> int:
 
 
 def cmd_montecarlo(args) -> int:
-    from shipradar.sim.montecarlo import cli_main
+    from shipradar.sim.studies.montecarlo import cli_main
 
     return cli_main(args.rest)
 
 
 def cmd_report(args) -> int:
-    from shipradar.sim.report import cli_main
+    from shipradar.sim.studies.report import cli_main
 
     return cli_main(args.rest)
 
 
 def cmd_fidelity(args) -> int:
-    from shipradar.sim.fidelity import cli_main
+    from shipradar.sim.studies.fidelity import cli_main
 
     return cli_main(args.rest)
 
@@ -549,8 +549,8 @@ def _budget_argument(p: argparse.ArgumentParser) -> None:
 
 def build_parser() -> argparse.ArgumentParser:
     from shipradar import __version__
-    from shipradar.sim.recording import COMPRESSIONS
-    from shipradar.sim.security import add_curve_arguments
+    from shipradar.sim.stream.recording import COMPRESSIONS
+    from shipradar.sim.stream.security import add_curve_arguments
 
     p = argparse.ArgumentParser(prog="shipradar", description=__doc__.splitlines()[0])
     p.add_argument("--version", action="version", version=f"shipradar {__version__}")
@@ -723,16 +723,21 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     if argv and argv[0] in ("montecarlo", "report", "fidelity"):
-        # these commands own their argument parsing (sim.montecarlo, sim.report, sim.fidelity)
+        # these commands own their argument parsing (shipradar.sim.studies.montecarlo,
+        # shipradar.sim.studies.report, shipradar.sim.studies.fidelity)
         args = argparse.Namespace(rest=argv[1:], func={"montecarlo": cmd_montecarlo,
                                                        "report": cmd_report,
                                                        "fidelity": cmd_fidelity}[argv[0]])
     else:
         args = build_parser().parse_args(argv)  # argparse exits with 2 on bad options
-    from shipradar.sim.asterix.encode import AsterixError
-    from shipradar.sim.bus import EndpointError, PublisherStalledError, SubscriberTimeoutError
-    from shipradar.sim.recording import RecordingError, RecordingExistsError
-    from shipradar.sim.security import CurveKeyError
+    from shipradar.sim.adapters.asterix.encode import AsterixError
+    from shipradar.sim.stream.bus import (
+        EndpointError,
+        PublisherStalledError,
+        SubscriberTimeoutError,
+    )
+    from shipradar.sim.stream.recording import RecordingError, RecordingExistsError
+    from shipradar.sim.stream.security import CurveKeyError
     from shipradar.tables.budget import BuildTimeError, MemoryBudgetError
 
     try:

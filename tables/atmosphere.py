@@ -1,8 +1,8 @@
 """The atmospheric-loss table of a scene: one-way gas + fog loss of [16] against slant range and
 elevation (off-line level), and its per-dwell lookup.
 
-The physics (ITU-R P.676 / P.840 through ``itur``) is :mod:`sensors.atmosphere`; rain depends on
-the rain cell's geometry and is computed on-line there, not tabulated.
+The physics (ITU-R P.676 / P.840 through ``itur``) is :mod:`shipradar.sensors.atmosphere`; rain
+depends on the rain cell's geometry and is computed on-line there, not tabulated.
 """
 
 from __future__ import annotations
@@ -21,7 +21,8 @@ from shipradar.tables.store import Table, get_or_build
 __all__ = ["TABLE_NAME", "TABLE_VERSION", "atmospheric_loss_grid", "atmospheric_loss_inputs",
            "lookup_gas_fog_loss_db"]
 
-#: Table builder name and version (bump on any change of the model in :mod:`sensors.atmosphere`).
+#: Table builder name and version (bump on any change of the model in
+#: :mod:`shipradar.sensors.atmosphere`).
 TABLE_NAME = "atmospheric_loss"
 TABLE_VERSION = 1
 
@@ -78,8 +79,8 @@ def atmospheric_loss_grid(
 ) -> Table:
     """Table of the one-way gaseous + fog loss of [16] against slant range and elevation.
 
-    Built once per scene (off-line level), cached by :func:`tables.store.get_or_build` under
-    a hash of every input below plus the itur recommendation versions.
+    Built once per scene (off-line level), cached by :func:`shipradar.tables.store.get_or_build`
+    under a hash of every input below plus the itur recommendation versions.
 
     Parameters
     ----------
@@ -101,7 +102,7 @@ def atmospheric_loss_grid(
     cache : bool, optional
         Read/write the table cache (False: always build, nothing written).
     root : Path, optional
-        Cache directory (default :func:`tables.store.cache_dir`).
+        Cache directory (default :func:`shipradar.tables.store.cache_dir`).
 
     Returns
     -------

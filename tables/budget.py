@@ -20,7 +20,7 @@ import math
 import os
 from dataclasses import dataclass, replace
 
-from shipradar.sim.scenario import Scenario
+from shipradar.sim.world.scenario import Scenario
 
 __all__ = [
     "DEFAULT_MAX_BUILD_S",
@@ -43,7 +43,7 @@ __all__ = [
 #: variable ``SHIPRADAR_MEMORY_BUDGET_MIB`` change it.
 DEFAULT_MEMORY_BUDGET_MIB: int = 4096
 # Bytes per PE output cell while the table is built: the float32 rows, their stacked copy
-# and the boolean "beyond the angles carried" mask (tables.propagation.solve_pe).
+# and the boolean "beyond the angles carried" mask (shipradar.tables.propagation.solve_pe).
 _PE_BYTES_PER_CELL = 4 + 4 + 1
 # Bytes per clutter-map cell: eight float64 fields (power, sigma0, sigma0_diff, a, Doppler
 # mean and spread, ...) and as many temporaries while they are computed.
@@ -93,8 +93,8 @@ def _fmt(n: float) -> str:
 def estimate_tables(scenario: Scenario) -> list[TableEstimate]:
     """Estimated build memory of each PE table, I_F table and clutter map of the scene.
 
-    Uses the builders' own grid rules (:func:`tables.propagation.grid_steps`,
-    :func:`tables.scene.clutter_grid_size`) without building anything; the estimate covers
+    Uses the builders' own grid rules (:func:`shipradar.tables.propagation.grid_steps`,
+    :func:`shipradar.tables.scene.clutter_grid_size`) without building anything; the estimate covers
     the output arrays and their temporaries, not the PE's working field (a few columns).
     """
     import numpy as np
@@ -405,9 +405,9 @@ def _pd_estimates(scenario: Scenario) -> list[BuildEstimate]:
 def estimate_build(scenario: Scenario, *, include_pd: bool = True) -> list[BuildEstimate]:
     """Estimated build time and size of every table the scene reads, cached or not.
 
-    From the builders' own grid rules (:func:`tables.propagation.table_grid`,
-    :func:`tables.improvement._axes`, :func:`tables.scene.clutter_grid_size`, ...) and the
-    cost constants :data:`COST`; nothing is built. ``include_pd``: also the exact-P_d
+    From the builders' own grid rules (:func:`shipradar.tables.propagation.table_grid`,
+    :func:`shipradar.tables.improvement._axes`, :func:`shipradar.tables.scene.clutter_grid_size`,
+    ...) and the cost constants :data:`COST`; nothing is built. ``include_pd``: also the exact-P_d
     tables the run's dwell model builds (``tables build`` does not build them).
     """
     from shipradar.tables.scene import table_specs

@@ -18,15 +18,15 @@ same grid, read on-line by S/C [46], the distribution loss [64] and the clutter 
 
 Weather map (:func:`build_weather_clutter_map`, only for a scene with precipitation), values
 P_wc [W] if the rain is everywhere, summed over the pulses in flight (the range-folding
-erratum on [39]-[41], :mod:`sensors.weather_clutter`); the on-line side multiplies by the
-cell's rain fraction (:func:`sensors.weather_clutter.rain_cylinder_fraction`); extras
+erratum on [39]-[41], :mod:`shipradar.sensors.weather_clutter`); the on-line side multiplies by the
+cell's rain fraction (:func:`shipradar.sensors.weather_clutter.rain_cylinder_fraction`); extras
 ``doppler_mean_hz``, ``doppler_spread_hz`` and ``single_trip_power_w`` (the cell alone).
 
 Both depend on the ship's motion only through μ (when not motion-compensated); the table is
 built for the given speed and heading, and the on-line side may recompute f1 [34] cheaply.
 
 The cache key is the hash of every input that changes a value (the elevation pattern by its
-hashable description, not by the callable), through :func:`tables.store.get_or_build`.
+hashable description, not by the callable), through :func:`shipradar.tables.store.get_or_build`.
 """
 
 from __future__ import annotations
@@ -178,7 +178,7 @@ def build_sea_clutter_map(*, elevation_directivity: Directivity, **kwargs: Any) 
 
     Per cell (ground range d, beam azimuth θ): φ = θ - wind direction (the direction the wind
     blows *from*, so φ = 0 looks upwind); σ0*(d, φ) by [22]
-    (:func:`sensors.sea_clutter.ducted_reflectivity_db`, the duct ignored below 1 m);
+    (:func:`shipradar.sensors.sea_clutter.ducted_reflectivity_db`, the duct ignored below 1 m);
     P_sc = K_r g⁴(-ψ_d) R θ_b C_R σ0* / R⁴ [21]; σ0d against the reference of [31]; a by [32]
     (VP) or the 4.1.2 heuristic (HP: 3 at the 3° range, linearly down to a_min at the last range
     where P_sc > 2 N0'), or 1 when the resolution is too coarse for non-Rayleigh clutter;
@@ -372,10 +372,10 @@ def build_weather_clutter_map(**kwargs: Any) -> Table:
     Per cell at ground range R: ϑ0 [42] (snow as rain-equivalent), and the rain of every
     pulse in flight that arrives with the echo of R, ``P_wc = Σ_k P_1(r + k R_u)``, r the
     range folded by the PRF [41], each term ``K_r ϑ0 x θ_b d_h(x) C_R / x_s⁴`` with its own
-    range x ([39], [40], [43]; :func:`sensors.weather_clutter.range_folded_power_w`, up to
+    range x ([39], [40], [43]; :func:`shipradar.sensors.weather_clutter.range_folded_power_w`, up to
     the instrumented range), assuming rain everywhere.  This replaces the seed's volume at
-    R_c over the true R⁴ (erratum, module notes of :mod:`sensors.weather_clutter`).  Spread
-    [44]-[45] with the scan [37], the power-weighted rms over the trips; mean from the wind
+    R_c over the true R⁴ (erratum, module notes of :mod:`shipradar.sensors.weather_clutter`).
+    Spread [44]-[45] with the scan [37], the power-weighted rms over the trips; mean from the wind
     drift (and f1 [34] unless motion-compensated, the beam at the horizon).  Only call this
     when the scene has precipitation; multiply by the cell's rain fraction on-line (exact
     for rain everywhere; for a rain region the extra ``single_trip_power_w`` lets the
@@ -420,7 +420,7 @@ def build_weather_clutter_map(**kwargs: Any) -> Table:
             lam, wc.shear_spread_mps(x, phi_b), p["turbulence_spread_mps"], rotation
         )
 
-    # [39]-[41] read consistently (module notes of sensors.weather_clutter): the rain of
+    # [39]-[41] read consistently (module notes of shipradar.sensors.weather_clutter): the rain of
     # every pulse in flight, r + k R_u up to the instrumented range, each at its own range.
     r_max = p["max_range_m"]
     power = wc.range_folded_power_w(single_trip, ranges, p["prf_hz"], r_max)

@@ -1,8 +1,8 @@
 """Improvement-factor tables I_F(σ_s/f_r, f_d/f_r), the off-line level of seed chapter 5.
 
 One table per radar processor, built by :func:`build_improvement_table` from the physics of
-:mod:`sensors.doppler_filters`, cached by :func:`improvement_table` (key: exactly the inputs
-that change the table) and read on-line by :func:`improvement_factor_db`.
+:mod:`shipradar.sensors.doppler_filters`, cached by :func:`improvement_table` (key: exactly the
+inputs that change the table) and read on-line by :func:`improvement_factor_db`.
 
 Grid
     * axis 0: ``log10(σ_s/f_r)`` from :data:`LOG10_SPREAD_MIN` to :data:`LOG10_SPREAD_MAX`,
@@ -136,7 +136,7 @@ def improvement_table_inputs(
     n_filters : int, optional
         Filters in the bank [1]; default: as many as the bank has taps (DFT bank).
     window : str
-        Data window of the bank [62], one of :data:`sensors.doppler_filters.WINDOWS`.
+        Data window of the bank [62], one of :data:`shipradar.sensors.doppler_filters.WINDOWS`.
     window_sidelobe_db : float, optional
         Taylor/Chebyshev design sidelobe level below the mainlobe [dB].
     taylor_nbar : int
@@ -323,7 +323,7 @@ def _responses_blocked(weights: NDArray, x0: float, step: float, n_nodes: int,
                        progress=None) -> NDArray:
     """|H_i(x)|² of every filter at the uniform nodes ``x0 + j step``, j < n_nodes [1].
 
-    The same sum as :func:`sensors.doppler_filters.filter_response` (phases reduced modulo
+    The same sum as :func:`shipradar.sensors.doppler_filters.filter_response` (phases reduced modulo
     1 before the exponential), split as ``x_j = x_q + r step`` over blocks of
     :data:`_BLOCK` nodes: ``H[:, q + r] = (conj(w) exp(-j2π x_q n)) @ exp(-j2π r step n)``,
     one (F, N) x (N, B) matrix product per block and N (F + B) exponentials instead of
@@ -350,7 +350,7 @@ def _staggered_grid_blocked(weights: NDArray, spread: NDArray, doppler: NDArray,
                             ) -> tuple[NDArray, NDArray]:
     """The stagger's I_F on the grid and its white-noise limit, "response" pick (linear).
 
-    The same model as :func:`sensors.doppler_filters.staggered_improvement_factor` (the
+    The same model as :func:`shipradar.sensors.doppler_filters.staggered_improvement_factor` (the
     linear mean of the two bounding constant-PRF systems, each read from the filter of
     largest response per unit energy): each bound's responses are computed once, for the
     grid and for its white-noise limit, by :func:`_responses_blocked`.
@@ -397,7 +397,7 @@ def build_improvement_table(processor: str, *, progress: bool | None = None,
     Returns ``None`` for ``processor="none"`` (I_F = 1 everywhere; :func:`improvement_factor_db`
     accepts ``None``).  The table's ``values`` are I_F [dB] on (``log10(σ_s/f_r)``,
     ``f_d/f_r``) computed exactly at every grid point ([57], O(N) per point), with the pick
-    rule and the stagger average (linear) of :mod:`sensors.doppler_filters`.
+    rule and the stagger average (linear) of :mod:`shipradar.sensors.doppler_filters`.
 
     Extra arrays: ``coherent_gain_db`` (I_F against white noise, the ``σ_s -> ∞`` limit);
     for the "response" pick at constant PRF, ``ahead_db``, ``behind_db`` and ``crossover``
@@ -472,7 +472,7 @@ def improvement_table(
 ) -> tuple[Table | None, bool]:
     """Cached :func:`build_improvement_table`: ``(table, built)``; ``(None, False)`` for none.
 
-    ``root`` overrides the cache directory (default :func:`tables.store.cache_dir`).
+    ``root`` overrides the cache directory (default :func:`shipradar.tables.store.cache_dir`).
     """
     inputs = improvement_table_inputs(processor, **kwargs)
     if inputs is None:

@@ -1,6 +1,6 @@
 """Probability-of-detection tables: the exact Swerling P_d on a grid, read by interpolation.
 
-The exact method of :func:`sensors.detection.probability_of_detection` costs from a few
+The exact method of :func:`shipradar.sensors.detection.probability_of_detection` costs from a few
 10^5 evaluations per second (Swerling 0-3) down to ~10^4 (Swerling 4 at non-integer N, a
 48-node quadrature per point).  In a run P_fa is fixed per radar and N_e of [73]-[77] lies
 in [1, N_n] (N_n the pulses per beam, [73]): P_d is then a function of two variables, the

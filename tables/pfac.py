@@ -2,24 +2,25 @@
 
 Seed 7.2: "the probability P_fac can then be evaluated for all sectors as defined in the
 clutter map" and the 7.1 technique draws the false alarms of each sector on-line.  The map is
-built from the sea-clutter map (:mod:`tables.clutter`) of the same radar and environment:
+built from the sea-clutter map (:mod:`shipradar.tables.clutter`) of the same radar and environment:
 
 * VP: [94] with the map's mean σ0 standing for the median, the threshold [95] (SPEC §4 item 6:
   Y_R in dB, [94] takes the linear ratio, 1.6 dB = -10 log10(ln 2)), divided by K_clutter
-  [96] (:func:`sensors.false_alarms.clutter_fa_probability`);
+  [96] (:func:`shipradar.sensors.false_alarms.clutter_fa_probability`);
 * HP: the seed's heuristic, P_facmax up to the 3° grazing range, a raised-cosine decrease to 0
   where a reaches a_min or P_sc falls to 2 N0' (per azimuth), P_facmax the user's
-  (``radar.p_fac_max``) or VP's at a = 3 (:func:`sensors.false_alarms.hp_clutter_fa_probability`);
+  (``radar.p_fac_max``) or VP's at a = 3
+  (:func:`shipradar.sensors.false_alarms.hp_clutter_fa_probability`);
 * both: P_fac = 0 wherever a ≤ a_min or P_sc < 2 N0'.
 
 ``clutter_fa_model`` (the scenario's ``fidelity.clutter_fa_model``) picks the [94]-[95] reading:
 "seed" (default, the mean σ0 for the median) or "weibull_median" (threshold on the mean, the
 median of [30]; 9-14x lower P_fac at a = 1.5-3), in VP and in the HP default P_facmax
-(:func:`sensors.false_alarms.clutter_fa_probability`).  The table carries the choice to the
-on-line generator (spike S/I, :func:`clutter_false_alarm_generator`).
+(:func:`shipradar.sensors.false_alarms.clutter_fa_probability`).  The table carries the choice to
+the on-line generator (spike S/I, :func:`clutter_false_alarm_generator`).
 
 Only for medium-to-high-resolution radars (X = θ_b[deg] τ'[µs] < 4 and τ' < 4 µs): the
-builder refuses the others and the scene (:mod:`tables.scene`) asks for no table.
+builder refuses the others and the scene (:mod:`shipradar.tables.scene`) asks for no table.
 
 Sectors
 -------
@@ -145,7 +146,7 @@ def node_pfac(sea_map: Table, *, pfa: float | None, k_clutter: float = 1.0,
     Parameters
     ----------
     sea_map : Table
-        A sea-clutter map of :mod:`tables.clutter`.
+        A sea-clutter map of :mod:`shipradar.tables.clutter`.
     pfa : float or None
         P_fa [-] (may be None only for HP with ``p_fac_max``).
     k_clutter : float, optional
@@ -192,11 +193,12 @@ def build_pfac_map(
     Parameters
     ----------
     sea_map : Table
-        The radar's sea-clutter map (:func:`tables.clutter.sea_clutter_map`).
+        The radar's sea-clutter map (:func:`shipradar.tables.clutter.sea_clutter_map`).
     pfa : float
-        P_fa per cell [-] of [68]-[72] (:func:`sensors.detection.pfa_from_false_alarm_time`,
-        the same call as the radar's model, R_inst included, so that the map's threshold
-        [95] is the model's; issue 23 item 5a: P_fa = 1/n', not the seed's 0.69/n').
+        P_fa per cell [-] of [68]-[72]
+        (:func:`shipradar.sensors.detection.pfa_from_false_alarm_time`, the same call as the radar's
+        model, R_inst included, so that the map's threshold [95] is the model's; issue 23 item 5a:
+        P_fa = 1/n', not the seed's 0.69/n').
     k_clutter : float, optional
         K_clutter ≥ 1 [96].
     p_fac_max : float, optional
@@ -204,7 +206,7 @@ def build_pfac_map(
     range_sector_m, azimuth_sector_rad : float, optional
         Sector size [m], [rad]; None: the clutter map's steps.
     clutter_fa_model : {"seed", "weibull_median"}, optional
-        The [94]-[95] reading (:func:`sensors.false_alarms.clutter_fa_probability`).
+        The [94]-[95] reading (:func:`shipradar.sensors.false_alarms.clutter_fa_probability`).
 
     Returns
     -------
@@ -308,7 +310,8 @@ def clutter_false_alarm_generator(
     h_range: float = 4.0,
     h_azimuth: float = 4.0,
 ) -> fa.ClutterFalseAlarms:
-    """The on-line per-scan generator (:class:`sensors.false_alarms.ClutterFalseAlarms`) of a
+    """The on-line per-scan generator (:class:`shipradar.sensors.false_alarms.ClutterFalseAlarms`)
+    of a
     P_fac map.
 
     Parameters

@@ -23,7 +23,8 @@ Method (docs/propagation.md has the reasoning and the measured errors)
 * F = |u| sqrt(R_t) (seed [6]); the spectrum is scaled by sqrt(2 pi / k), so that by stationary
   phase F -> g(theta) in free space, i.e. F = 1 on the beam peak.
 * Points whose image-ray elevation exceeds ``max_angle`` hold NaN: the PE grid does not carry
-  those angles and the on-line model falls back to :func:`sensors.propagation.two_ray_factor`.
+  those angles and the on-line model falls back to
+  :func:`shipradar.sensors.propagation.two_ray_factor`.
 * Domain: at least 2.5 times the height of the antenna's shadow boundary at max range
   (:func:`pe_top_height`), whatever height the caller wants.
 * Table: F on (range, w = h / R) (:func:`table_axes`), where the direct/reflected-ray lobes
@@ -168,9 +169,9 @@ def pe_top_height(max_height_m: float, max_range_m: float, antenna_height_m: flo
 
 #: PE work (height nodes x range steps) above which a grid is "large": its rough-sea
 #: boundary takes the faster powers (:class:`_ImpedanceBoundary`) and a scene's table stops
-#: at the farthest range its targets and jammers reach (:func:`tables.scene.pe_table_range_m`).
-#: Below it (every shipped scene: at most 2.3e7, the raid's C-band radar) tables are built
-#: exactly as before, byte for byte.
+#: at the farthest range its targets and jammers reach
+#: (:func:`shipradar.tables.scene.pe_table_range_m`). Below it (every shipped scene: at most 2.3e7,
+#: the raid's C-band radar) tables are built exactly as before, byte for byte.
 LARGE_GRID_WORK = 5e7
 
 #: The PE domain reaches at least this many times the shadow-boundary height at max range.
@@ -480,7 +481,7 @@ def solve_pe(
         the beam axis (the beam axis is at elevation ``tilt_rad``).  None: isotropic.
     profile : callable or dict
         M profile [M units] of height [m], or a description for
-        :func:`sensors.propagation.profile_from_spec`.
+        :func:`shipradar.sensors.propagation.profile_from_spec`.
     wave_height_m : float
         Significant wave height [m] (Miller-Brown roughness); 0: smooth sea.
     max_range_m, max_height_m : float
@@ -755,7 +756,7 @@ def table_grid(freq_hz: float, antenna_height_m: float, *, polarization: str,
     """The grid :func:`build_propagation_table` would use, without building anything.
 
     The same rules as the builder (:func:`table_pe_height`, :func:`pe_top_height`,
-    :func:`grid_steps`, :func:`table_axes`); :mod:`tables.budget` reads it to estimate a
+    :func:`grid_steps`, :func:`table_axes`); :mod:`shipradar.tables.budget` reads it to estimate a
     table's memory and build time before any work.
 
     Returns
@@ -855,7 +856,8 @@ def build_propagation_table(
     The callable pattern cannot be hashed: ``pattern_description`` (e.g. ``{"kind":
     "gaussian", "beamwidth_rad": ..., "sidelobe_db": ...}``) stands for it in the provenance
     and must describe it completely; it may be omitted only for the isotropic pattern.
-    ``profile`` is a description dict (see :func:`sensors.propagation.normalize_profile_spec`).
+    ``profile`` is a description dict (see
+    :func:`shipradar.sensors.propagation.normalize_profile_spec`).
 
     Returns
     -------
@@ -925,7 +927,8 @@ def build_propagation_table(
 def get_propagation_table(
     freq_hz: float, antenna_height_m: float, *, root=None, **kwargs: Any
 ) -> tuple[Table, bool]:
-    """:func:`build_propagation_table` through the cache (:func:`tables.store.get_or_build`).
+    """:func:`build_propagation_table` through the cache
+    (:func:`shipradar.tables.store.get_or_build`).
 
     Same arguments as :func:`build_propagation_table`, plus ``root`` (cache directory; default
     ``$SHIPRADAR_TABLES``).  Returns ``(table, built)``; ``built`` is False on a cache hit.
@@ -963,7 +966,7 @@ class PropagationLookup:
     corner of positive weight the sentinel -1e30 drives the real part below -_FIELD_LIMIT.
     NaN outside the table's domain (range outside the axis, height < 0 or above
     ``max_height_m``) and where any corner of positive weight is NaN (steep angles):
-    the caller falls back to :func:`sensors.propagation.two_ray_factor` and counts it.
+    the caller falls back to :func:`shipradar.sensors.propagation.two_ray_factor` and counts it.
     """
 
     def __init__(self, table: Table):
@@ -1086,7 +1089,7 @@ def propagation_factor(table: Table, range_m: np.ndarray, height_m: np.ndarray) 
     Bilinear interpolation on the table's (range, h / R) grid by :class:`PropagationLookup`
     (built once per table and cached); O(1) per point.  NaN outside the table's domain and
     where the table holds NaN (steep angles): the caller falls back to
-    :func:`sensors.propagation.two_ray_factor` and counts it.
+    :func:`shipradar.sensors.propagation.two_ray_factor` and counts it.
     """
     if table.axis_names[1] == "height_m":  # a plain (range, height) table
         return table.lookup(*np.broadcast_arrays(np.asarray(range_m, float),

@@ -4,8 +4,8 @@ A scene builds only what it reads (SPEC §2): no rain, no weather-clutter map; c
 switched off in the fidelity section, no sea-clutter map or P_fac map; no Doppler processor,
 no improvement-factor table; propagation "free_space" or "two_ray", no PE table; atmosphere
 switched off, no loss table.  Every table is keyed by a hash of exactly its inputs
-(:mod:`tables.store`), so ``shipradar tables build`` ahead of a run and the run itself find
-the same files, and a Monte Carlo study builds each table once.
+(:mod:`shipradar.tables.store`), so ``shipradar tables build`` ahead of a run and the run itself
+find the same files, and a Monte Carlo study builds each table once.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from shipradar.sim.scenario import Platform, Radar, Scenario
+from shipradar.sim.world.scenario import Platform, Radar, Scenario
 from shipradar.tables.store import Table
 
 
@@ -28,8 +28,9 @@ class TableSpec:
     """One table a scene needs: which radar, what kind, and how to get it (cache or build).
 
     ``key`` gives the builder's name, version and inputs without building anything: the
-    cache key of the table (:func:`tables.store.is_cached`), which :mod:`tables.budget`
-    checks so that only the tables still to build are estimated and announced.
+    cache key of the table (:func:`shipradar.tables.store.is_cached`), which
+    :mod:`shipradar.tables.budget` checks so that only the tables still to build are estimated and
+    announced.
     """
 
     radar_id: str
@@ -230,7 +231,8 @@ def build_scene_tables(scenario: Scenario, *, progress: bool = False,
 
 # --------------------------------------------------------------------------- providers
 def improvement_kwargs(scenario: Scenario, radar: Radar) -> dict[str, Any] | None:
-    """Keywords of :func:`tables.improvement.improvement_table` for a radar's processor."""
+    """Keywords of :func:`shipradar.tables.improvement.improvement_table` for a radar's
+    processor."""
     proc = radar.processor
     if proc.type == "none":
         return None
@@ -354,8 +356,8 @@ def _clutter_specs(scenario: Scenario, platform: Platform, radar: Radar) -> list
 def _duct_height(scenario: Scenario) -> float:
     """Height [m] of the surface duct, as the sea-clutter ducting extension [22]-[29] reads it.
 
-    Given, or from the bulk model of :mod:`sensors.propagation`; for an M-profile, the height
-    of its lowest minimum when that minimum is at or below the surface value (a surface-based
+    Given, or from the bulk model of :mod:`shipradar.sensors.propagation`; for an M-profile, the
+    height of its lowest minimum when that minimum is at or below the surface value (a surface-based
     duct, seen by the clutter like an evaporation duct of that height), else 0 (an elevated
     duct leaves the sea-clutter horizon alone; the PE table still carries its effect on F).
     """
@@ -387,7 +389,8 @@ def surface_duct_height(heights_m, m_units) -> float:
 
 @provider
 def _pfac_specs(scenario: Scenario, platform: Platform, radar: Radar) -> list[TableSpec]:
-    """P_fac map (seed 7.2): clutter on and a medium/high-resolution radar only (tables.pfac).
+    """P_fac map (seed 7.2): clutter on and a medium/high-resolution radar only
+    (shipradar.tables.pfac).
 
     The sea-clutter map comes from the scene's own clutter spec (same inputs, so a cache hit
     after :func:`_clutter_specs` has built it); the [94]-[95] reading from
@@ -484,7 +487,8 @@ def _propagation_specs(scenario: Scenario, platform: Platform, radar: Radar) -> 
 
 def pe_table_grid_kwargs(scenario: Scenario, radar: Radar) -> dict[str, Any]:
     """The grid arguments of a radar's PE table (one rule for the builder and the budget):
-    keywords of :func:`tables.propagation.table_grid` and, with the pattern, of the builder."""
+    keywords of :func:`shipradar.tables.propagation.table_grid` and, with the pattern, of the
+    builder."""
     kw = pe_table_grid_kwargs_uncapped(scenario, radar)
     kw["max_range_m"] = pe_table_range_m(scenario, radar, kw)
     return kw
@@ -500,15 +504,15 @@ def pe_table_range_m(scenario: Scenario, radar: Radar, grid: dict[str, Any] | No
                      ) -> float:
     """Last range of a radar's PE table [m]: the instrumented range, or less on a large grid.
 
-    F is read only at the targets' and jammers' positions (sensors.dwell). When the table to
-    the instrumented range is a large grid (:data:`tables.propagation.LARGE_GRID_WORK`, e.g.
-    a 100 GHz radar or a 1000 km instrumented range), it stops at the farthest ground range
-    from the radar's platform that any target or jammer of the scene reaches, plus
-    :data:`PE_RANGE_MARGIN` and :data:`PE_RANGE_MARGIN_M`: beyond it nothing is there to
-    look up (a look beyond would fall back to the two-ray model and be counted). Targets
-    exist only along their tracks and platforms and jammers hold their ends, so the farthest
-    range holds for any run duration. Smaller grids keep the instrumented range (the shipped
-    scenes' tables are unchanged).
+    F is read only at the targets' and jammers' positions (shipradar.sim.dwell.model). When the
+    table to the instrumented range is a large grid
+    (:data:`shipradar.tables.propagation.LARGE_GRID_WORK`, e.g. a 100 GHz radar or a 1000 km
+    instrumented range), it stops at the farthest ground range from the radar's platform that any
+    target or jammer of the scene reaches, plus :data:`PE_RANGE_MARGIN` and
+    :data:`PE_RANGE_MARGIN_M`: beyond it nothing is there to look up (a look beyond would fall back
+    to the two-ray model and be counted). Targets exist only along their tracks and platforms and
+    jammers hold their ends, so the farthest range holds for any run duration. Smaller grids keep
+    the instrumented range (the shipped scenes' tables are unchanged).
     """
     from shipradar.tables.propagation import LARGE_GRID_WORK, table_grid
 
@@ -548,8 +552,8 @@ def farthest_mover_range_m(scenario: Scenario, radar: Radar) -> float:
     a common interval, and every piece start is sampled); turns and weaves are sampled at
     :data:`_REACH_SAMPLES` times. 0 for a scene without targets or jammers.
     """
-    from shipradar.sim.kinematics import LocalFrame
-    from shipradar.sim.trajectory import trajectories
+    from shipradar.sim.world.kinematics import LocalFrame
+    from shipradar.sim.world.trajectory import trajectories
 
     platform = next(p for p, r in scenario.radars() if r.id == radar.id)
     frame = LocalFrame(scenario.origin)

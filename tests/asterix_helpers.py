@@ -6,7 +6,7 @@ import json
 import shutil
 import subprocess
 
-from shipradar.sim.scenario import parse_scenario
+from shipradar.sim.world.scenario import parse_scenario
 
 from .helpers import quiet_radar, require_system_tool
 

@@ -1,10 +1,11 @@
 """Extremes campaign (issue 23, item 2): every scenario field at the bounds its schema declares.
 
-The cases are generated from the scenario schema itself (:class:`sim.scenario.Scenario` and
-every model under it, their ``Field(ge=, gt=, le=, lt=)`` metadata and ``Literal`` choices),
-so a field added to the schema is covered without editing this file. Each case starts from
-``scenarios/single_missile.yaml`` made cheap (:data:`CHEAP`), sets one field (or, for the
-interacting groups of :func:`interaction_cases`, a few) and runs ``shipradar run`` in-process.
+The cases are generated from the scenario schema itself
+(:class:`shipradar.sim.world.scenario.Scenario` and every model under it, their ``Field(ge=, gt=,
+le=, lt=)`` metadata and ``Literal`` choices), so a field added to the schema is covered without
+editing this file. Each case starts from ``scenarios/single_missile.yaml`` made cheap
+(:data:`CHEAP`), sets one field (or, for the interacting groups of :func:`interaction_cases`, a few)
+and runs ``shipradar run`` in-process.
 Every case must end in one of two ways:
 
 * **ran**: exit 0, no traceback, no ``RuntimeWarning``, a finite summary JSON, and a recording
@@ -58,7 +59,7 @@ import numpy as np
 import yaml
 from pydantic import BaseModel
 
-from shipradar.sim import scenario as schema
+from shipradar.sim.world import scenario as schema
 
 ROOT = Path(__file__).resolve().parents[1]
 #: The scene every case starts from.
@@ -85,7 +86,7 @@ CHEAP: dict[Path_, Any] = {
         {"time_s": 35, "east_m": 0.0, "north_m": 840.0, "altitude_m": 5}],
 }
 
-#: Field names whose value is an input of the PE table (tables.scene._propagation_specs:
+#: Field names whose value is an input of the PE table (shipradar.tables.scene._propagation_specs:
 #: frequency, antenna height, polarisation, elevation pattern, M-profile, wave height,
 #: instrumented range, the table's top from the highest target or jammer, the PE grid).
 PE_FIELDS = frozenset({
@@ -698,7 +699,7 @@ def interaction_cases() -> list[Case]:
 
     def add(group_name: str, edits: tuple[tuple[Path_, Any], ...], heavy: str = "",
             pe: bool | None = None) -> None:
-        # `heavy` is the reason known beforehand, used when tables.budget has no estimate
+        # `heavy` is the reason known beforehand, used when shipradar.tables.budget has no estimate
         label = ", ".join(f"{fmt_path(p).removeprefix('platforms[0].radars[0].')}"
                           f"={fmt_value(v)}" for p, v in edits)
         pe = needs_pe(edits) if pe is None else pe
@@ -898,9 +899,9 @@ def companion_cases() -> list[Case]:
 def pe_work(scene: schema.Scenario) -> list[tuple[str, float]]:
     """Split-step work of each radar's PE table: height points x range steps [-].
 
-    From the builder's own grid rules (:func:`tables.propagation.grid_steps` over the PE
-    domain :func:`tables.propagation.pe_top_height`, as :mod:`tables.budget` does); the
-    demo's 60 km C-band table is ~3e6 and builds in about a second on one core.
+    From the builder's own grid rules (:func:`shipradar.tables.propagation.grid_steps` over the PE
+    domain :func:`shipradar.tables.propagation.pe_top_height`, as :mod:`shipradar.tables.budget`
+    does); the demo's 60 km C-band table is ~3e6 and builds in about a second on one core.
     """
     from shipradar.sensors import propagation as prop
     from shipradar.tables.propagation import grid_steps, pe_top_height
@@ -920,9 +921,9 @@ def pe_work(scene: schema.Scenario) -> list[tuple[str, float]]:
 
 
 #: PE work above which a case is heavy (about ten seconds of building or more), when the
-#: build-time estimate of tables.budget is not there to ask.
+#: build-time estimate of shipradar.tables.budget is not there to ask.
 HEAVY_PE_WORK = 3.0e7
-#: Estimated build time above which a case is heavy [s] (the estimate of tables.budget).
+#: Estimated build time above which a case is heavy [s] (the estimate of shipradar.tables.budget).
 HEAVY_BUILD_S = 10.0
 
 
@@ -937,10 +938,10 @@ def _has_build_estimate() -> bool:
 def heavy_reason(edits: Sequence[tuple[Path_, Any]], pe: bool | None = None) -> str:
     """Why a case's tables are expected to take long to build ('' when they should not).
 
-    Asks the build-time estimate of :mod:`tables.budget` (issue 23, item 4) when it exists,
-    else the PE grid rules (:func:`pe_work`): a case is heavy above :data:`HEAVY_BUILD_S`.
+    Asks the build-time estimate of :mod:`shipradar.tables.budget` (issue 23, item 4) when it
+    exists, else the PE grid rules (:func:`pe_work`): a case is heavy above :data:`HEAVY_BUILD_S`.
     """
-    from shipradar.sim.scenario import ScenarioError, parse_scenario
+    from shipradar.sim.world.scenario import ScenarioError, parse_scenario
 
     data = scene_for(Case("probe", "probe", tuple(edits),
                           pe=needs_pe(edits) if pe is None else pe))
@@ -1029,7 +1030,7 @@ def _repair(data: dict, original: dict[Path_, Any]) -> bool:
     names a path; the drawn fields under it go back first, then those under its parent.
     Returns False when the scene still does not validate.
     """
-    from shipradar.sim.scenario import ScenarioError, parse_scenario
+    from shipradar.sim.world.scenario import ScenarioError, parse_scenario
 
     for _ in range(12):
         try:
@@ -1197,8 +1198,8 @@ def check_recording(path: Path, scene: schema.Scenario) -> tuple[list[str], int,
     problems, plots, messages
         One line per problem (at most a few per kind), the plot count and message count.
     """
-    from shipradar.sim.protocol import decode
-    from shipradar.sim.recording import read_recording, verify_recording
+    from shipradar.sim.stream.protocol import decode
+    from shipradar.sim.stream.recording import read_recording, verify_recording
 
     banks = {r.id: r.processor.type not in NO_BANK for _, r in scene.radars()}
     problems: list[str] = []
@@ -1285,7 +1286,7 @@ def run_scene(data: dict, name: str, group: str, workdir: Path,
     undocumented value makes the outcome ``failed``, with the problems listed.
     """
     from shipradar.sim.cli import main
-    from shipradar.sim.scenario import ScenarioError, parse_scenario
+    from shipradar.sim.world.scenario import ScenarioError, parse_scenario
 
     safe = re.sub(r"[^\w.=-]+", "_", name)[:80] + f"-{zlib.crc32(name.encode()):08x}"
     scene_path = workdir / f"{safe}.yaml"

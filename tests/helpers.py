@@ -12,8 +12,8 @@ from pathlib import Path
 import pytest
 import yaml
 
-from shipradar.sim import protocol
-from shipradar.sim.scenario import parse_scenario
+from shipradar.sim.stream import protocol
+from shipradar.sim.world.scenario import parse_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -112,7 +112,7 @@ def identical_radars_scene(n: int = 3):
     """The demo scene with its radar copied ``n`` times (ids r0.., SIC 1..): every sector of
     every radar ends at the same instants, the case where only SimPy's tie order (scenario
     order) decides the order of the messages."""
-    from shipradar.sim.scenario import Scenario, load_scenario
+    from shipradar.sim.world.scenario import Scenario, load_scenario
 
     doc = load_scenario(ROOT / "scenarios/single_missile.yaml").model_dump(mode="json")
     plat = doc["platforms"][0]

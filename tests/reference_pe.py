@@ -1,6 +1,6 @@
 """An independent parabolic-equation solver, the test oracle of the propagation tables.
 
-Written from the literature, sharing no code with :mod:`tables.propagation` (a split-step
+Written from the literature, sharing no code with :mod:`shipradar.tables.propagation` (a split-step
 *Fourier* solver): this one is the split-step **Padé** method of Collins (1993, J. Acoust.
 Soc. Am. 93(4) 1736-1742) on a finite-difference height grid, as in PyWaveProp and RAM:
 

@@ -40,9 +40,9 @@ def test_promised_names_resolve_and_version_comes_from_metadata():
 def test_callback_iterator_and_recording_carry_the_same_messages(table_cache, tmp_path):
     """run(on_message=...) and messages(...) give the messages a recorded run writes, in
     order, with equal payloads (the recording decoded)."""
-    from shipradar.sim.bus import Bus
-    from shipradar.sim.engine import Simulation
-    from shipradar.sim.recording import Recorder
+    from shipradar.sim.engine.simulation import Simulation
+    from shipradar.sim.stream.bus import Bus
+    from shipradar.sim.stream.recording import Recorder
 
     scenario = shipradar.example("single_missile")
     tables = shipradar.build_tables(scenario)

@@ -1,7 +1,7 @@
 """ASTERIX output: bytes by hand, two independent decoders, midnight, SAC/SIC, UDP.
 
 The decoders are the PyPI ``asterix-decoder`` (C++, its own XML category definitions) and
-Wireshark's dissector (``tshark``); neither shares code or tables with sim/asterix.
+Wireshark's dissector (``tshark``); neither shares code or tables with sim/adapters/asterix.
 """
 
 from __future__ import annotations
@@ -18,8 +18,8 @@ import numpy as np
 import pytest
 import yaml
 
-from shipradar.sim.asterix import AsterixError, AsterixStream, encode_cat048
-from shipradar.sim.asterix.encode import (
+from shipradar.sim.adapters.asterix import AsterixError, AsterixStream, encode_cat048
+from shipradar.sim.adapters.asterix.encode import (
     cat048_records,
     encode_cat034_north_marker,
     encode_cat034_sector_crossings,
@@ -27,11 +27,11 @@ from shipradar.sim.asterix.encode import (
     seconds_of_day,
     time_of_day_counts,
 )
-from shipradar.sim.asterix.stream import datagrams
-from shipradar.sim.asterix.udp import parse_udp_url
-from shipradar.sim.engine import Simulation
-from shipradar.sim.export import _write_pcap
-from shipradar.sim.scenario import ScenarioError, parse_scenario
+from shipradar.sim.adapters.asterix.stream import datagrams
+from shipradar.sim.adapters.asterix.udp import parse_udp_url
+from shipradar.sim.engine.simulation import Simulation
+from shipradar.sim.stream.export import _write_pcap
+from shipradar.sim.world.scenario import ScenarioError, parse_scenario
 
 from .asterix_helpers import scene, scene_dict, tshark_asterix
 from .helpers import ROOT, quiet_radar
@@ -342,7 +342,7 @@ def test_revolution_at_once_equals_message_by_message():
 def test_run_encoding_ahead_sends_what_the_stream_gives(run):
     """The engine hands the ASTERIX bus each revolution's plots ahead (plots_ahead) and its
     encoded frames: the datagrams are those of the stream fed message by message."""
-    from shipradar.sim.asterix.udp import AsterixBus
+    from shipradar.sim.adapters.asterix.udp import AsterixBus
 
     s, msgs, _, _ = run
 

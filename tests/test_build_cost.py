@@ -10,7 +10,7 @@ import pytest
 import yaml
 
 from shipradar.sim.cli import main
-from shipradar.sim.scenario import parse_scenario
+from shipradar.sim.world.scenario import parse_scenario
 from shipradar.tables import budget
 from shipradar.tables import improvement as ti
 from shipradar.tables.budget import (
@@ -149,7 +149,7 @@ def test_limit_from_the_environment_and_a_bad_value(tmp_path, cache, capsys, mon
 
 
 def test_fidelity_study_is_refused_before_any_work(cache, capsys):
-    from shipradar.sim.fidelity import cli_main
+    from shipradar.sim.studies.fidelity import cli_main
 
     assert cli_main([SCENE, "--max-build-s", "0.01", "--quiet"]) == 2
     err = capsys.readouterr().err

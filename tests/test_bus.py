@@ -1,4 +1,5 @@
-"""Transport: publisher over loopback, backpressure, bus, replay and tail (sim.bus)."""
+"""Transport: publisher over loopback, backpressure, bus, replay and tail
+(shipradar.sim.stream.bus)."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ import numpy as np
 import pytest
 import zmq
 
-from shipradar.sim.bus import (
+from shipradar.sim.stream.bus import (
     Bus,
     EndpointError,
     Publisher,
@@ -21,8 +22,8 @@ from shipradar.sim.bus import (
     replay,
     tail,
 )
-from shipradar.sim.protocol import TOPIC_EOS, TOPIC_META, TOPIC_PLOTS, TOPIC_TRUTH, encode
-from shipradar.sim.recording import Recorder, RecordingError, read_recording
+from shipradar.sim.stream.protocol import TOPIC_EOS, TOPIC_META, TOPIC_PLOTS, TOPIC_TRUTH, encode
+from shipradar.sim.stream.recording import Recorder, RecordingError, read_recording
 
 LOOPBACK = "tcp://127.0.0.1:*"
 

@@ -5,7 +5,7 @@ P_fac depends on a alone.  The "weibull_median" option sets the threshold on the
 threshold giving P_fa on a_min clutter of mean σ0; Y = σ0 ln(1/P_fa) for Rayleigh) and takes
 [94] over the true median of [30].  The reference values here come from scipy's Weibull
 distribution and numerical quadrature (mean, threshold and tail integrated, the threshold
-found by root-finding), never from the formula in :mod:`sensors.false_alarms`.
+found by root-finding), never from the formula in :mod:`shipradar.sensors.false_alarms`.
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ import pytest
 from scipy import integrate, optimize, stats
 
 from shipradar.sensors import false_alarms as fa
-from shipradar.sim.scenario import ScenarioError
+from shipradar.sim.world.scenario import ScenarioError
 from shipradar.tables.pfac import (
     PFAC_MAP_NAME,
     PFAC_MAP_VERSION,

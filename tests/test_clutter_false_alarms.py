@@ -12,10 +12,10 @@ from scipy import stats
 
 from shipradar.sensors import false_alarms as fa
 from shipradar.sensors import sea_clutter as sc
-from shipradar.sensors.dwell import DwellModel
-from shipradar.sim import protocol
-from shipradar.sim.engine import ORIGIN_SEA_CLUTTER, Simulation
-from shipradar.sim.scenario import parse_scenario
+from shipradar.sim.dwell.model import DwellModel
+from shipradar.sim.engine.simulation import ORIGIN_SEA_CLUTTER, Simulation
+from shipradar.sim.stream import protocol
+from shipradar.sim.world.scenario import parse_scenario
 from shipradar.tables.pfac import (
     PFAC_MAP_NAME,
     build_pfac_map,
@@ -475,7 +475,7 @@ def test_engine_run_emits_sea_clutter_plots(table_cache):
 
 
 def test_figures_write_png(tmp_path, table_cache):
-    from shipradar.sim.figures.false_alarms import (
+    from shipradar.sim.studies.figures.false_alarms import (
         clutter_extent_m,
         generated_false_alarms,
         plot_false_alarm_histograms,

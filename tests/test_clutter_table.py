@@ -1,4 +1,5 @@
-"""Tests of tables.clutter: wiring of the sea and weather clutter maps, cache and lookup."""
+"""Tests of shipradar.tables.clutter: wiring of the sea and weather clutter maps, cache and
+lookup."""
 
 import math
 
@@ -234,7 +235,7 @@ def test_weather_map_needs_precipitation():
 
 
 def test_figures_written(tmp_path, vp_map):
-    from shipradar.sim.figures.clutter import plot_clutter_ppi, plot_ducting_reflectivity
+    from shipradar.sim.studies.figures.clutter import plot_clutter_ppi, plot_ducting_reflectivity
 
     for p in (
         plot_ducting_reflectivity(tmp_path / "fig6.png"),

@@ -17,10 +17,10 @@ import pytest
 import zmq
 from zmq.utils.monitor import recv_monitor_message
 
-from shipradar.sim.bus import EndpointError, Publisher, check_bind_endpoint, tail
 from shipradar.sim.cli import main
-from shipradar.sim.protocol import TOPIC_PLOTS, encode
-from shipradar.sim.security import (
+from shipradar.sim.stream.bus import EndpointError, Publisher, check_bind_endpoint, tail
+from shipradar.sim.stream.protocol import TOPIC_PLOTS, encode
+from shipradar.sim.stream.security import (
     CurveClient,
     CurveKeyError,
     CurveServer,
@@ -124,7 +124,7 @@ def test_tail_with_keys_receives_every_message(keys):
 
 def test_stonesoup_reader_iterates_a_curve_stream(keys):
     pytest.importorskip("stonesoup")
-    from shipradar.sim.stonesoup_reader import iter_messages
+    from shipradar.sim.adapters.stonesoup_reader import iter_messages
 
     server = CurveServer.from_files(keys / "server.key_secret", keys / "authorized")
     alice = CurveClient.from_files(keys / "alice.key_secret", keys / "server.key")

@@ -1,4 +1,5 @@
-"""Tests of sensors.detection: P_fa [68]-[72], N_e [73]-[77], P_d exact and seed [78]-[83]."""
+"""Tests of shipradar.sensors.detection: P_fa [68]-[72], N_e [73]-[77], P_d exact and seed
+[78]-[83]."""
 
 from __future__ import annotations
 

@@ -1,4 +1,5 @@
-"""Tests of sensors.doppler_filters: seed [49]-[65] against closed forms and literature values."""
+"""Tests of shipradar.sensors.doppler_filters: seed [49]-[65] against closed forms and literature
+values."""
 
 from __future__ import annotations
 
@@ -295,8 +296,8 @@ def peak_sidelobe_db(weights):
     """Peak sidelobe of a filter's power response, relative to its mainlobe [dB].
 
     The response on [0, 1/2] at 2^-18 resolution by a zero-padded FFT (the same sum as
-    :func:`sensors.doppler_filters.filter_response`, |Σ conj(w_n) e^{-j2πfn}|², evaluated on
-    a grid; checked against it at a few points).
+    :func:`shipradar.sensors.doppler_filters.filter_response`, |Σ conj(w_n) e^{-j2πfn}|², evaluated
+    on a grid; checked against it at a few points).
     """
     n_fft = 2**18
     h = np.abs(np.fft.fft(np.conj(weights), n_fft)[: n_fft // 2 + 1]) ** 2
@@ -403,7 +404,7 @@ def test_fig7_five_hann_filters_peak_at_centres_and_dip_between():
 
 
 def test_fig7_png(tmp_path):
-    from shipradar.sim.figures.doppler import plot_improvement_vs_doppler
+    from shipradar.sim.studies.figures.doppler import plot_improvement_vs_doppler
 
     out = plot_improvement_vs_doppler(tmp_path / "fig7.png", n_points=401)
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from shipradar.sensors.dwell import CLUTTER, JAMMING, NOISE, DwellModel
+from shipradar.sim.dwell.model import CLUTTER, JAMMING, NOISE, DwellModel
 from shipradar.tables.scene import SceneTables
 from tests.helpers import bare_scene, quiet_radar
 
@@ -17,7 +17,7 @@ def _model(radar=None, **env):
     if env:
         d = s.model_dump(mode="json")
         d["environment"].update(env)
-        from shipradar.sim.scenario import parse_scenario
+        from shipradar.sim.world.scenario import parse_scenario
 
         s = parse_scenario(d)
     p = s.platforms[0]
@@ -98,7 +98,7 @@ def test_mti_only_radar_never_separates_by_doppler():
 def _rain_model(region):
     from types import SimpleNamespace
 
-    from shipradar.sim.scenario import parse_scenario
+    from shipradar.sim.world.scenario import parse_scenario
     from shipradar.tables.scene import load_scene_tables
 
     r = quiet_radar(prf_hz=5000, instrumented_range_m=100e3, pulse_width_s=1e-6,
@@ -148,7 +148,7 @@ def test_rain_everywhere_reads_the_maps_trip_sum(table_cache):
 
 
 def _jam_scene(propagation, rain=None):
-    from shipradar.sim.scenario import parse_scenario
+    from shipradar.sim.world.scenario import parse_scenario
 
     d = bare_scene(quiet_radar(pattern_az={"type": "sinc", "sidelobe_db": 30}),
                    propagation=propagation).model_dump(mode="json")
@@ -168,7 +168,7 @@ def _jam_scene(propagation, rain=None):
 
 
 def _jam_geometry(s):
-    from shipradar.sim.kinematics import LocalFrame, antenna_geometry
+    from shipradar.sim.world.kinematics import LocalFrame, antenna_geometry
 
     frame = LocalFrame(s.origin)
     jpos = np.array([[0.0, 40e3, 300.0]])
@@ -238,7 +238,7 @@ def _hand_47(m, geom, l_sl):
     ({"type": "gaussian", "sidelobe_db": 25.0, "jamming_sidelobe_db": 38.0}, 90.0, 38.0),
 ])
 def test_jammer_outside_the_main_beam_against_47_by_hand(pattern, offset_deg, l_sl_db):
-    from shipradar.sim.scenario import parse_scenario
+    from shipradar.sim.world.scenario import parse_scenario
 
     d = bare_scene(quiet_radar(pattern_az=pattern)).model_dump(mode="json")
     d["jammers"] = [{"id": "j", "waypoints": [{"east_m": 0.0, "north_m": 40e3,
@@ -283,7 +283,7 @@ def test_pulse_compression_gains_the_echo_not_the_noise():
      "< 0.5, got 0.6"),
 ])
 def test_radar_inputs_the_model_cannot_honour_are_refused(radar, fidelity, line):
-    from shipradar.sim.scenario import ScenarioError
+    from shipradar.sim.world.scenario import ScenarioError
 
     with pytest.raises(ScenarioError) as err:
         bare_scene(quiet_radar(**radar), **fidelity)

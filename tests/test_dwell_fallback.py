@@ -1,10 +1,10 @@
-"""The dwell model's cached two-ray fallback equals sensors.propagation.two_ray_factor."""
+"""The dwell model's cached two-ray fallback equals shipradar.sensors.propagation.two_ray_factor."""
 
 import numpy as np
 import pytest
 
-from shipradar.sensors.dwell import DwellModel, _TwoRayFallback
 from shipradar.sensors.propagation import horizon_range, interference_region_limit, two_ray_factor
+from shipradar.sim.dwell.model import DwellModel, _TwoRayFallback
 from shipradar.tables.scene import SceneTables
 
 from .helpers import bare_scene, quiet_radar

@@ -9,7 +9,7 @@ import threading
 import pytest
 import zmq
 
-from shipradar.sim.recording import read_recording
+from shipradar.sim.stream.recording import read_recording
 
 from .helpers import ROOT, free_port
 

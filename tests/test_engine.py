@@ -8,10 +8,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import constants, stats
 
-from shipradar.sensors.dwell import DwellModel
-from shipradar.sim import protocol
-from shipradar.sim.engine import ORIGIN_NOISE, Simulation
-from shipradar.sim.kinematics import LocalFrame, antenna_geometry
+from shipradar.sim.dwell.model import DwellModel
+from shipradar.sim.engine.simulation import ORIGIN_NOISE, Simulation
+from shipradar.sim.stream import protocol
+from shipradar.sim.world.kinematics import LocalFrame, antenna_geometry
 from shipradar.tables.scene import SceneTables
 
 from .helpers import CaptureBus, bare_scene, quiet_radar
@@ -176,7 +176,7 @@ def test_a_long_run_keeps_no_per_sector_state(table_cache):
     import tracemalloc
 
     import shipradar
-    from shipradar.sim.engine import CallbackSink
+    from shipradar.sim.engine.simulation import CallbackSink
 
     scenario = shipradar.example("single_missile")
     tables = shipradar.build_tables(scenario)

@@ -10,10 +10,10 @@ import random
 
 import pytest
 
-from shipradar.sim.bus import Bus
-from shipradar.sim.engine import Simulation
-from shipradar.sim.recording import MAX_RECORD_BYTES, Recorder, RecordingError
-from shipradar.sim.scenario import load_scenario
+from shipradar.sim.engine.simulation import Simulation
+from shipradar.sim.stream.bus import Bus
+from shipradar.sim.stream.recording import MAX_RECORD_BYTES, Recorder, RecordingError
+from shipradar.sim.world.scenario import load_scenario
 from tests.helpers import ROOT, identical_radars_scene
 
 

@@ -12,9 +12,9 @@ import numpy as np
 import pymap3d
 import pytest
 
-from shipradar.sim import protocol
-from shipradar.sim.engine import Simulation
-from shipradar.sim.kinematics import LocalFrame, Trajectories, waypoint_enu
+from shipradar.sim.engine.simulation import Simulation
+from shipradar.sim.stream import protocol
+from shipradar.sim.world.kinematics import LocalFrame, Trajectories, waypoint_enu
 from shipradar.tables.scene import SceneTables
 
 from .helpers import CaptureBus, bare_scene, quiet_radar
@@ -99,7 +99,7 @@ def _skeleton(bus):
 def test_block_of_revolutions_changes_no_frame(monkeypatch):
     """Revolutions computed one at a time or eight at once: the same frames at the same
     times with the same targets (stationary ones included: never merged across scans)."""
-    from shipradar.sim import engine
+    from shipradar.sim.engine import simulation as engine
 
     targets = [_target(i, p, v, 20.0) for i, (p, v) in enumerate([
         ((0.0, 20e3), (0.0, 0.0)), ((15e3, -5e3), (0.0, 0.0)), ((-9e3, 9e3), (120.0, -80.0))])]

@@ -9,10 +9,10 @@ import pyarrow.csv as pcsv
 import pyarrow.parquet as pq
 import pytest
 
-from shipradar.sim.bus import Bus
 from shipradar.sim.cli import main
-from shipradar.sim.engine import Simulation
-from shipradar.sim.recording import Recorder
+from shipradar.sim.engine.simulation import Simulation
+from shipradar.sim.stream.bus import Bus
+from shipradar.sim.stream.recording import Recorder
 
 from .asterix_helpers import scene, tshark_asterix, tshark_path
 

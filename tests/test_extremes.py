@@ -19,7 +19,7 @@ from pathlib import Path
 import pytest
 from hypothesis import HealthCheck, Phase, given, settings
 
-from shipradar.sim.scenario import Radar, Window
+from shipradar.sim.world.scenario import Radar, Window
 
 from . import extremes as ex
 

@@ -4,7 +4,7 @@ The seed sets P_fa by [68]-[72] (0.69 false alarms per t_fa over N_ch N_rc decis
 sweep) and draws N_cells P_fa per scan by [90] (N_cells over R_inst, no N_ch): on the shipped
 radars the emitted rate was 0.46-1.15 / t_fa.  P_fa = 1/n' over the reported decisions and
 the count over the same decisions give t_scan/t_fa per scan exactly
-(``sensors.detection`` and ``sensors.false_alarms`` module notes).
+(``shipradar.sensors.detection`` and ``shipradar.sensors.false_alarms`` module notes).
 """
 
 import math
@@ -14,11 +14,11 @@ import pytest
 from scipy import constants
 
 from shipradar.sensors import detection, false_alarms
-from shipradar.sensors.dwell import DwellModel
-from shipradar.sim import protocol
-from shipradar.sim.engine import Simulation
-from shipradar.sim.montecarlo import poisson_interval
-from shipradar.sim.scenario import load_scenario
+from shipradar.sim.dwell.model import DwellModel
+from shipradar.sim.engine.simulation import Simulation
+from shipradar.sim.stream import protocol
+from shipradar.sim.studies.montecarlo import poisson_interval
+from shipradar.sim.world.scenario import load_scenario
 from shipradar.tables.scene import SceneTables
 
 from .helpers import ROOT, CaptureBus, bare_scene, quiet_radar

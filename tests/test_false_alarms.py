@@ -1,4 +1,4 @@
-"""Tests of sensors.false_alarms: N_cells [90], counts [91]-[93], uniform positions."""
+"""Tests of shipradar.sensors.false_alarms: N_cells [90], counts [91]-[93], uniform positions."""
 
 from __future__ import annotations
 

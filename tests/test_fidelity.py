@@ -1,4 +1,5 @@
-"""``shipradar fidelity`` (sim/fidelity.py, issue 18): common random numbers, the comparison,
+"""``shipradar fidelity`` (sim/studies/fidelity.py, issue 18): common random numbers, the
+comparison,
 the recommendation and its tolerances, --apply, bad input, and ``validate --explain``.
 
 Scenes are small (one X-band radar, 1 s scans, a few tens of seconds, one or two targets)
@@ -14,8 +15,8 @@ import numpy as np
 import pytest
 import yaml
 
-from shipradar.sim import fidelity as fi
-from shipradar.sim.scenario import load_scenario, parse_scenario
+from shipradar.sim.studies import fidelity as fi
+from shipradar.sim.world.scenario import load_scenario, parse_scenario
 from tests.helpers import quiet_radar
 
 # an X-band variant of the tests' quiet radar
@@ -121,7 +122,7 @@ def test_common_random_numbers_survive_other_draws(monkeypatch):
     target's P_d: with common random numbers every look keeps its outcome; on the engine's
     sequential stream (crn=False) the looks of later blocks of revolutions (2 s here) have
     their dice moved (so this test can fail)."""
-    from shipradar.sim import engine
+    from shipradar.sim.engine import simulation as engine
 
     monkeypatch.setattr(engine, "_BLOCK_S", 2.0)
     radar = {**RADAR, "pulse_width_s": 0.25e-6, "instrumented_range_m": 30000}
@@ -164,7 +165,7 @@ def test_look_uniforms_are_a_function_of_the_look():
 def test_default_run_is_unchanged_by_the_hooks():
     """The hooks are opt-in: a normal run draws from the engine's stream as before (same
     result twice; the look_uniforms path is not taken)."""
-    from shipradar.sim.engine import Simulation
+    from shipradar.sim.engine.simulation import Simulation
 
     s = parse_scenario(scene([target("t", 20, 15, 50.0)],
                              fidelity={"propagation": "two_ray", "atmosphere": False,

@@ -1,12 +1,13 @@
-"""Smoke and content tests of the scenario figures behind ``shipradar plot`` (sim.figures.scene)."""
+"""Smoke and content tests of the scenario figures behind ``shipradar plot``
+(shipradar.sim.studies.figures.scene)."""
 
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from shipradar.sim.figures import scene as figs
-from shipradar.sim.scenario import load_scenario
+from shipradar.sim.studies.figures import scene as figs
+from shipradar.sim.world.scenario import load_scenario
 
 SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
 PNG = b"\x89PNG\r\n\x1a\n"
@@ -44,7 +45,7 @@ def test_render_refuses_unknown_radar_and_kind(tmp_path, single_missile):
 
 
 def test_improvement_table_picture_reads_the_table(tmp_path):
-    from shipradar.sim.figures.doppler import plot_improvement_table
+    from shipradar.sim.studies.figures.doppler import plot_improvement_table
     from shipradar.tables.improvement import build_improvement_table, improvement_factor_db
 
     table = build_improvement_table("mti", mti_pulses=3, resolution="coarse")

@@ -1,8 +1,8 @@
 """The compiled per-message byte work (shipradar/_frames.c) against what others wrote.
 
 The CRC-32 is zlib's; the bodies are msgpack's (the reference encoder packs the same payload
-with the msgpack library) and :func:`sim.protocol.encode`'s; the records are those of one
-:meth:`Recorder.write` per message (a Python path) and read back by the reader.
+with the msgpack library) and :func:`shipradar.sim.stream.protocol.encode`'s; the records are those
+of one :meth:`Recorder.write` per message (a Python path) and read back by the reader.
 """
 
 from __future__ import annotations
@@ -15,9 +15,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from shipradar import _frames
-from shipradar.sim import protocol
-from shipradar.sim.protocol import ProtocolError, encode, encode_slices
-from shipradar.sim.recording import Recorder, read_recording
+from shipradar.sim.stream import protocol
+from shipradar.sim.stream.protocol import ProtocolError, encode, encode_slices
+from shipradar.sim.stream.recording import Recorder, read_recording
 
 
 @settings(max_examples=200, deadline=None)

@@ -1,4 +1,4 @@
-"""Tests of tables.improvement: the I_F table, its cache and its on-line lookup."""
+"""Tests of shipradar.tables.improvement: the I_F table, its cache and its on-line lookup."""
 
 from __future__ import annotations
 

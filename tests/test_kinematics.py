@@ -8,7 +8,7 @@ import pymap3d.vincenty
 import pytest
 from scipy.optimize import brentq
 
-from shipradar.sim.kinematics import (
+from shipradar.sim.world.kinematics import (
     EARTH_RADIUS_M,
     K_FACTOR,
     LocalFrame,
@@ -19,7 +19,7 @@ from shipradar.sim.kinematics import (
     waypoint_enu,
     wrap_pi,
 )
-from shipradar.sim.scenario import Origin, Waypoint
+from shipradar.sim.world.scenario import Origin, Waypoint
 
 ORIGIN = Origin(lat_deg=44.6, lon_deg=-63.0)
 FRAME = LocalFrame(ORIGIN)

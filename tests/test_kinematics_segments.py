@@ -15,16 +15,16 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from scipy.optimize import brentq
 
-from shipradar.sim.kinematics import (
+from shipradar.sim.world.kinematics import (
     LocalFrame,
     Trajectories,
     antenna_azimuth,
     beam_crossing_times,
     wrap_pi,
 )
-from shipradar.sim.scenario import STANDARD_GRAVITY as G
-from shipradar.sim.scenario import Origin, Target
-from shipradar.sim.trajectory import object_pieces, trajectories
+from shipradar.sim.world.scenario import STANDARD_GRAVITY as G
+from shipradar.sim.world.scenario import Origin, Target
+from shipradar.sim.world.trajectory import object_pieces, trajectories
 
 from .helpers import quiet_radar
 
@@ -256,7 +256,7 @@ def test_smoothed_corners():
 
 
 def test_smoothing_refused_when_corners_do_not_fit():
-    from shipradar.sim.scenario import ScenarioError, parse_scenario
+    from shipradar.sim.world.scenario import ScenarioError, parse_scenario
 
     data = {"name": "s", "duration_s": 10, "origin": {"lat_deg": 44, "lon_deg": -63},
             "platforms": [{"id": "p", "waypoints": [{"east_m": 0, "north_m": 0}],

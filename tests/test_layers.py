@@ -3,14 +3,14 @@
 Read from the source with ``ast`` (nothing is executed), lazy imports inside functions
 included. The layers, bottom to top (README, "Layers"):
 
-0. world: ``shipradar.sim.scenario``, the scenario as plain, validated data, and the motion it
-   declares (``shipradar.sim.kinematics``, ``shipradar.sim.trajectory``: positions and
+0. world: ``shipradar.sim.world.scenario``, the scenario as plain, validated data, and the motion it
+   declares (``shipradar.sim.world.kinematics``, ``shipradar.sim.world.trajectory``: positions and
    velocities of its objects at any time, from the schema alone);
 1. physics: ``shipradar.sensors.*`` (one module per phenomenon), which imports nothing of ours
    but the schema;
 2. tables: ``shipradar.tables.*``, the off-line level, building and reading tables from the
    physics;
-3. on-line composition: ``shipradar.sensors.dwell``, the dwell model composing physics and
+3. on-line composition: ``shipradar.sim.dwell.model``, the dwell model composing physics and
    tables per beam crossing;
 4. service: the engine, bus, recording, CLI and the rest of ``shipradar.sim``, the public API
    (``shipradar``, ``shipradar.api``) and the shipped examples (``shipradar.scenarios``).
@@ -19,50 +19,46 @@ included. The layers, bottom to top (README, "Layers"):
 from __future__ import annotations
 
 import ast
+import importlib.util
+import pkgutil
 import sys
 from pathlib import Path
 
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-#: Import name -> folder, as pyproject.toml's [tool.setuptools.package-dir] maps them.
-PACKAGE_DIRS = {
-    "shipradar": "shipradar",
-    "shipradar.sim": "sim",
-    "shipradar.sensors": "sensors",
-    "shipradar.tables": "tables",
-    "shipradar.scenarios": "scenarios",
-}
 SCHEMA, PHYSICS, TABLES, ONLINE, SERVICE = range(5)
-#: Layer 0: the scenario and the motion it declares.
-WORLD = {"shipradar.sim.scenario", "shipradar.sim.kinematics", "shipradar.sim.trajectory"}
 
 
 def _modules() -> dict[str, Path]:
-    out = {}
-    for pkg, folder in PACKAGE_DIRS.items():
-        base = ROOT / folder
-        for path in base.rglob("*.py"):
-            rel = path.relative_to(base).with_suffix("")
-            if pkg == "shipradar" and rel.parts[0] != "__init__" and len(rel.parts) > 1:
-                continue
-            parts = [p for p in rel.parts if p != "__init__"]
-            out[".".join([pkg, *parts])] = path
+    """Every module of the installed ``shipradar`` package and its source file, found by the
+    import system itself (pkgutil over the package's path, whatever folders it maps)."""
+    import shipradar
+
+    out = {"shipradar": Path(shipradar.__file__)}
+    for info in pkgutil.walk_packages(shipradar.__path__, "shipradar."):
+        spec = importlib.util.find_spec(info.name)
+        if spec is not None and spec.origin and spec.origin.endswith(".py"):
+            out[info.name] = Path(spec.origin)
     return out
 
 
 MODULES = _modules()
 
 
+#: The folder (package) of each layer below the service; everything else is layer 4.
+LAYER_PACKAGES = {
+    "shipradar.sim.world": SCHEMA,
+    "shipradar.sensors": PHYSICS,
+    "shipradar.tables": TABLES,
+    "shipradar.sim.dwell": ONLINE,
+}
+
+
 def layer(name: str) -> int:
-    if name in WORLD:
-        return SCHEMA
-    if name == "shipradar.sensors.dwell":
-        return ONLINE
-    if name == "shipradar.sensors" or name.startswith("shipradar.sensors."):
-        return PHYSICS
-    if name == "shipradar.tables" or name.startswith("shipradar.tables."):
-        return TABLES
+    for pkg, level in LAYER_PACKAGES.items():
+        if name == pkg or name.startswith(pkg + "."):
+            return level
     return SERVICE
 
 
@@ -92,24 +88,33 @@ def imports_of(name: str) -> set[str]:
 GRAPH = {name: imports_of(name) for name in MODULES}
 
 
-def test_package_dirs_match_pyproject():
+def test_every_package_folder_is_installed():
+    """Each folder with an ``__init__.py`` under the mapped folders is a listed package (a
+    new subpackage missing from pyproject.toml would not be in the wheel)."""
     if sys.version_info < (3, 11):
         pytest.skip("tomllib needs Python 3.11")
     import tomllib
 
     meta = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))
-    dirs = meta["tool"]["setuptools"]["package-dir"]
-    assert dirs == PACKAGE_DIRS
+    setup = meta["tool"]["setuptools"]
+    listed = set(setup["packages"])
+    for pkg, folder in setup["package-dir"].items():
+        for init in (ROOT / folder).rglob("__init__.py"):
+            rel = init.parent.relative_to(ROOT / folder).parts
+            assert ".".join([pkg, *rel]) in listed, f"{init.parent} is not in packages"
+    packages = {m for m, path in MODULES.items() if path.name == "__init__.py"}
+    assert packages <= listed
 
 
 def test_the_walk_sees_the_known_modules():
     # a guard against a walk that finds nothing and so passes trivially
-    for name in ("shipradar.sim.engine", "shipradar.sensors.dwell", "shipradar.tables.scene",
-                 "shipradar.sensors.detection", "shipradar.sim.scenario", "shipradar.api"):
+    for name in ("shipradar.sim.engine.simulation", "shipradar.sim.dwell.model",
+                 "shipradar.tables.scene",
+                 "shipradar.sensors.detection", "shipradar.sim.world.scenario", "shipradar.api"):
         assert name in GRAPH
-    assert "shipradar.sim.scenario" in GRAPH["shipradar.sensors.dwell"]
-    assert "shipradar.tables.scene" in GRAPH["shipradar.sim.engine"] or any(
-        "shipradar.tables" in m for m in GRAPH["shipradar.sim.engine"])
+    assert "shipradar.sim.world.scenario" in GRAPH["shipradar.sim.dwell.model"]
+    assert "shipradar.tables.scene" in GRAPH["shipradar.sim.engine.simulation"] or any(
+        "shipradar.tables" in m for m in GRAPH["shipradar.sim.engine.simulation"])
 
 
 def test_imports_point_downward_only():

@@ -18,8 +18,8 @@ import pytest
 import yaml
 
 from shipradar.sim.cli import main
-from shipradar.sim.recording import read_recording, verify_recording
-from shipradar.sim.scenario import parse_scenario
+from shipradar.sim.stream.recording import read_recording, verify_recording
+from shipradar.sim.world.scenario import parse_scenario
 from shipradar.tables.budget import check_memory_budget, estimate_tables
 
 from .helpers import ROOT

@@ -14,7 +14,7 @@ import pytest
 import yaml
 
 from shipradar.sim.cli import main
-from shipradar.sim.recording import MAGIC, Recorder
+from shipradar.sim.stream.recording import MAGIC, Recorder
 
 from .helpers import ROOT
 
@@ -38,7 +38,7 @@ def _files(d):
     bad[16 + 32 + 4] ^= 1  # first record's payload
     p["damaged.srrec"].write_bytes(bytes(bad))
     p["exists.srrec"].write_bytes(b"precious")
-    from shipradar.sim.security import generate_keys
+    from shipradar.sim.stream.security import generate_keys
 
     generate_keys(p["keys"], clients=["alice"])
     p["nokey.txt"].write_text("metadata\n    nothing = \"here\"\n")

@@ -18,8 +18,8 @@ import sys
 import numpy as np
 import pytest
 
-from shipradar.sim import protocol
-from shipradar.sim.recording import read_recording
+from shipradar.sim.stream import protocol
+from shipradar.sim.stream.recording import read_recording
 
 from .helpers import ROOT
 

@@ -1,4 +1,4 @@
-"""Tests of sensors.measurement: expected errors [84]-[85] and noisy plots [86]-[89]."""
+"""Tests of shipradar.sensors.measurement: expected errors [84]-[85] and noisy plots [86]-[89]."""
 
 from __future__ import annotations
 

@@ -9,8 +9,8 @@ import pytest
 
 pytest.importorskip("distributed")
 
-from shipradar.sim import montecarlo as mc  # noqa: E402
-from shipradar.sim.scenario import load_scenario  # noqa: E402
+from shipradar.sim.studies import montecarlo as mc  # noqa: E402
+from shipradar.sim.world.scenario import load_scenario  # noqa: E402
 
 from .helpers import ROOT  # noqa: E402
 
@@ -164,7 +164,7 @@ def test_empirical_pd_agrees_with_model(studies):
 def test_false_alarms_per_scan_agree_with_meta_rate(studies):
     """Noise false alarms per scan: the exact Poisson interval of the study covers the
     radar's stated rate (meta: noise_false_alarms_per_scan), widened to 99.9 %."""
-    from shipradar.sim.engine import Simulation
+    from shipradar.sim.engine.simulation import Simulation
 
     sc, out = studies
     rate = Simulation(sc).radars[0].model.noise_false_alarms_per_scan

@@ -16,9 +16,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from shipradar.sensors import sea_clutter as sc
-from shipradar.sensors.dwell import DwellModel
-from shipradar.sim.kinematics import LocalFrame, antenna_geometry
-from shipradar.sim.scenario import parse_scenario
+from shipradar.sim.dwell.model import DwellModel
+from shipradar.sim.world.kinematics import LocalFrame, antenna_geometry
+from shipradar.sim.world.scenario import parse_scenario
 from shipradar.tables.scene import SceneTables, load_scene_tables
 from tests.helpers import quiet_radar
 

@@ -1,4 +1,5 @@
-"""Tests of sim.parallel: radars in worker processes give the single-process stream, byte for
+"""Tests of shipradar.sim.engine.parallel: radars in worker processes give the single-process
+stream, byte for
 byte, and the merge replays SimPy's order (the independent oracle: SimPy itself)."""
 
 from __future__ import annotations
@@ -10,11 +11,11 @@ import simpy
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from shipradar.sim import parallel
-from shipradar.sim.bus import Bus
-from shipradar.sim.engine import Simulation
-from shipradar.sim.recording import Recorder
-from shipradar.sim.scenario import load_scenario
+from shipradar.sim.engine import parallel
+from shipradar.sim.engine.simulation import Simulation
+from shipradar.sim.stream.bus import Bus
+from shipradar.sim.stream.recording import Recorder
+from shipradar.sim.world.scenario import load_scenario
 from tests.helpers import ROOT, identical_radars_scene
 
 

@@ -1,4 +1,5 @@
-"""Tests of tables.pd: the tabulated P_d against the exact method (the independent oracle)."""
+"""Tests of shipradar.tables.pd: the tabulated P_d against the exact method (the independent
+oracle)."""
 
 from __future__ import annotations
 
@@ -96,8 +97,8 @@ def test_axes_inputs_and_cached_reader(table_cache):
 def test_run_with_table_matches_exact(table_cache):
     # wiring: fidelity.pd_method "table" goes through the dwell model; the draws use the same
     # uniforms, so only a P_d within the tolerance of a uniform can change a detection
-    from shipradar.sim.engine import Simulation
-    from shipradar.sim.scenario import load_scenario
+    from shipradar.sim.engine.simulation import Simulation
+    from shipradar.sim.world.scenario import load_scenario
     from tests.helpers import ROOT
 
     s = load_scenario(ROOT / "scenarios/single_missile.yaml")

@@ -2,9 +2,9 @@
 
 F enters S/N as F^4, so a table that fills a -30 dB null to -18 dB turns a blind band into
 detections.  The table stores the complex field with its smooth phase removed and the
-lookup interpolates it (tables.propagation.reference_phase); the former lookup interpolated
-|F|.  Checked (1) against the PE the table was built from, where its own F is -35 to -20 dB,
-with the former lookup failing the same test, and (2) against an independent solver
+lookup interpolates it (shipradar.tables.propagation.reference_phase); the former lookup
+interpolated |F|.  Checked (1) against the PE the table was built from, where its own F is -35 to
+-20 dB, with the former lookup failing the same test, and (2) against an independent solver
 (tests/reference_pe.py: split-step Padé on a Numerov grid), itself checked against image
 theory.
 """

@@ -19,7 +19,7 @@ import math
 import numpy as np
 import pytest
 
-from shipradar.sim.scenario import load_scenario
+from shipradar.sim.world.scenario import load_scenario
 from shipradar.tables.scene import table_specs
 
 from .helpers import ROOT, example
@@ -238,7 +238,7 @@ def test_resolution_condition_edges(bw_deg, tau_us, high):
     """7.2: spikes only for X = θ_b τ' < 4 °·µs and τ' < 4 µs; the scene asks for a P_fac map
     exactly then."""
     from shipradar.sensors.sea_clutter import is_medium_high_resolution
-    from shipradar.sim.scenario import parse_scenario
+    from shipradar.sim.world.scenario import parse_scenario
 
     from .helpers import quiet_radar
 

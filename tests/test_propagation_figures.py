@@ -1,4 +1,4 @@
-"""Propagation pictures (sim/figures/propagation.py) and ``shipradar plot SCENARIO
+"""Propagation pictures (sim/studies/figures/propagation.py) and ``shipradar plot SCENARIO
 propagation|coverage``: PNGs are written, and what they draw is what the on-line model reads."""
 
 from pathlib import Path
@@ -9,7 +9,7 @@ import pytest
 import yaml
 
 from shipradar.sim import cli
-from shipradar.sim.figures import propagation as fig
+from shipradar.sim.studies.figures import propagation as fig
 from shipradar.tables import propagation as tp
 
 matplotlib.use("Agg")

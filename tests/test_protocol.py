@@ -1,4 +1,4 @@
-"""Message envelope: round trips, determinism, limits and errors (sim.protocol)."""
+"""Message envelope: round trips, determinism, limits and errors (shipradar.sim.stream.protocol)."""
 
 from __future__ import annotations
 
@@ -13,8 +13,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
-from shipradar.sim import protocol
-from shipradar.sim.protocol import (
+from shipradar.sim.stream import protocol
+from shipradar.sim.stream.protocol import (
     EXT_NDARRAY,
     MAX_BODY_BYTES,
     SCHEMA_VERSION,
@@ -404,7 +404,7 @@ def test_fast_encoder_errors_are_the_documented_ones():
 
 def test_encode_slices_same_bytes_as_encode():
     # the engine's sector frames: each message is encode() of the sliced columns
-    from shipradar.sim.protocol import encode, encode_slices
+    from shipradar.sim.stream.protocol import encode, encode_slices
 
     rng = np.random.default_rng(3)
     n = 50

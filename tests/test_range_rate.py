@@ -10,8 +10,8 @@ import math
 import numpy as np
 import pytest
 
-from shipradar.sensors.dwell import DwellModel
-from shipradar.sim.kinematics import LocalFrame, antenna_geometry
+from shipradar.sim.dwell.model import DwellModel
+from shipradar.sim.world.kinematics import LocalFrame, antenna_geometry
 from shipradar.tables.scene import SceneTables
 
 from .helpers import bare_scene, quiet_radar
@@ -168,13 +168,16 @@ def test_stonesoup_reader_exposes_a_range_rate_model():
     from stonesoup.types.array import StateVector
     from stonesoup.types.state import State
 
-    from shipradar.sim.stonesoup_reader import ShipradarDetectionReader, range_rate_detection
+    from shipradar.sim.adapters.stonesoup_reader import (
+        ShipradarDetectionReader,
+        range_rate_detection,
+    )
 
     from .test_stonesoup_reader import synthetic_stream
 
     frames = []
     for f in synthetic_stream(scans=2, other_sensor=False):
-        from shipradar.sim import protocol
+        from shipradar.sim.stream import protocol
 
         topic, t, p = protocol.decode(f)
         if topic == protocol.TOPIC_PLOTS:

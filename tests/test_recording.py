@@ -15,8 +15,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from shipradar.sim.protocol import SCHEMA_VERSION, TOPIC_EOS, TOPIC_PLOTS, decode, encode
-from shipradar.sim.recording import (
+from shipradar.sim.stream.protocol import SCHEMA_VERSION, TOPIC_EOS, TOPIC_PLOTS, decode, encode
+from shipradar.sim.stream.recording import (
     FORMAT_VERSION,
     HEADER_BYTES,
     MAGIC,
@@ -150,8 +150,8 @@ def test_survives_kill_9_up_to_the_last_flushed_record(tmp_path):
         f"""
         import os, signal
         import numpy as np
-        from shipradar.sim.protocol import encode, TOPIC_PLOTS
-        from shipradar.sim.recording import Recorder
+        from shipradar.sim.stream.protocol import encode, TOPIC_PLOTS
+        from shipradar.sim.stream.recording import Recorder
         rec = Recorder({str(path)!r}, buffer_bytes=4096)
         for i in range(205):
             rec.write(float(i), encode(TOPIC_PLOTS, float(i), {{"r": np.full(50, float(i))}}))

@@ -19,10 +19,10 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from shipradar.sim.bus import Bus, replay
 from shipradar.sim.cli import main
-from shipradar.sim.engine import Simulation
-from shipradar.sim.recording import (
+from shipradar.sim.engine.simulation import Simulation
+from shipradar.sim.stream.bus import Bus, replay
+from shipradar.sim.stream.recording import (
     HEADER_BYTES,
     REC2_HEADER_BYTES,
     SYNC,

@@ -7,9 +7,9 @@ import zlib
 
 import pytest
 
-from shipradar.sim import montecarlo as mc
-from shipradar.sim.report import build_report, cli_main
-from shipradar.sim.scenario import load_scenario
+from shipradar.sim.studies import montecarlo as mc
+from shipradar.sim.studies.report import build_report, cli_main
+from shipradar.sim.world.scenario import load_scenario
 
 from .helpers import ROOT
 

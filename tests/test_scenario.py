@@ -9,7 +9,7 @@ import pytest
 import yaml
 
 from shipradar.sim.cli import main
-from shipradar.sim.scenario import ScenarioError, load_scenario, parse_scenario
+from shipradar.sim.world.scenario import ScenarioError, load_scenario, parse_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = sorted((ROOT / "scenarios").glob("*.yaml"))

@@ -7,7 +7,7 @@ import copy
 import numpy as np
 import pytest
 
-from shipradar.sim.scenario import parse_scenario
+from shipradar.sim.world.scenario import parse_scenario
 from shipradar.tables import scene as scene_mod
 from shipradar.tables.scene import build_scene_tables, load_scene_tables, table_specs
 from shipradar.tables.store import inputs_hash
@@ -163,7 +163,7 @@ def test_profile_duct_reaches_the_pe_table_and_the_clutter_horizon():
      "environment.duct.m_units[1]: must be >= 0, got -1"),
 ])
 def test_bad_profile_gets_one_clear_line(duct, line):
-    from shipradar.sim.scenario import ScenarioError
+    from shipradar.sim.world.scenario import ScenarioError
 
     with pytest.raises(ScenarioError) as err:
         parse_scenario(_with(example("single_missile"), duct=duct))

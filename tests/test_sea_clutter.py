@@ -1,4 +1,5 @@
-"""Tests of sensors.sea_clutter: GIT, geometry, ducting extension [22]-[29], skewness [30]-[32],
+"""Tests of shipradar.sensors.sea_clutter: GIT, geometry, ducting extension [22]-[29], skewness
+[30]-[32],
 spectrum [33]-[38], power [21] and S/C [46]."""
 
 import math

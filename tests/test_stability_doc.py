@@ -2,7 +2,7 @@
 
 The table is written by hand (it gives the reason for each bound); this test walks the pydantic
 schema with the extremes campaign's classifier (tests/extremes.py) so that a field added,
-removed or re-bounded in ``shipradar.sim.scenario`` without its row fails here.
+removed or re-bounded in ``shipradar.sim.world.scenario`` without its row fails here.
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from collections.abc import Iterator
 
 from pydantic import BaseModel
 
-from shipradar.sim.scenario import Scenario
+from shipradar.sim.world.scenario import Scenario
 
 from . import extremes as ex
 from .helpers import ROOT
@@ -69,7 +69,8 @@ def test_every_bounded_field_is_documented_with_its_bounds() -> None:
     assert missing == [], f"fields without a row in docs/stability.md §1: {missing}"
     wrong = {p: (documented[p], b) for p, b in schema.items() if documented[p] != b}
     assert wrong == {}, f"rows whose bounds differ from the schema's (doc, schema): {wrong}"
-    stale = sorted(p for p in set(documented) - set(schema) if "." in p or p in Scenario.model_fields)
+    stale = sorted(p for p in set(documented) - set(schema)
+                   if "." in p or p in Scenario.model_fields)
     assert stale == [], f"rows for fields the schema no longer has: {stale}"
 
 

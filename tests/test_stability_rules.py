@@ -17,9 +17,9 @@ import pytest
 import yaml
 
 from shipradar.sim.cli import main
-from shipradar.sim.protocol import decode
-from shipradar.sim.recording import read_recording, verify_recording
-from shipradar.sim.scenario import ScenarioError, parse_scenario
+from shipradar.sim.stream.protocol import decode
+from shipradar.sim.stream.recording import read_recording, verify_recording
+from shipradar.sim.world.scenario import ScenarioError, parse_scenario
 
 from .helpers import example
 

@@ -16,13 +16,13 @@ import pytest
 
 pytest.importorskip("stonesoup")
 
-from shipradar.sim import protocol  # noqa: E402
-from shipradar.sim.recording import Recorder  # noqa: E402
-from shipradar.sim.stonesoup_reader import (  # noqa: E402
+from shipradar.sim.adapters.stonesoup_reader import (  # noqa: E402
     ShipradarDetectionReader,
     azimuth_to_bearing,
     bearing_to_azimuth,
 )
+from shipradar.sim.stream import protocol  # noqa: E402
+from shipradar.sim.stream.recording import Recorder  # noqa: E402
 
 START = dt.datetime(2026, 6, 1, 12, 0, tzinfo=dt.timezone.utc)
 SCAN_S = 2.0
@@ -206,7 +206,7 @@ def test_late_joiner_starts_at_a_scan():
 
 
 def test_live_endpoint():
-    from shipradar.sim.bus import Bus, Publisher
+    from shipradar.sim.stream.bus import Bus, Publisher
 
     from .helpers import free_port
 
@@ -289,10 +289,10 @@ def test_end_to_end_single_missile_live_and_recorded(tmp_path):
     visible one to the last. Tracking the recording of the same run gives the same result,
     so nothing was lost on the live stream.
     """
-    from shipradar.sim.bus import Bus, Publisher
-    from shipradar.sim.engine import Simulation
-    from shipradar.sim.montecarlo import model_pd_looks
-    from shipradar.sim.scenario import load_scenario
+    from shipradar.sim.engine.simulation import Simulation
+    from shipradar.sim.stream.bus import Bus, Publisher
+    from shipradar.sim.studies.montecarlo import model_pd_looks
+    from shipradar.sim.world.scenario import load_scenario
     from shipradar.tables.scene import load_scene_tables
 
     from .helpers import ROOT, free_port

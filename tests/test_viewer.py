@@ -11,14 +11,19 @@ from collections import Counter
 import numpy as np
 import pytest
 
-from shipradar.sim import protocol
-from shipradar.sim.bus import Bus, Publisher
+from shipradar.sim.adapters.viewer.server import (
+    HostError,
+    ViewerServer,
+    ViewerThread,
+    check_http_host,
+)
+from shipradar.sim.adapters.viewer.wire import ViewError, pack_batch, to_view, unpack_batch
 from shipradar.sim.cli import main
-from shipradar.sim.engine import Simulation
-from shipradar.sim.recording import Recorder, read_recording
-from shipradar.sim.scenario import load_scenario
-from shipradar.sim.viewer.server import HostError, ViewerServer, ViewerThread, check_http_host
-from shipradar.sim.viewer.wire import ViewError, pack_batch, to_view, unpack_batch
+from shipradar.sim.engine.simulation import Simulation
+from shipradar.sim.stream import protocol
+from shipradar.sim.stream.bus import Bus, Publisher
+from shipradar.sim.stream.recording import Recorder, read_recording
+from shipradar.sim.world.scenario import load_scenario
 from tests.helpers import ROOT, free_port
 
 DEMO = ROOT / "scenarios" / "single_missile.yaml"
@@ -284,7 +289,7 @@ def test_example_tracker_publishes_tracks_that_reach_the_page(demo_recording):
 def test_view_subscribes_to_a_curve_stream_only_with_authorised_keys(tmp_path):
     """shipradar view --curve-secret-key/--curve-server-key: a viewer with an authorised key
     reads the CURVE publisher's stream; one whose key is not authorised reads nothing."""
-    from shipradar.sim.security import CurveClient, CurveServer, generate_keys
+    from shipradar.sim.stream.security import CurveClient, CurveServer, generate_keys
 
     keys = tmp_path / "keys"
     generate_keys(keys, clients=["alice", "mallory"])
@@ -307,7 +312,7 @@ def test_view_subscribes_to_a_curve_stream_only_with_authorised_keys(tmp_path):
 
 
 def test_view_curve_options_refused_on_a_recording(demo_recording, tmp_path, capsys):
-    from shipradar.sim.security import generate_keys
+    from shipradar.sim.stream.security import generate_keys
 
     generate_keys(tmp_path / "k", clients=["alice"])
     code = main(["view", str(demo_recording["path"]), "--port", "0",

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import pytest
 
-from shipradar.sim.viewer.screenshot import find_chromium, launch_chromium, open_page, seek
-from shipradar.sim.viewer.server import ViewerServer, ViewerThread
+from shipradar.sim.adapters.viewer.screenshot import find_chromium, launch_chromium, open_page, seek
+from shipradar.sim.adapters.viewer.server import ViewerServer, ViewerThread
 from tests.helpers import require_system_tool
 from tests.test_viewer import demo_recording  # noqa: F401  (module fixture)
 

@@ -1,4 +1,4 @@
-"""Tests of sensors.weather_clutter, seed [39]-[45]."""
+"""Tests of shipradar.sensors.weather_clutter, seed [39]-[45]."""
 
 import math
 

@@ -53,7 +53,8 @@ def test_wheel_holds_only_the_shipradar_namespace(installed):
     assert tops == {"shipradar", f"{name}-{version}.dist-info"}
     assert any(n.startswith("shipradar/_frames.") and n.endswith(".so") for n in names)
     # the design card's folders live under the namespace; the examples ship as package data
-    for sub in ("sim/engine.py", "sensors/dwell.py", "tables/scene.py", "scenarios/raid.yaml",
+    for sub in ("sim/engine/simulation.py", "sim/dwell/model.py", "tables/scene.py",
+                "scenarios/raid.yaml",
                 "scenarios/single_missile.yaml"):
         assert f"shipradar/{sub}" in names
 

@@ -1,0 +1,951 @@
+"""The dwell processor: from the targets a beam crosses to plots (seed chapters 3-7, on-line).
+
+One :class:`DwellModel` per radar and scene.  Everything that does not change during a run is
+computed once in its constructor (radar constant, system noise, P_fa, pulses per beam, the
+false-alarm rate, pattern and RCS parameters, the scene's tables); :meth:`process_targets`
+is then vectorized over all the targets the beam crosses in one sector:
+
+1. cross section σ ([15], a table against aspect, or a constant);
+2. propagation factor F (the PE table [5]-[7], the two-ray fallback, or free space — each
+   including the elevation directivity, [4]) and the one-way atmospheric loss [16];
+3. echo power [2]-[3] and S/N [17]-[20];
+4. sea and weather clutter power at the target's cell [21], [39], S/C [46];
+5. stand-off jamming through the radar pattern [47], S/J [48];
+6. the dominant interference and S/I [66]-[67], processing gain [57], [63]-[65];
+7. unresolved targets (2.2.1): targets sharing a range-azimuth cell and a Doppler filter add
+   their powers into one contact;
+8. effective number of pulses [73]-[77], P_d [78]-[83] or exact, the detection draw, and the
+   noisy measurements [84]-[89].
+
+Interference codes: 0 noise, 1 clutter, 2 jamming (:data:`INTERFERENCE_NAMES`).
+
+Dominance rule (SPEC §4 item 5: the seed's conditions overlap and leave gaps).  With N = N0',
+C = P_sc + P_wc and J = Σ P_j, all at the RF input: jamming dominates when J > 2 (C + N)
+(the seed's own condition, checked first); otherwise clutter dominates when C >= N/2 (the
+seed: "when these three sources are competing, clutter is taken as being the dominant one");
+otherwise noise.  The three cases cover every (N, C, J) exactly once.  Jamming is noise-like
+(seed 6.1): S/I = S/(N + J) with the noise formula [66].
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from shipradar.sensors import (
+    antenna,
+    detection,
+    doppler_filters,
+    false_alarms,
+    jamming,
+    measurement,
+    noise,
+    rcs,
+    sea_clutter,
+    weather_clutter,
+)
+from shipradar.sensors.radar import (
+    false_alarm_probability,
+    pulses_per_beamwidth,
+    radar_constants,
+)
+from shipradar.sim.world.scenario import Platform, Radar, Scenario
+from shipradar.tables.store import StackedLookup2D
+
+INTERFERENCE_NAMES = ("noise", "clutter", "jamming")
+NOISE, CLUTTER, JAMMING = 0, 1, 2
+_RCS_CONSTANT, _RCS_MISSILE, _RCS_TABLE = 0, 1, 2
+#: Resolution of the common aspect grid on which RCS tables are resampled [deg].
+_RCS_TABLE_STEP_DEG = 0.1
+#: Elevation beyond which the sky-noise model is evaluated for T'_a when the antenna points
+#: at the horizon: Blake's curves are for the beam axis; we use the elevation of the beam
+#: maximum, at least 0.
+_DB_FLOOR = 1e-30
+
+
+def db(x):
+    """10 log10 of a power ratio, floored at -300 dB so that zero powers stay finite."""
+    return 10.0 * np.log10(np.maximum(x, _DB_FLOOR))
+
+
+@dataclass(frozen=True)
+class _Jammers:
+    """Per-jammer constants (arrays over jammers)."""
+
+    rows: np.ndarray
+    power_w: np.ndarray
+    gain: np.ndarray
+    bandwidth_hz: np.ndarray
+
+
+#: Largest one-way atmospheric loss used [dB]: 10^100, an echo or a jammer 1000 dB down is
+#: nothing against any receiver's noise, and L_atm² (two ways) stays finite in float64.
+MAX_ATMOSPHERIC_LOSS_DB = 1000.0
+
+
+class DwellModel:
+    """On-line radar model of one radar in one scene."""
+
+    INTERFERENCE_NAMES = INTERFERENCE_NAMES
+
+    def __init__(self, scenario: Scenario, platform: Platform, radar: Radar, tables):
+        self.scenario = scenario
+        self.platform = platform
+        self.radar = radar
+        self.tables = tables.for_radar(radar.id)
+        fid = scenario.fidelity
+        env = scenario.environment
+        self.method = fid.pd_method
+        # Opt-in common random numbers (shipradar.sim.studies.fidelity; None in a normal run, whose
+        # stream is unchanged): ``look_uniforms(target_rows, t_s) -> u`` replaces the detection draw
+        # by one uniform per look derived from the look itself, and ``look_probe(**cols)``
+        # receives every look's P_d, so two fidelity settings see the same dice per look.
+        self.look_uniforms = None
+        self.look_probe = None
+        self.k = k = radar_constants(scenario, radar)
+        self.wavelength, self.gain, self.k_r0 = k.wavelength, k.gain, k.k_r0
+        self.l_x, self.l_c, self.l_r = k.l_x, k.l_c, k.l_r
+        self.l_cfar, self.l_cd, self.l_b = k.l_cfar, k.l_cd, k.l_b
+        self.theta_b, self.phi_b, self.tilt = k.theta_b, k.phi_b, k.tilt
+        self.range_cell, self.bandwidth = k.range_cell, k.bandwidth
+        self.t_a, self.t_s, self.n0 = k.t_a, k.t_s, k.n0
+        self.elevation_pattern = k.elevation_pattern(radar)
+        self.high_resolution = bool(sea_clutter.is_medium_high_resolution(
+            self.theta_b, radar.pulse_width_s))
+        # false alarms and pulses [68]-[73], [90]: P_fa for one reported false alarm per
+        # t_fa and the count over the same decisions, so the noise false alarms come at 1/t_fa
+        # (the seed's [68] and [90] disagree; detection and false_alarms module notes)
+        self.pfa = false_alarm_probability(radar)
+        self.n_pulses = pulses_per_beamwidth(radar)
+        self.n_cells = float(false_alarms.resolution_cells(
+            radar.instrumented_range_m, self.theta_b, self.range_cell))
+        self.noise_false_alarms_per_scan = float(false_alarms.noise_false_alarms_per_scan(
+            self.pfa, self.theta_b, radar.prf_hz, radar.pulse_width_s,
+            radar.instrumented_range_m, radar.n_channels))
+        if self.method == "table":
+            # the exact P_d tabulated against (N_e, S/I) for this P_fa, N_e in [1, N_n]
+            from shipradar.tables.pd import PdTables
+
+            self._pd_tables = PdTables(self.pfa, self.n_pulses,
+                                       [t.swerling_case for t in scenario.targets])
+        self._prepare_targets(scenario)
+        self._prepare_jammers(scenario)
+        self._prepare_propagation(scenario)
+        self._prepare_compensation(platform, radar)
+        spectrum = (None, "doppler_mean_hz", "doppler_spread_hz")
+        self._sea_reader = (None if self.tables.sea_clutter is None else StackedLookup2D(
+            self.tables.sea_clutter, (*spectrum, "weibull_a"), periodic1=True))
+        self._wx_reader = (None if self.tables.weather_clutter is None else StackedLookup2D(
+            self.tables.weather_clutter, spectrum, periodic1=True))
+        # a rain region: each trip of the range-folded sum [39]-[41] is weighted by whether
+        # its own cell is in the rain, so the one-trip power is read and summed here
+        rain = scenario.environment.rain
+        self._wx_trip_reader = (
+            None if self.tables.weather_clutter is None or rain is None or rain.region is None
+            else StackedLookup2D(self.tables.weather_clutter, ("single_trip_power_w",),
+                                 periodic1=True))
+        # the spectrum's mean and spread alone, for the Doppler of every one of a scan's
+        # thousands of sea-clutter false alarms (half the gathers of the full reader)
+        self._sea_spectrum_reader = (None if self.tables.sea_clutter is None else
+                                     StackedLookup2D(self.tables.sea_clutter, spectrum[1:],
+                                                     periodic1=True))
+        # the false alarms' Doppler draws: a child of the radar's generator, spawned at the
+        # first draw so that the parent's stream, hence every other draw, is unchanged
+        self._doppler_rng: np.random.Generator | None = None
+        self.rain_gamma_db_per_km = 0.0
+        if env.rain is not None and fid.atmosphere:
+            from shipradar.sensors.atmosphere import rain_specific_attenuation_db_per_km
+
+            self.rain_gamma_db_per_km = float(rain_specific_attenuation_db_per_km(
+                radar.frequency_hz, _rain_equivalent_rate(env.rain), radar.polarization))
+
+    # ------------------------------------------------------------------ set-up
+    def _prepare_targets(self, scenario: Scenario) -> None:
+        n = len(scenario.targets)
+        self.rcs_kind = np.zeros(n, dtype=np.int8)
+        self.rcs_const = np.zeros(n)
+        self.rcs_missile = np.zeros((n, 3))
+        self.swerling = np.zeros(n, dtype=np.int8)
+        tables = []
+        self.rcs_table_row = np.full(n, -1)
+        grid = np.arange(0.0, 180.0 + 0.5 * _RCS_TABLE_STEP_DEG, _RCS_TABLE_STEP_DEG)
+        for i, t in enumerate(scenario.targets):
+            self.swerling[i] = t.swerling_case
+            if t.rcs.type == "constant":
+                self.rcs_kind[i] = _RCS_CONSTANT
+                self.rcs_const[i] = t.rcs.sigma_m2
+            elif t.rcs.type == "missile":
+                self.rcs_kind[i] = _RCS_MISSILE
+                self.rcs_missile[i] = (t.rcs.sigma_nose_m2, t.rcs.length_m, t.rcs.diameter_m)
+            else:
+                self.rcs_kind[i] = _RCS_TABLE
+                self.rcs_table_row[i] = len(tables)
+                tables.append(rcs.tabulated_rcs(np.radians(t.rcs.aspect_deg),
+                                                np.asarray(t.rcs.sigma_m2), np.radians(grid)))
+        self.rcs_tables = np.array(tables) if tables else np.zeros((0, grid.size))
+        self.rcs_grid_step = math.radians(_RCS_TABLE_STEP_DEG)
+
+    def _prepare_jammers(self, scenario: Scenario) -> None:
+        js = scenario.jammers
+        self.jam = _Jammers(
+            rows=np.arange(len(js)),
+            power_w=np.array([j.power_w for j in js]),
+            gain=noise.power_ratio(np.array([j.gain_db for j in js])),
+            bandwidth_hz=np.array([j.bandwidth_hz for j in js]),
+        )
+        # L_sl of [47]: the constant azimuth sidelobe level a jammer outside the main beam
+        # sees; a floor under the pattern (a real antenna's far sidelobes and backlobe), so a
+        # jammer behind the antenna or off a Gaussian beam does not vanish
+        pa = self.radar.pattern_az
+        self.jam_sidelobe_floor = float(noise.power_ratio(-(
+            pa.sidelobe_db if pa.jamming_sidelobe_db is None else pa.jamming_sidelobe_db)))
+
+    def _prepare_compensation(self, platform: Platform, radar: Radar) -> None:
+        # The platform motion the processor removes ([35], motion_compensated): the same
+        # ship speed and course as the clutter tables' f1 [34] (shipradar.tables.scene.ship_motion),
+        # so the target Doppler relative to the clutter is the same with and without it.
+        from shipradar.tables.scene import ship_motion
+
+        speed, course = ship_motion(platform)
+        self._table_motion = (speed, course)
+        self._compensation = (speed, course) if (
+            radar.processor.motion_compensated and speed > 0.0) else None
+
+    def _platform_doppler_hz(self, speed, course, azimuth, ground_range=None):
+        """f1 [34] of the clutter patch along each beam [Hz] for a ship at ``speed`` [m/s] on
+        ``course`` [rad]; at the sea patch's depression angle at ``ground_range`` [m], or
+        horizontal (the weather map's convention) when None."""
+        depression = 0.0 if ground_range is None else sea_clutter.depression_angle_rad(
+            ground_range, self.radar.antenna_height_m)
+        return sea_clutter.platform_doppler_hz(speed, azimuth - course, depression,
+                                               self.wavelength)
+
+    def _instantaneous_f1(self, geom, platform_vel, sea=True):
+        """f1 [34] from the platform's instantaneous velocity (N, 3) [m/s] (a turning or
+        accelerating ship), and the same from the clutter tables' motion, to swap one for
+        the other in the clutter mean [35] and in the motion compensation."""
+        speed = np.hypot(platform_vel[:, 0], platform_vel[:, 1])
+        course = np.arctan2(platform_vel[:, 0], platform_vel[:, 1])
+        rng = geom.ground_range if sea else None
+        return (self._platform_doppler_hz(speed, course, geom.azimuth, rng),
+                self._platform_doppler_hz(*self._table_motion, geom.azimuth, rng))
+
+    @property
+    def has_doppler_bank(self) -> bool:
+        """True for a DFT/FIR bank (alone or behind an MTI): plots carry a range rate."""
+        return self.radar.processor.type in ("dft_bank", "fir_bank", "mti_bank")
+
+    @property
+    def n_doppler_filters(self) -> int:
+        """Filters of the bank, by default as many as it has taps: N_c for a DFT or FIR bank,
+        N_c - N_pc behind an N_pc-order canceller (as the I_F table is built,
+        :func:`shipradar.tables.scene.improvement_kwargs`); 1 without a bank."""
+        proc = self.radar.processor
+        if not self.has_doppler_bank:
+            return 1
+        taps = proc.n_coherent - (proc.mti_order if proc.type == "mti_bank" else 0)
+        return proc.n_filters if proc.n_filters is not None else taps
+
+    @property
+    def range_rate_sigma_mps(self) -> float:
+        """Expected 1σ of the reported range rate [m/s]: the filter spacing f_r/N as a
+        uniform quantisation, (λ/2) f_r / (N √12); NaN without a bank."""
+        if not self.has_doppler_bank:
+            return math.nan
+        return 0.5 * self.wavelength * self.radar.prf_hz / (self.n_doppler_filters
+                                                            * math.sqrt(12.0))
+
+    def range_rate_from_filter(self, filter_index, reference_hz):
+        """Measured range rate [m/s] (positive receding) of contacts detected in bank filters
+        ``filter_index``: the filter centre i f_r/N [60], folded into [-f_r/2, f_r/2) (the
+        Doppler ambiguity: blind and ambiguous speeds beyond ±f_r λ/4), plus the bank's
+        reference ``reference_hz`` [Hz] (the clutter mean μ_c the filters are indexed from,
+        and f1 [34] when motion-compensated: both known to the processor), as -λ f/2.
+
+        Staggered PRFs: the filters are on the nominal ``prf_hz`` grid (as the model picks
+        them), so the fold is by ``prf_hz``; the stagger moves the blind speeds of the
+        improvement factor, not the ambiguity of one coherent dwell's filter centre.
+        """
+        index = np.asarray(filter_index)
+        n = self.n_doppler_filters
+        if (index.dtype == np.int64 and index.size > n and index.min() >= 0
+                and index.max() < n):
+            centre = self._filter_centres_hz[index]  # the formula below, once per filter
+        else:
+            centre = self._filter_centre_hz(index)
+        return -0.5 * self.wavelength * (centre + reference_hz)
+
+    def _filter_centre_hz(self, filter_index):
+        """Centre of filters ``filter_index`` folded into [-f_r/2, f_r/2) [Hz]."""
+        n = self.n_doppler_filters
+        return (np.mod(np.asarray(filter_index) / n + 0.5, 1.0) - 0.5) * self.radar.prf_hz
+
+    @functools.cached_property
+    def _filter_centres_hz(self) -> np.ndarray:
+        """:meth:`_filter_centre_hz` of every filter of the bank."""
+        return self._filter_centre_hz(np.arange(self.n_doppler_filters, dtype=np.int64))
+
+    def _doppler_draw_rng(self, rng: np.random.Generator) -> np.random.Generator:
+        """A child of the radar's generator for the false alarms' Doppler draws (spawned
+        once: the parent's stream, hence every other draw, is unchanged)."""
+        if self._doppler_rng is None:
+            self._doppler_rng = rng.spawn(1)[0]
+        return self._doppler_rng
+
+    def _false_alarm_range_rate(self, range_m, azimuth_rad, rng, clutter: bool,
+                                spectrum=None) -> dict:
+        """Range-rate columns of false alarms: the filter of a noise alarm is uniform over the
+        bank; a sea-clutter alarm's Doppler is drawn from the clutter spectrum [33] (Gaussian
+        about μ_c with σ_s), then reported as a target's would be.  The bank's reference and
+        the spread are read from the clutter map at each alarm's cell, or given as
+        ``spectrum`` (reference, spread) (the sea-clutter alarms: their P_fac sector's, see
+        :meth:`_clutter_fa_spectrum`)."""
+        n = np.size(range_m)
+        if not self.has_doppler_bank or n == 0:
+            nan = np.full(n, np.nan)
+            return {"range_rate_mps": nan, "sigma_range_rate_mps": nan.copy()}
+        draw = self._doppler_draw_rng(rng)
+        if spectrum is not None:
+            reference, spread = spectrum
+        else:
+            reference, spread = self._spectrum_reference(np.asarray(range_m),
+                                                         np.asarray(azimuth_rad))
+        if clutter:
+            index = self._doppler_filter(draw.normal(0.0, 1.0, n) * spread)
+        else:
+            index = draw.integers(0, self.n_doppler_filters, n)
+        return {"range_rate_mps": self.range_rate_from_filter(index, reference),
+                "sigma_range_rate_mps": np.full(n, self.range_rate_sigma_mps)}
+
+    def _spectrum_reference(self, range_m, azimuth_rad):
+        """The Doppler bank's reference (the sea-clutter mean μ_c, plus f1 [34] when
+        motion-compensated) and the clutter spread σ_s at ground ranges and azimuths [Hz];
+        0 without a sea-clutter map."""
+        reference = np.zeros(np.shape(range_m))
+        spread = np.zeros(np.shape(range_m))
+        if self._sea_spectrum_reader is not None:
+            v = np.nan_to_num(self._sea_spectrum_reader(range_m, azimuth_rad))
+            reference, spread = v[:, 0], v[:, 1]
+        if self._compensation is not None:
+            reference = reference + self._platform_doppler_hz(*self._compensation,
+                                                              azimuth_rad, range_m)
+        return reference, spread
+
+    @functools.cached_property
+    def _clutter_fa_generator(self):
+        """The P_fac map's per-scan generator
+        (:func:`shipradar.tables.pfac.clutter_false_alarm_generator`), made at its first use; None
+        without a P_fac map."""
+        if self.tables.pfac is None:
+            return None
+        from shipradar.tables.pfac import clutter_false_alarm_generator
+
+        return clutter_false_alarm_generator(
+            self.tables.pfac, pfa=self.pfa, n_channels=self.radar.n_channels,
+            n_pulses=self.n_pulses, h_range=self.radar.h_range, h_azimuth=self.radar.h_azimuth)
+
+    @functools.cached_property
+    def _clutter_fa_spectrum(self) -> tuple[np.ndarray, np.ndarray]:
+        """(reference, spread) [Hz] of :meth:`_spectrum_reference` at the centre of every
+        active P_fac sector, for the sea-clutter false alarms' Doppler: the P_fac sector is
+        the resolution of the clutter false-alarm model (count, position bounds and spike
+        S/I are the sector's), and the spectrum changes little across one."""
+        gen = self._clutter_fa_generator
+        centre_r = 0.5 * (gen.r_min_m + gen.r_max_m)
+        centre_az = np.mod(0.5 * (gen.az_min_rad + gen.az_max_rad), 2.0 * math.pi)
+        return self._spectrum_reference(centre_r, centre_az)
+
+    def _prepare_propagation(self, scenario: Scenario) -> None:
+        self.propagation_mode = scenario.fidelity.propagation
+        self.wave_height = scenario.wave_height
+        self._two_ray = _TwoRayFallback(self.radar, self.wave_height, self.elevation_pattern)
+
+    def azimuth_pattern(self, offset_rad, envelope=False):
+        """Azimuth directivity factor g_az (field) at an angle from the beam axis [8]-[13].
+
+        ``envelope``: beyond the first null, the sidelobe peak envelope instead of the sinc.
+        """
+        pa = self.radar.pattern_az
+        return antenna.directivity(offset_rad, self.theta_b, pa.type, sidelobe_db=pa.sidelobe_db,
+                                   envelope=envelope)
+
+    # ------------------------------------------------------------------ physics pieces
+    def cross_section(self, rows: np.ndarray, los_enu: np.ndarray, vel_enu: np.ndarray):
+        """σ [m²] of targets ``rows`` seen along ``los_enu`` (radar to target)."""
+        kind = self.rcs_kind[rows]
+        sigma = self.rcs_const[rows].copy()
+        m = kind == _RCS_MISSILE
+        tab = kind == _RCS_TABLE
+        if (m | tab).any():
+            theta, phi = rcs.aspect_angles(los_enu, vel_enu)
+            if m.any():
+                p = self.rcs_missile[rows[m]]
+                sigma[m] = rcs.missile_rcs(p[:, 0], p[:, 1], p[:, 2], theta[m], phi[m])
+            if tab.any():
+                off = rcs.off_nose_angle(theta[tab], phi[tab])
+                x = np.clip(off / self.rcs_grid_step, 0, self.rcs_tables.shape[1] - 1.000001)
+                i = np.floor(x).astype(int)
+                w = x - i
+                tr = self.rcs_table_row[rows[tab]]
+                sigma[tab] = (1 - w) * self.rcs_tables[tr, i] + w * self.rcs_tables[tr, i + 1]
+        return sigma
+
+    def propagation_factor(self, ground_range, target_height, elevation):
+        """F (field ratio, includes g_el) and the number of points that fell back [4]-[7]."""
+        mode = self.propagation_mode
+        if mode == "free_space":
+            return np.abs(self.elevation_pattern(elevation)), 0
+        two_ray = self._two_ray
+        if mode == "two_ray" or self.tables.propagation is None:
+            return two_ray(ground_range, target_height), 0
+        from shipradar.tables.propagation import propagation_factor as pe_lookup
+
+        f = pe_lookup(self.tables.propagation, ground_range, target_height)
+        bad = ~np.isfinite(f)
+        if bad.any():
+            f = f.copy()
+            f[bad] = two_ray(ground_range[bad], target_height[bad])
+        return f, int(np.count_nonzero(bad))
+
+    def atmospheric_loss(self, slant_range, elevation, radar_en, target_en, target_up):
+        """One-way atmospheric loss L_atm [16] (power ratio >= 1).
+
+        Held at :data:`MAX_ATMOSPHERIC_LOSS_DB`: a path through more is opaque (a jammer
+        2800 km away at 100 GHz in fog is over 3000 dB, which 10^(x/10) overflows).
+        """
+        if self.tables.atmosphere is None:
+            return np.ones_like(slant_range)
+        from shipradar.tables.atmosphere import lookup_gas_fog_loss_db
+
+        loss_db = lookup_gas_fog_loss_db(self.tables.atmosphere, slant_range, elevation)
+        rain = self.scenario.environment.rain
+        if rain is not None and self.rain_gamma_db_per_km > 0.0:
+            from shipradar.sensors.atmosphere import rain_loss_db, rain_path_length_m
+
+            region = rain.region
+            centre = np.zeros(2) if region is None else np.array([region.east_m, region.north_m])
+            radius = np.inf if region is None else region.radius_m
+            length = rain_path_length_m(radar_en, target_en, self.radar.antenna_height_m,
+                                        target_up, centre, radius, rain.cloud_base_m)
+            loss_db = loss_db + rain_loss_db(self.rain_gamma_db_per_km, length)
+        return noise.power_ratio(np.minimum(loss_db, MAX_ATMOSPHERIC_LOSS_DB))
+
+    def jamming_power(self, beam_azimuth, jam_geom, jam_pos=None, antenna_en=None):
+        """Total jamming power P_j [W] at each beam azimuth [47] (0 without jammers).
+
+        One-way to each jammer: the propagation factor F_j of the scene's model (PE table,
+        two-ray or free space; it holds the elevation pattern, as for targets) at the jammer's
+        height, and the atmospheric loss [16] along the path, computed once per call for the
+        jammers (not per beam position).  The azimuth pattern toward the jammer is the
+        sidelobe envelope beyond the first null ([13]), so S/J does not swing tens of dB
+        between beam positions in the sinc nulls, floored at the seed's constant sidelobe
+        level L_sl (``pattern_az.jamming_sidelobe_db``, default S_L): g_az² ≥ L_sl.
+
+        Parameters
+        ----------
+        beam_azimuth : (N,) beam azimuths [rad, true north]
+        jam_geom : Geometry of the M jammers from the antenna, or None
+        jam_pos : (M, 3) jammer east/north/up in the origin frame [m]; None: F_j from a
+            jammer at the sea surface and no atmospheric loss (unit tests)
+        antenna_en : (2,) the antenna's east/north [m] (rain path); None: the origin
+        """
+        if jam_geom is None:
+            return np.zeros_like(beam_azimuth)
+        off = beam_azimuth[:, None] - jam_geom.azimuth[None, :]
+        off = np.mod(off + np.pi, 2.0 * np.pi) - np.pi
+        g_az = self.azimuth_pattern(off, envelope=True)
+        height = np.zeros(jam_geom.ground_range.shape) if jam_pos is None else jam_pos[:, 2]
+        f_j, _ = self.propagation_factor(jam_geom.ground_range, height, jam_geom.elevation)
+        l_atm = np.ones_like(f_j)
+        if jam_pos is not None:
+            radar_en = np.broadcast_to(np.zeros(2) if antenna_en is None else antenna_en,
+                                       (height.size, 2))
+            l_atm = self.atmospheric_loss(jam_geom.slant_range, jam_geom.elevation, radar_en,
+                                          jam_pos[:, :2], height)
+        p = jamming.jammer_power_w(
+            self.jam.power_w[None, :], self.jam.gain[None, :], self.gain, g_az, 1.0,
+            self.wavelength, jam_geom.slant_range[None, :], self.bandwidth,
+            self.jam.bandwidth_hz[None, :], f_j=f_j[None, :], l_r=self.l_r,
+            l_atm=l_atm[None, :], sidelobe_floor=self.jam_sidelobe_floor)
+        return p.sum(axis=1)
+
+    def target_doppler_hz(self, geom, platform_vel=None):
+        """Target Doppler after the processor [Hz]: f_d = -2 v_r/λ, minus f1 when compensated.
+
+        A motion-compensated processor ([35]: μ_c = 0) shifts everything it receives in the
+        beam by the platform Doppler f1 [34] of the clutter patch at that range and azimuth,
+        so the target is shifted too: f_d' = -2 v_r/λ - f1 (v_r the range rate relative to
+        the ship, positive receding).  f_d' - μ_c is then the same with and without
+        compensation, up to the wave-drift term of [35].  f1 uses the clutter tables' ship
+        speed and course and the sea patch's depression angle at the target's ground range.
+
+        Parameters
+        ----------
+        geom : Geometry
+            Targets seen from the antenna (``radial_velocity`` [m/s], ``azimuth`` [rad],
+            ``ground_range`` [m]).
+        platform_vel : (N, 3) ndarray, optional
+            The platform's instantaneous velocity [m/s] at each look: f1 then follows a
+            turning or accelerating ship; None: the clutter tables' (first-leg) motion.
+        """
+        fd = -2.0 * geom.radial_velocity / self.wavelength
+        if platform_vel is not None and self.radar.processor.motion_compensated:
+            return fd - self._instantaneous_f1(geom, platform_vel)[0]
+        if self._compensation is None:
+            return fd
+        return fd - self._platform_doppler_hz(*self._compensation, geom.azimuth,
+                                              geom.ground_range)
+
+    def clutter_at(self, geom, tpos, antenna_en, platform_vel=None):
+        """Clutter at each target's cell and what the processor does to it.
+
+        Returns None when the scene has no clutter tables; otherwise a dict of arrays:
+        ``power_w`` P_sc + P_wc at the RF input [21], [39]; ``improvement`` I_F [57] of the
+        Doppler processor at the target's Doppler relative to the clutter mean; its
+        ``distribution_loss`` L_d [63]-[64] (sea clutter dominant and medium/high resolution);
+        ``spread_mps`` the clutter velocity spread σ_s' for [74]; ``doppler_relative_hz``
+        the target's Doppler relative to the clutter mean, f_d' - μ_c
+        (:meth:`target_doppler_hz`), which indexes I_F and picks the filter.
+        """
+        if self._sea_reader is None and self._wx_reader is None:
+            return None
+        n = geom.ground_range.size
+        zero = np.zeros(n)
+        p_sc = mean_sc = spread_sc = a = zero
+        if self._sea_reader is not None:
+            v = np.nan_to_num(self._sea_reader(geom.ground_range, geom.azimuth))
+            p_sc, mean_sc, spread_sc, a = v[:, 0], v[:, 1], v[:, 2], v[:, 3]
+        p_wc = mean_wc = spread_wc = zero
+        if self._wx_reader is not None:
+            v = np.nan_to_num(self._wx_reader(geom.ground_range, geom.azimuth))
+            p_wc = v[:, 0] if self._wx_trip_reader is None else \
+                self._folded_rain_power(geom, antenna_en)
+            mean_wc, spread_wc = v[:, 1], v[:, 2]
+        if platform_vel is not None and not self.radar.processor.motion_compensated:
+            # the tables' μ_c [35] holds f1 [34] of the first leg: swap in the ship's
+            # instantaneous velocity (a turning frigate sweeps its clutter Doppler)
+            if self._sea_reader is not None:
+                f1, f1_table = self._instantaneous_f1(geom, platform_vel)
+                mean_sc = mean_sc + (f1 - f1_table)
+            if self._wx_reader is not None:
+                f1, f1_table = self._instantaneous_f1(geom, platform_vel, sea=False)
+                mean_wc = mean_wc + (f1 - f1_table)
+        sea_dom = p_sc >= p_wc
+        mean = np.where(sea_dom, mean_sc, mean_wc)
+        spread = np.where(sea_dom, spread_sc, spread_wc)
+        relative = self.target_doppler_hz(geom, platform_vel) - mean
+        from shipradar.tables.improvement import improvement_factor_db
+
+        prf = self.radar.prf_hz
+        i_f_db = improvement_factor_db(self.tables.improvement, spread / prf, relative / prf)
+        # the same filter's gain against white noise: what thermal noise gets through the
+        # processor while the clutter filters are on (the I_F table's sigma -> inf limit)
+        cg_db = improvement_factor_db(self.tables.improvement, spread / prf, relative / prf,
+                                      array="coherent_gain_db")
+        l_d = np.ones(n)
+        if self._sea_reader is not None and self.high_resolution:
+            d_mm = sea_clutter.median_mean_difference_db(a)
+            l_d = np.where(sea_dom, noise.power_ratio(
+                doppler_filters.distribution_loss_db(i_f_db, d_mm)), 1.0)
+        return {
+            "power_w": p_sc + p_wc,
+            "improvement": noise.power_ratio(i_f_db),
+            "distribution_loss": l_d,
+            "spread_mps": spread * self.wavelength / 2.0,
+            "doppler_mean_hz": mean,
+            "doppler_relative_hz": relative,
+            "coherent_gain": noise.power_ratio(cg_db),
+        }
+
+    def _folded_rain_power(self, geom, antenna_en):
+        """Weather clutter P_wc at each target's delay with a rain region [W], [39]-[41].
+
+        The rain of every pulse in flight, at ground ranges r + k R_u along the target's
+        azimuth (:func:`shipradar.sensors.weather_clutter.range_folded_power_w`), each trip's cell
+        counted only when it is inside the rain region. The weather clutter of [40] fills
+        the cell's beam from the surface up to d_h = min(h_cloud, R_c φ_b) [43] whatever the
+        target's own height, so only a cell's horizontal position decides (seed 4.1.4: "only
+        inside the rain region"). Without a region every cell is in the rain and the map's
+        own trip sum is read instead.
+        """
+        region = self.scenario.environment.rain.region
+        az = geom.azimuth
+        east0, north0 = antenna_en[:, 0], antenna_en[:, 1]
+        sin_az, cos_az = np.sin(az), np.cos(az)
+        reader = self._wx_trip_reader
+
+        def one_trip(x):
+            inside = np.hypot(east0 + x * sin_az - region.east_m,
+                              north0 + x * cos_az - region.north_m) <= region.radius_m
+            return np.where(inside, np.nan_to_num(reader(x, az)[:, 0]), 0.0)
+
+        return weather_clutter.range_folded_power_w(
+            one_trip, geom.ground_range, self.radar.prf_hz, self.radar.instrumented_range_m)
+
+    # ------------------------------------------------------------------ dwell
+    def signal_to_interference(self, p_r, clutter_w, jam_w, improvement, dist_loss,
+                               coherent_gain=1.0):
+        """Per-pulse S/I [linear] and the dominant interference code [66]-[67].
+
+        Clutter dominant: [67] gives the clutter residue after the processor, S/C G_p; the
+        noise (and jamming) that passes the same filter, with its coherent gain against white
+        noise, is added to it: S/I = 1 / (1/(S/C G_p ...) + 1/(S/N CG ...)).  Without this a
+        target in clutter with I_F = 60 dB would read 60 dB above the same target in noise
+        just outside the clutter; the sum keeps S/I below the filter's noise limit.
+        """
+        n = self.n0
+        code = np.where(jam_w > 2.0 * (clutter_w + n), JAMMING,
+                        np.where(clutter_w >= 0.5 * n, CLUTTER, NOISE)).astype(np.uint8)
+        noise_like = p_r / ((n + jam_w) * self.l_x * self.l_cfar)
+        # [67]: L_B is a loss (divides), as its name and Blake's 1.6 dB say
+        residue_si = (p_r / (np.maximum(clutter_w, _DB_FLOOR) * self.l_c)
+                      * improvement / dist_loss / (self.l_cfar * self.l_cd * self.l_b))
+        noise_after = noise_like * coherent_gain
+        clutter_si = residue_si * noise_after / np.maximum(residue_si + noise_after, _DB_FLOOR)
+        si = np.where(code == CLUTTER, clutter_si, noise_like)
+        return si, code
+
+    def process_targets(self, geom, rows, t, tpos, rng: np.random.Generator, *,
+                        antenna_en=None, jam_geom=None, jam_power_w=None, batch=None,
+                        platform_vel=None) -> dict:
+        """Plots of the targets ``rows`` crossed by the beam at times ``t`` [s].
+
+        ``geom`` is their :class:`shipradar.sim.world.kinematics.Geometry`, ``tpos`` their
+        origin-frame positions (N, 3) [m] and ``antenna_en`` the platform's origin-frame east/north
+        at each crossing (N, 2) [m] (default: the origin).  Returns the plot columns of the
+        detected contacts, the truth links, and the counts ``missed``, ``merged`` and
+        ``fallbacks``.
+
+        ``jam_power_w`` (N,) [W], when given, replaces the jamming computed from ``jam_geom``
+        (the engine computes it per revolution when it processes several at once), and
+        ``batch`` (N,) integers keep targets of different batches (revolutions) from ever
+        being merged as unresolved; contacts come out ordered by batch.  ``platform_vel``
+        (N, 3) [m/s], the platform's instantaneous velocity at each look, moves the clutter
+        mean and the motion compensation with a manoeuvring ship ([33]-[38]).
+
+        With a Doppler bank each plot carries ``range_rate_mps``, the centre of the filter
+        its strongest target is detected in, folded by the PRF
+        (:meth:`range_rate_from_filter`), and ``sigma_range_rate_mps``; both NaN otherwise.
+        """
+        sigma = self.cross_section(rows, geom.los_enu, geom.velocity_enu)
+        f, fallbacks = self.propagation_factor(geom.ground_range, tpos[:, 2], geom.elevation)
+        radar_en = np.zeros((rows.size, 2)) if antenna_en is None else antenna_en
+        l_atm = self.atmospheric_loss(geom.slant_range, geom.elevation, radar_en, tpos[:, :2],
+                                      tpos[:, 2])
+        p_r = noise.received_power(self.k_r0 / l_atm**2, sigma, f, geom.slant_range)
+        n = rows.size
+        clutter = self.clutter_at(geom, tpos, radar_en, platform_vel)
+        clutter_w = np.zeros(n) if clutter is None else clutter["power_w"]
+        improvement = np.ones(n) if clutter is None else clutter["improvement"]
+        dist_loss = np.ones(n) if clutter is None else clutter["distribution_loss"]
+        coherent_gain = np.ones(n) if clutter is None else clutter["coherent_gain"]
+        jam_w = (self.jamming_power(geom.azimuth, jam_geom) if jam_power_w is None
+                 else np.asarray(jam_power_w, dtype=float))
+        # unresolved targets (2.2.1): one contact per range cell, beam and Doppler filter
+        group, n_groups = self._resolution_groups(geom, clutter, batch, platform_vel)
+        p_sum = np.bincount(group, weights=p_r, minlength=n_groups)
+        lead = _argmax_by_group(group, p_r, n_groups)
+        si, code = self.signal_to_interference(
+            p_sum, clutter_w[lead], jam_w[lead], improvement[lead], dist_loss[lead],
+            coherent_gain[lead])
+        n_e = detection.effective_pulses(
+            self.n_pulses, clutter_dominated=code == CLUTTER, **self._pulse_args(clutter, lead))
+        si_db = db(si)
+        swerling = self.swerling[rows[lead]]
+        if self.method == "table":
+            pd = self._pd_tables(si_db, n_e, swerling)
+        else:
+            pd = detection.probability_of_detection(
+                si_db, self.pfa, n_e, swerling, method=self.method,
+                integrator=self.radar.integrator, detector=self.radar.detector)
+        if self.look_uniforms is None:
+            hit = rng.random(n_groups) < pd
+        else:
+            hit = self.look_uniforms(rows[lead], t[lead]) < pd
+        if self.look_probe is not None:
+            self.look_probe(rows=rows, t=t, pd=pd[group], si_db=si_db[group],
+                            interference=code[group], hit=hit[group],
+                            slant_range_m=geom.slant_range, ground_range_m=geom.ground_range,
+                            height_m=tpos[:, 2])
+        # power-weighted position of each contact (a single target: its own)
+        w = p_r / np.maximum(p_sum[group], _DB_FLOOR)
+        r_true = np.bincount(group, weights=w * geom.slant_range, minlength=n_groups)
+        az_c = np.bincount(group, weights=w * np.cos(geom.azimuth), minlength=n_groups)
+        az_s = np.bincount(group, weights=w * np.sin(geom.azimuth), minlength=n_groups)
+        az_true = np.mod(np.arctan2(az_s, az_c), 2.0 * np.pi)
+        t_c = np.bincount(group, weights=w * t, minlength=n_groups)
+        sel = np.flatnonzero(hit)
+        meas = measurement.measure(
+            r_true[sel], az_true[sel], si[sel], n_e[sel], self.range_cell, self.theta_b, rng,
+            h_range=self.radar.h_range, h_azimuth=self.radar.h_azimuth)
+        # contributors of each reported contact
+        order = np.argsort(group, kind="stable")
+        counts = np.bincount(group, minlength=n_groups)
+        starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+        c_counts = counts[sel]
+        c_off = np.concatenate([[0], np.cumsum(c_counts)]).astype(np.int64)
+        gather = np.repeat(starts[sel], c_counts) + (
+            np.arange(c_off[-1]) - np.repeat(c_off[:-1], c_counts))
+        return {
+            "time_s": t_c[sel],
+            "range_m": meas["range_m"],
+            "azimuth_rad": meas["azimuth_rad"],
+            "snr_db": si_db[sel],
+            "sigma_range_m": meas["sigma_range_m"],
+            "sigma_azimuth_rad": meas["sigma_azimuth_rad"],
+            "interference": code[sel],
+            **self._range_rate_columns(geom, clutter, lead[sel], platform_vel),
+            "target": rows[lead[sel]].astype(np.int32),
+            "contrib_offsets": c_off,
+            "contrib_targets": rows[order[gather]].astype(np.int32),
+            **({} if batch is None else {"batch": np.asarray(batch)[lead[sel]]}),
+            "missed": int(n_groups - sel.size),
+            "merged": int(n - n_groups),
+            "fallbacks": fallbacks,
+        }
+
+    def _range_rate_columns(self, geom, clutter, lead, platform_vel=None) -> dict:
+        """``range_rate_mps`` and ``sigma_range_rate_mps`` of the contacts led by targets
+        ``lead`` (NaN without a Doppler bank): the filter the model picks for the lead target
+        (:meth:`_doppler_filter` of its Doppler relative to the clutter mean), reported at
+        its centre plus the bank's reference f_d - (f_d' - μ_c)."""
+        if not self.has_doppler_bank:
+            nan = np.full(lead.size, np.nan)
+            return {"range_rate_mps": nan, "sigma_range_rate_mps": nan.copy()}
+        rel = (self.target_doppler_hz(geom, platform_vel) if clutter is None
+               else clutter["doppler_relative_hz"])[lead]
+        fd = -2.0 * geom.radial_velocity[lead] / self.wavelength
+        return {"range_rate_mps": self.range_rate_from_filter(self._doppler_filter(rel),
+                                                              fd - rel),
+                "sigma_range_rate_mps": np.full(lead.size, self.range_rate_sigma_mps)}
+
+    def _resolution_groups(self, geom, clutter, batch=None, platform_vel=None):
+        """Group index of each target: same batch, range cell, beam and Doppler filter."""
+        n = geom.slant_range.size
+        if n == 1:
+            return np.zeros(1, dtype=np.int64), 1
+        rc = np.floor(geom.slant_range / self.range_cell).astype(np.int64)
+        ac = np.floor(geom.azimuth / self.theta_b).astype(np.int64)
+        fc = self._doppler_filter(self.target_doppler_hz(geom, platform_vel) if clutter is None
+                                  else clutter["doppler_relative_hz"])
+        # One integer per (range cell, azimuth cell, filter), ordered as the triples are
+        # lexicographically (all three are >= 0), so the groups are numbered as
+        # np.unique(axis=0) would number them, at a fraction of its cost.
+        n_ac = int(ac.max()) + 1
+        n_fc = int(fc.max()) + 1
+        keys = (rc * n_ac + ac) * n_fc + fc
+        if batch is not None:
+            keys = np.asarray(batch, dtype=np.int64) * (int(keys.max()) + 1) + keys
+        _, group = np.unique(keys, return_inverse=True)
+        group = group.ravel().astype(np.int64)
+        return group, int(group.max()) + 1
+
+    def _doppler_filter(self, doppler_hz):
+        """Doppler filter index of each target (0 for a radar without a filter bank).
+
+        The bank has ``n_filters`` filters, by default as many as it has taps: N_c for a DFT
+        or FIR bank, N_c - N_pc behind an N_pc-order canceller (as the I_F table is built,
+        :func:`shipradar.tables.scene.improvement_kwargs`).  ``doppler_hz`` is the target's Doppler
+        after motion compensation relative to the clutter mean [Hz], the reference of the
+        I_F table (:meth:`target_doppler_hz`, ``clutter_at(...)["doppler_relative_hz"]``).
+        """
+        if not self.has_doppler_bank:
+            return np.zeros(np.shape(doppler_hz), dtype=np.int64)
+        return np.asarray(doppler_filters.doppler_filter_index(
+            doppler_hz, self.radar.prf_hz, self.n_doppler_filters), dtype=np.int64)
+
+    def _pulse_args(self, clutter, lead):
+        """Keyword arguments of :func:`shipradar.sensors.detection.effective_pulses` for [74]-[77]:
+        ``mti_order`` N_pc for an MTI (alone or feeding a bank), ``n_coherent`` N_c for a
+        bank (an ``mti_bank``'s N_c counts the whole cascade, N_pc + its bank's taps, as
+        ``effective_pulses`` expects)."""
+        proc = self.radar.processor
+        spread = np.zeros(lead.size) if clutter is None else clutter["spread_mps"][lead]
+        return {
+            "clutter_velocity_spread_mps": spread,
+            "wavelength_m": self.wavelength,
+            "prf_hz": self.radar.prf_hz,
+            "beamwidth_rad": self.theta_b,
+            "rotation_rate_rad_s": 2.0 * math.pi / self.radar.scan_period_s,
+            "pulses_per_frequency": self.radar.pulses_per_frequency,
+            "mti_order": proc.mti_order if proc.type in ("mti", "mti_bank") else 0,
+            "n_coherent": proc.n_coherent if proc.type in ("dft_bank", "fir_bank", "mti_bank")
+            else 1,
+        }
+
+    # ------------------------------------------------------------------ false alarms
+    def noise_false_alarms(self, rng: np.random.Generator, revolutions: int | None = None
+                           ) -> dict:
+        """Noise-induced false alarms [90]-[93]: count, uniform R and θ.  One revolution's,
+        or with ``revolutions`` those of that many revolutions drawn together (every count
+        first, then all ranges and all azimuths) with the ``revolution`` index of each."""
+        if revolutions is None:
+            count = int(false_alarms.false_alarm_count(self.noise_false_alarms_per_scan,
+                                                       self.radar.n_channels, rng))
+        else:
+            count = false_alarms.false_alarm_count(self.noise_false_alarms_per_scan,
+                                                   self.radar.n_channels, rng,
+                                                   size=revolutions)
+        r, az = false_alarms.uniform_positions(
+            count, 0.0, self.radar.instrumented_range_m, 0.0, 2.0 * math.pi, rng)
+        out = {"range_m": np.asarray(r, dtype=float), "azimuth_rad": np.asarray(az, dtype=float)}
+        if revolutions is not None:
+            out["revolution"] = np.repeat(np.arange(revolutions), count)
+        return out
+
+    def false_alarm_plots(self, range_m, azimuth_rad, time_s, rng) -> dict:
+        """Plot columns for noise false alarms at the given positions and times.
+
+        The reported S/I is drawn consistently with a threshold crossing: the integrated
+        square-law noise statistic of N_n pulses is Gamma(N_n, 1); conditioned on exceeding
+        the P_fa threshold it is drawn by inverse CDF in the tail, and reported as the
+        per-pulse excess over the mean noise.
+        """
+        from scipy.special import gammainccinv
+
+        n = range_m.size
+        u = rng.random(n)
+        x = gammainccinv(self.n_pulses, self.pfa * u)
+        si = np.maximum(x / self.n_pulses - 1.0, 1e-3)
+        n_e = np.full(n, self.n_pulses)
+        errs = measurement.expected_errors(si, n_e, self.range_cell, self.theta_b,
+                                           h_range=self.radar.h_range,
+                                           h_azimuth=self.radar.h_azimuth)
+        return {
+            "time_s": time_s,
+            "range_m": range_m,
+            "azimuth_rad": azimuth_rad,
+            "snr_db": db(si),
+            "sigma_range_m": errs[0] / 3.0,
+            "sigma_azimuth_rad": errs[1] / 3.0,
+            "interference": np.zeros(n, dtype=np.uint8),
+            **self._false_alarm_range_rate(range_m, azimuth_rad, rng, clutter=False),
+        }
+
+    def clutter_false_alarms(self, t_a, t_b, beam_start, omega, rng):
+        """Sea-clutter-induced false alarms of one revolution [t_a, t_b) (seed 7.2, [94]-[96]),
+        or of several drawn together when ``t_a``, ``t_b`` and ``beam_start`` are arrays (one
+        element per revolution; the plots then carry their ``revolution`` index).
+
+        Per P_fac-map sector: a count by [91]-[93] from η = P_fac × cells, uniform positions,
+        times when the beam (at ``beam_start`` [rad] at t_a, ``omega`` [rad/s]) sweeps them
+        (:class:`shipradar.sensors.false_alarms.ClutterFalseAlarms`).  None without a P_fac map.
+        """
+        gen = self._clutter_fa_generator
+        if gen is None:
+            return None
+        many = np.ndim(t_a) > 0
+        out = (gen.scans if many else gen.scan)(t_a, t_b, beam_start, omega, rng)
+        if out is not None:
+            spectrum = None
+            if self.has_doppler_bank:
+                spectrum = tuple(v[out["sector"]] for v in self._clutter_fa_spectrum)
+            out.update(self._false_alarm_range_rate(out["range_m"], out["azimuth_rad"], rng,
+                                                    clutter=True, spectrum=spectrum))
+        return out
+
+
+class _TwoRayFallback:
+    """:func:`shipradar.sensors.propagation.two_ray_factor` of one radar, with the per-height terms
+    cached.
+
+    For a given antenna (height, frequency, polarization, pattern) and sea, the two-ray
+    factor's limit of the interference region (a 48-step bisection), F at that limit and the
+    diffraction factor at the horizon depend on the target height alone.  They are computed
+    once per distinct height (targets fly at a few constant altitudes) instead of at every
+    call; per point only the two-ray terms inside the limit, the smooth-earth diffraction
+    beyond the horizon and the dB interpolation between them remain.  The combination is
+    that of :func:`shipradar.sensors.propagation.two_ray_factor`, which
+    ``tests/test_dwell_fallback.py`` checks this against.
+    """
+
+    #: Most heights remembered (a climbing target gives a new height at every dwell).
+    MAX_HEIGHTS = 4096
+
+    def __init__(self, radar: Radar, wave_height_m: float, elevation_pattern):
+        from shipradar.sensors import propagation as prop
+
+        self._prop = prop
+        self.h1 = float(radar.antenna_height_m)
+        self.freq = float(radar.frequency_hz)
+        self.pol = prop.normalize_polarization(radar.polarization)
+        self.wave = float(wave_height_m)
+        self.pattern = elevation_pattern
+        self.k_factor = prop.STANDARD_K_FACTOR
+        self.eps = prop.sea_water_permittivity(self.freq)
+        a_e = self.k_factor * prop.EARTH_RADIUS_M
+        self.g_horizon = float(np.abs(elevation_pattern(
+            -np.arccos(np.array([a_e / (a_e + self.h1)]))))[0])
+        self._cache: dict[float, tuple[float, float, float, float]] = {}
+
+    def _terms(self, d, h2):
+        gd, refl, _ = self._prop._two_ray_terms(
+            d, np.full(d.shape, self.h1), h2, self.freq, self.pol, self.wave, self.pattern, 0.0,
+            self.k_factor, self.eps, "miller-brown")
+        return np.abs(gd + refl)
+
+    def _per_height(self, heights: list[float]) -> dict[float, tuple[float, float, float, float]]:
+        """(horizon range, interference limit, F there, diffraction F at the horizon) [m, -]."""
+        prop = self._prop
+        h2 = np.array(heights, dtype=float)
+        h1 = np.full(h2.shape, self.h1)
+        d_h = prop.horizon_range(h1, h2, self.k_factor)
+        d_lim = prop.interference_region_limit(h1, h2, self.freq, self.k_factor)
+        f_lim = self._terms(d_lim, h2)
+        f_diff_h = prop.smooth_earth_diffraction_factor(
+            d_h, h1, h2, self.freq, self.pol, k_factor=self.k_factor,
+            permittivity=self.eps) * self.g_horizon
+        return {h: (d_h[i], d_lim[i], f_lim[i], f_diff_h[i]) for i, h in enumerate(heights)}
+
+    def __call__(self, range_m: np.ndarray, height_m: np.ndarray) -> np.ndarray:
+        """F (field ratio, pattern included) at terrestrial ranges and target heights [m]."""
+        d = np.asarray(range_m, dtype=float)
+        h2 = np.asarray(height_m, dtype=float)
+        if d.size == 0:
+            return np.zeros(d.shape)
+        if (d < 0).any() or (h2 < 0).any():
+            raise ValueError("range and heights must be >= 0")
+        cache = self._cache
+        keys = h2.tolist()
+        missing = sorted({h for h in keys if h not in cache})
+        if missing:
+            new = self._per_height(missing)
+            if len(cache) + len(new) <= self.MAX_HEIGHTS:
+                cache.update(new)
+            else:
+                cache = {**cache, **new}
+        per = np.array([cache[h] for h in keys], dtype=float).reshape(d.size, 4)
+        d_h, d_lim, f_lim, f_diff_h = (per[:, i] for i in range(4))
+        # each branch is evaluated only when some point needs it (its other values unused)
+        beyond = d >= d_h
+        diffraction = np.zeros(d.shape)
+        if beyond.any():
+            diffraction = self._prop.smooth_earth_diffraction_factor(
+                np.maximum(d, d_h), np.full(d.shape, self.h1), h2, self.freq, self.pol,
+                k_factor=self.k_factor, permittivity=self.eps) * self.g_horizon
+        inside = d <= d_lim
+        f_inter = self._terms(np.minimum(d, d_lim), h2) if inside.any() else np.zeros(d.shape)
+        tiny = 1e-30
+        span = np.maximum(d_h - d_lim, 1e-9)
+        w = np.clip((d - d_lim) / span, 0.0, 1.0)
+        intermediate = np.exp((1 - w) * np.log(np.maximum(f_lim, tiny))
+                              + w * np.log(np.maximum(f_diff_h, tiny)))
+        return np.where(inside, f_inter, np.where(beyond, diffraction, intermediate))
+
+
+def _argmax_by_group(group: np.ndarray, value: np.ndarray, n_groups: int) -> np.ndarray:
+    """Index of the largest ``value`` in each group."""
+    order = np.lexsort((-value, group))
+    first = np.ones(order.size, dtype=bool)
+    first[1:] = group[order][1:] != group[order][:-1]
+    out = np.empty(n_groups, dtype=np.int64)
+    out[group[order][first]] = order[first]
+    return out
+
+
+def _rain_equivalent_rate(rain) -> float:
+    """Rain-equivalent precipitation rate [mm/h] (seed 4.1.4: dry snow ÷10, wet snow ÷5)."""
+    return rain.rate_mm_h / {"rain": 1.0, "dry_snow": 10.0, "wet_snow": 5.0}[rain.kind]

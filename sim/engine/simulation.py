@@ -1,0 +1,1004 @@
+"""The SimPy engine: one process per radar, rotating its antenna and publishing sectors.
+
+Each antenna revolution is cut into ``fidelity.sectors_per_scan`` sectors.  Ahead of the
+beam, a block of revolutions (:data:`_BLOCK_S` of simulated time, at least one revolution) is
+computed at once: (1) for every target and revolution, the exact time at which the rotating
+beam crosses it (moving ship and moving targets,
+:func:`shipradar.sim.world.kinematics.beam_crossing_times`), (2) the dwell model on every crossing
+of the block in one vectorized call (S/I, P_d, noisy contacts; targets of different revolutions are
+never merged), (3) the noise and sea-clutter false alarms of every revolution of the block, drawn
+together and timed when the beam sweeps their azimuths.  The process
+then advances sector by sector and, at the end of each sector, publishes one columnar plot
+frame and one truth frame holding exactly the plots the beam made in that sector.  The end
+of each revolution publishes an end-of-scan frame with the antenna's position and heading,
+and the sensor metadata again for late joiners.  Computing ahead changes no time and no
+frame boundary of the stream, only the order of the random draws.
+
+Fast mode uses :class:`simpy.Environment`, real-time mode :class:`simpy.rt.RealtimeEnvironment`;
+the process code is the same in both (STYLE: SimPy's ``rt`` only overrides ``step()``).  A
+fast run with nothing live downstream (no bus, or a recording-only
+:class:`shipradar.sim.stream.bus.Bus`: :attr:`Simulation.batched`) drives the same processes on a
+plain clock that replays SimPy's event order (:meth:`Simulation._run_batched`), and hands the
+recorder a scan's messages at once; the bytes are the same.
+"""
+
+from __future__ import annotations
+
+import functools
+import itertools
+import math
+import sys
+import time
+from collections import deque
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import simpy
+import simpy.rt
+
+from shipradar.sim.stream import protocol
+from shipradar.sim.world.kinematics import (
+    TWO_PI,
+    LocalFrame,
+    antenna_azimuth,
+    antenna_geometry,
+    beam_crossing_times,
+)
+from shipradar.sim.world.scenario import Platform, Radar, Scenario
+from shipradar.sim.world.trajectory import trajectories
+
+#: Plot origin codes on the truth topic.
+ORIGIN_TARGET, ORIGIN_NOISE, ORIGIN_SEA_CLUTTER = 0, 1, 2
+ORIGIN_NAMES = ("target", "noise", "sea_clutter")
+
+
+@dataclass
+class RunStats:
+    """Counters of one run; the summary line is built from them."""
+
+    scans: int = 0
+    sectors: int = 0
+    dwells: int = 0
+    target_plots: int = 0
+    missed_detections: int = 0
+    noise_false_alarms: int = 0
+    clutter_false_alarms: int = 0
+    merged_targets: int = 0
+    by_interference: dict[str, int] = field(default_factory=lambda: {
+        "noise": 0, "clutter": 0, "jamming": 0})
+    propagation_fallbacks: int = 0
+
+
+class CallbackSink:
+    """A bus for in-process use: hands each message to ``callback(topic, t_sim, payload)``.
+
+    ``topic`` is the topic as text (``"meta"``, ``"plots"``, ``"eos"``, ``"truth"``), ``t_sim``
+    the simulated time [s] and ``payload`` the message's keys exactly as the stream carries
+    them (numpy columns for plots); nothing is encoded, no socket is opened.
+    """
+
+    def __init__(self, callback: Callable[[str, float, dict], None]):
+        self.callback = callback
+        self.messages = 0
+
+    def emit(self, topic: bytes, t_sim: float, payload: dict) -> None:
+        self.messages += 1
+        self.callback(topic.decode(), t_sim, payload)
+
+    def flush(self, fsync: bool = False) -> None:
+        """Nothing is buffered."""
+
+    @property
+    def stats(self) -> dict[str, Any]:
+        return {"messages": self.messages}
+
+
+class Simulation:
+    """A scenario ready to run.
+
+    Parameters
+    ----------
+    scenario : the validated scenario
+    bus : object with ``emit(topic, t_sim, payload)`` and ``flush()``
+    (``shipradar.sim.stream.bus.Bus``), or None
+    seed : overrides the scenario's seed
+    duration_s : overrides the scenario's duration [s]
+    realtime : None for as fast as possible, or a speed factor (1 = wall clock, 10 = 10x)
+    tables : scene tables (``shipradar.tables.scene.SceneTables``) or None to load what is cached
+    progress : show a progress bar on stderr
+    processes : run the radars in this many processes (fast mode only;
+    ``shipradar.sim.engine.parallel``):
+        the same messages in the same order, byte for byte, as one process
+    only_radars : indices (in ``scenario.radars()`` order) of the radars to simulate, the
+        others left out (a worker of ``shipradar.sim.engine.parallel``); every radar keeps its own
+        random stream, so a radar's messages do not depend on which others run beside it
+    """
+
+    def __init__(
+        self,
+        scenario: Scenario,
+        *,
+        bus=None,
+        seed: int | None = None,
+        duration_s: float | None = None,
+        realtime: float | None = None,
+        tables=None,
+        progress: bool = False,
+        processes: int = 1,
+        only_radars=None,
+    ):
+        from shipradar.sim.dwell.model import DwellModel  # the on-line radar model
+        from shipradar.tables.scene import load_scene_tables
+
+        self.scenario = scenario
+        self.bus = bus
+        self.seed = scenario.seed if seed is None else seed
+        self.duration = float(scenario.duration_s if duration_s is None else duration_s)
+        self.realtime = realtime
+        self.progress = progress
+        self.processes = int(processes)
+        if self.processes < 1:
+            raise ValueError(f"processes must be >= 1, got {processes}")
+        if self.processes > 1 and realtime:
+            raise ValueError("processes > 1 is for fast mode (no --realtime)")
+        #: index of the radar whose process is running (shipradar.sim.engine.parallel tags messages
+        #: with it)
+        self.active_radar = 0
+        self.stats = RunStats()
+        origin = scenario.origin
+        self.frame = LocalFrame(origin)
+        # waypoints (as before), segments or rounded corners: analytic pieces
+        # (shipradar.sim.world.trajectory)
+        self.targets = trajectories(scenario.targets, self.frame, hold=False)
+        self.platforms = trajectories(scenario.platforms, self.frame, hold=True)
+        self.jammers = trajectories(scenario.jammers, self.frame, hold=True)
+        self.tables = tables if tables is not None else load_scene_tables(scenario)
+        seeds = np.random.SeedSequence(self.seed).spawn(len(scenario.radars()))
+        self.radars = []
+        for k, (platform, radar) in enumerate(scenario.radars()):
+            if only_radars is not None and k not in only_radars:
+                continue
+            p_index = scenario.platforms.index(platform)
+            model = DwellModel(scenario, platform, radar, self.tables)
+            rng = np.random.default_rng(seeds[k])
+            process = _RadarProcess(self, p_index, platform, radar, model, rng)
+            process.index = k
+            self.radars.append(process)
+
+    # ------------------------------------------------------------------ running
+    def _environment(self):
+        if self.realtime:
+            env = simpy.rt.RealtimeEnvironment(factor=1.0 / self.realtime, strict=False)
+        else:
+            env = simpy.Environment()
+        for r in self.radars:
+            env.process(r.run(env))
+        return env
+
+    def run(self) -> dict[str, Any]:
+        """Run to the end; returns the summary (the JSON line ``shipradar run`` prints)."""
+        if self.processes > 1 and len(self.radars) > 1:
+            from shipradar.sim.engine.parallel import run_parallel
+
+            return run_parallel(self)
+        batched = self.batched
+        env = None if batched else self._environment()
+        bar = None
+        if self.progress:
+            from tqdm import tqdm
+
+            bar = tqdm(total=round(self.duration), unit="sim s", file=sys.stderr, leave=False)
+            if env is not None:
+                env.process(self._progress(env, bar))
+        wall0 = time.perf_counter()
+        if batched:
+            self._run_batched(bar)
+        else:
+            env.run(until=self.duration + 1e-9)
+        wall = time.perf_counter() - wall0
+        for r in self.radars:
+            r.release()
+        if bar is not None:
+            bar.close()
+        if self.bus is not None:
+            self.bus.flush()
+        return self.summary(wall)
+
+    @property
+    def batched(self) -> bool:
+        """True when :meth:`run` takes the batched fast path (:meth:`_run_batched`): fast
+        mode (no ``realtime``) and nothing live downstream, i.e. no bus, or a
+        :class:`shipradar.sim.stream.bus.Bus` without a publisher (recording only).  A publisher (a
+        live subscriber sees each sector as it is made), the ASTERIX bus, in-process sinks, test
+        doubles and the wall-clock modes keep SimPy's event loop."""
+        if self.realtime:
+            return False
+        bus = self.bus
+        if bus is None:
+            return True
+        from shipradar.sim.stream.bus import Bus
+
+        return type(bus) is Bus and bus.publisher is None
+
+    def _run_batched(self, bar=None) -> None:
+        """Run the radars' processes (:meth:`_RadarProcess.run`, the same code as under
+        SimPy) on a plain clock, and hand the recording a scan's messages at once.
+
+        The loop is SimPy's own for these processes: a heap of (time, priority, event id),
+        the processes started in radar order (urgent, at 0), each resumption scheduling the
+        next one at ``now + delay`` with the next id, nothing at or after ``duration +
+        1e-9``; so the radars' messages interleave exactly as under
+        :class:`simpy.Environment` (``tests/test_engine_batched.py``).  The messages go to a
+        :class:`_BatchingBus` that passes them on to the run's bus at each end of scan (the
+        flush the engine does there), in one :meth:`shipradar.sim.stream.bus.Bus.emit_many`.
+        """
+        import heapq
+
+        real = self.bus
+        batch = _BatchingBus(real) if real is not None else None
+        clock = _FastClock()
+        heap = [(0.0, 0, eid, r.run(clock)) for eid, r in enumerate(self.radars)]
+        eid = len(heap)
+        until = self.duration + 1e-9
+        step = max(self.duration / 200.0, 0.5)
+        next_bar = step
+        pop, push = heapq.heappop, heapq.heappush
+        self.bus = batch
+        try:
+            while heap:
+                t, _, _, proc = heap[0]
+                if t >= until:
+                    break
+                pop(heap)
+                clock.now = t
+                try:
+                    delay = next(proc)
+                except StopIteration:
+                    continue
+                push(heap, (t + delay, 1, eid, proc))
+                eid += 1
+                if bar is not None and t >= next_bar:
+                    bar.n = min(round(t), bar.total)
+                    bar.refresh()
+                    next_bar = t + step
+            if batch is not None:
+                real.emit_many(batch.take())
+        except BaseException:
+            if batch is not None and batch.pending:  # what was emitted reaches the bus
+                try:
+                    real.emit_many(batch.take())
+                except Exception:
+                    pass
+            raise
+        finally:
+            self.bus = real
+
+    def messages(self, step_s: float | None = None) -> Iterator[tuple[str, float, dict]]:
+        """Run in process and yield every message as ``(topic, t_sim, payload)``, in the
+        stream's order, with no sockets and no recording.
+
+        The clock advances ``step_s`` simulated seconds at a time (default: the shortest
+        scan period) and the messages of each step are yielded before the next is computed,
+        so a consumer that stops early stops the run. Any ``bus`` given at construction is
+        bypassed. ``summary(wall_s)`` gives the counts once the iterator is exhausted.
+
+        Parameters
+        ----------
+        step_s : float, optional
+            Simulated time per step [s], > 0.
+        """
+        step = step_s or min(r.radar.scan_period_s for r in self.radars)
+        if not step > 0:
+            raise ValueError(f"step_s must be > 0, got {step_s}")
+        pending: deque[tuple[str, float, dict]] = deque()
+        self.bus = CallbackSink(lambda topic, t, payload: pending.append((topic, t, payload)))
+        env = self._environment()
+        t = 0.0
+        while t < self.duration:
+            t = min(t + step, self.duration)
+            env.run(until=t + 1e-9 if t >= self.duration else t)
+            while pending:
+                yield pending.popleft()
+
+    def _progress(self, env, bar):
+        step = max(self.duration / 200.0, 0.5)
+        while True:
+            yield env.timeout(step)
+            bar.n = min(round(env.now), bar.total)
+            bar.refresh()
+
+    def summary(self, wall_s: float) -> dict[str, Any]:
+        s = self.stats
+        out = {
+            "scenario": self.scenario.name,
+            "seed": self.seed,
+            "scans": s.scans,
+            "sectors": s.sectors,
+            "dwells": s.dwells,
+            "target_plots": s.target_plots,
+            "missed_detections": s.missed_detections,
+            "merged_targets": s.merged_targets,
+            "noise_false_alarms": s.noise_false_alarms,
+            "clutter_false_alarms": s.clutter_false_alarms,
+            "dominant_interference": dict(s.by_interference),
+            "propagation_fallbacks": s.propagation_fallbacks,
+            "simulated_s": round(self.duration, 6),
+            "wall_s": round(wall_s, 4),
+            "realtime_factor": round(self.duration / wall_s, 2) if wall_s > 0 else None,
+        }
+        if self.bus is not None and hasattr(self.bus, "stats"):
+            out["bus"] = self.bus.stats
+        return out
+
+    def emit(self, topic: bytes, t: float, payload: dict) -> None:
+        if self.bus is not None:
+            self.bus.emit(topic, t, payload)
+
+    @property
+    def encodes_ahead(self) -> bool:
+        """True when the bus is a :class:`shipradar.sim.stream.bus.Bus`, which only moves encoded
+        frames: the
+        sector frames of a revolution are then encoded together when it starts
+        (:func:`shipradar.sim.stream.protocol.encode_slices`, the same bytes).  Other buses (the
+        in-process :class:`CallbackSink`, test doubles) get each payload as a dict, unless they say
+        they take frames (``encodes_ahead`` True: the ASTERIX bus over a ``Bus``, which is
+        also handed each revolution's plots by its ``plots_ahead``)."""
+        bus = self.bus
+        if bus is None:
+            return False
+        from shipradar.sim.stream.bus import Bus
+
+        return type(bus) is Bus or getattr(bus, "encodes_ahead", False) is True
+
+
+class _FastClock:
+    """What :meth:`_RadarProcess.run` asks of a SimPy environment (``now``, ``timeout``),
+    for :meth:`Simulation._run_batched`: a timeout is its delay, the loop does the rest."""
+
+    __slots__ = ("now",)
+
+    def __init__(self) -> None:
+        self.now = 0.0
+
+    @staticmethod
+    def timeout(delay: float) -> float:
+        return delay
+
+
+class _BatchingBus:
+    """The run's :class:`shipradar.sim.stream.bus.Bus` as the engine sees it on the batched fast
+    path: the
+    messages (encoded as ``Bus.emit`` encodes them) are kept until the end of scan's flush,
+    then passed on in one :meth:`shipradar.sim.stream.bus.Bus.emit_many`, and the bus flushed."""
+
+    encodes_ahead = True
+
+    def __init__(self, bus) -> None:
+        self.bus = bus
+        self.pending: list[tuple[float, list[bytes]]] = []
+
+    def emit(self, topic: bytes, t_sim: float, payload: dict) -> None:
+        self.pending.append((t_sim, protocol.encode(topic, t_sim, payload)))
+
+    def emit_frames(self, t_sim: float, frames) -> None:
+        self.pending.append((t_sim, frames))
+
+    def take(self) -> list[tuple[float, list[bytes]]]:
+        pending, self.pending = self.pending, []
+        return pending
+
+    def flush(self, fsync: bool = False) -> None:
+        self.bus.emit_many(self.take())
+        self.bus.flush(fsync)
+
+
+class _RadarProcess:
+    """One rotating radar: sector events, beam crossings, false alarms, frames."""
+
+    def __init__(self, sim: Simulation, p_index: int, platform: Platform, radar: Radar,
+                 model, rng: np.random.Generator):
+        self.sim = sim
+        self.p_index = p_index
+        self.platform = platform
+        self.radar = radar
+        self.model = model
+        self.rng = rng
+        self.omega = TWO_PI / radar.scan_period_s
+        self.beam0 = math.radians(radar.start_azimuth_deg)
+        self.n_sectors = sim.scenario.fidelity.sectors_per_scan
+        self.sector_s = radar.scan_period_s / self.n_sectors
+        self.plot_counter = 0
+        self._radar_dump = radar.model_dump(mode="json")
+        self._scan = _merge_parts([])
+        self._cursor = 0
+        self._meta_items: tuple[int, bytes, bytes] | None = None
+        #: position in scenario.radars(); env.now at each resumption of run() (the order of
+        #: the messages between radars in shipradar.sim.engine.parallel), kept only in a parallel
+        #: worker: one float per sector would grow with the run (≈5 MB per simulated hour of the
+        #: raid)
+        self.index = 0
+        self.resume_times: list[float] | None = None
+        self.target_ids = [t.id for t in sim.scenario.targets]
+        # states at the ends of the revolutions computed ahead (_scan_end_states)
+        self._eos_states: dict[int, tuple] = {}
+        # revolutions computed ahead (see _compute_block), consumed one per scan
+        self._block: list[dict] = []
+        self._block_plots: tuple[int, dict, list[int]] | None = None
+        self._block_frames: list[tuple[dict, list[bytes], list[int], list[int]]] | None = None
+        # a block's false alarms are held at once: fewer revolutions when a scan has many
+        expected = model.noise_false_alarms_per_scan + self._clutter_fa_meta.get(
+            "clutter_false_alarms_per_scan", 0.0)
+        self.scans_per_block = max(1, min(int(_BLOCK_S // radar.scan_period_s),
+                                          int(_BLOCK_PLOTS // max(expected, 1.0))))
+        # a ship whose velocity changes (several legs, turns): the clutter spectrum's platform
+        # terms [33]-[38] follow its instantaneous velocity, not the tables' first leg
+        plat = sim.platforms
+        self._platform_manoeuvres = bool(plat.count[p_index] > 1 or not plat.linear)
+
+    def release(self) -> None:
+        """Drop the revolutions computed ahead (a block's plots: up to :data:`_BLOCK_S` of
+        simulated time) once the run is over."""
+        self._block = []
+        self._block_plots = self._block_frames = None
+        self._scan = _merge_parts([])
+        self._eos_states = {}
+
+    # ------------------------------------------------------------------ helpers
+    def beam_azimuth(self, t):
+        """Beam azimuth at times ``t`` [rad], true north (scalar or array)."""
+        return (self.beam0 + self.omega * t) % TWO_PI
+
+    def sector_end(self, k):
+        """End of sector(s) ``k`` (counted from the start of the run, an int or an int array)
+        [s]: (k + 1) sector_s, the run's end at the latest; the same number the process loop
+        computes."""
+        return np.minimum((np.asarray(k) + 1) * self.sector_s, self.sim.duration)
+
+    def platform_state(self, t: np.ndarray):
+        rows = np.full(np.shape(t), self.p_index, dtype=int)
+        pos, vel, _ = self.sim.platforms.state(t, rows)
+        return pos, vel
+
+    def geometry(self, t: np.ndarray, rows: np.ndarray):
+        """Antenna-to-target geometry for targets ``rows`` each at its own time ``t``."""
+        tpos, tvel, active = self.sim.targets.state(t, rows)
+        ppos, pvel = self.platform_state(t)
+        geom = antenna_geometry(ppos, pvel, self.radar.antenna_height_m, tpos, tvel,
+                                self.sim.frame)
+        return geom, active, tpos
+
+    def jammer_geometry(self, t: float):
+        """Geometry from the antenna to every jammer at time ``t``, the jammers' positions
+        (M, 3) and the antenna's east/north (2,); None without jammers.
+
+        Stand-off jammers move slowly against a sector's duration: one geometry per sector.
+        """
+        jam = self.sim.jammers
+        if jam.n == 0:
+            return None
+        jpos, jvel, _ = jam.state(t)
+        ppos, pvel = self.platform_state(np.full(jam.n, t))
+        geom = antenna_geometry(ppos, pvel, self.radar.antenna_height_m, jpos, jvel,
+                                self.sim.frame)
+        return geom, jpos, ppos[0, :2]
+
+    # ------------------------------------------------------------------ process
+    def run(self, env: simpy.Environment):
+        sim = self.sim
+        sim.active_radar = self.index
+        resumes = self.resume_times
+        if resumes is not None:
+            resumes.append(env.now)
+        self._emit_meta(0.0, scan=0)
+        n, sector_s, duration, stats = self.n_sectors, self.sector_s, sim.duration, sim.stats
+        k = 0  # sectors since the start: sector k is [k, k + 1) sector_s
+        for scan in itertools.count():
+            if k * sector_s >= duration:
+                return
+            if scan > 0:
+                self._emit_meta(k * sector_s, scan)
+            if not self._block:
+                self._block = self._compute_block(scan)
+                self._block_frames = self._encode_block() if sim.encodes_ahead else None
+            self._scan = self._block.pop(0)
+            self._cursor = 0
+            frames = None
+            if self._block_frames is not None:
+                frames, bodies, s0, s1 = self._block_frames.pop(0)
+                ahead = getattr(sim.bus, "plots_ahead", None)
+                if ahead is not None:  # the ASTERIX bus: its CAT048 records ahead
+                    ahead(self.radar.id, bodies, self._scan, s0, s1)
+            for sector in range(n):
+                t_a = k * sector_s
+                if t_a >= duration:
+                    return
+                t_b = (k + 1) * sector_s
+                if t_b > duration:
+                    t_b = duration
+                yield env.timeout(t_b - env.now)
+                sim.active_radar = self.index
+                if resumes is not None:
+                    resumes.append(env.now)
+                if frames is not None:  # the revolution's frames encoded ahead
+                    sent = frames.pop(sector, None)
+                    if sent is not None:
+                        self._send_frames(t_b, sent)
+                else:
+                    self._emit_sector(t_a, t_b, scan, last=sector == n - 1)
+                stats.sectors += 1
+                k += 1
+                if sector == n - 1 or t_b >= duration:
+                    self._end_of_scan(t_b, scan)
+
+    @functools.cached_property
+    def _clutter_fa_meta(self) -> dict:
+        """The radar's expected sea-clutter false alarms per scan, total and per 250 m ring
+        (seed 7.2, from its P_fac map), for a tracker's clutter density; {} without a map."""
+        pfac = self.model.tables.pfac
+        if pfac is None:
+            return {}
+        from shipradar.tables.pfac import clutter_range_profile
+
+        edges, per_scan = clutter_range_profile(pfac)
+        return {"clutter_false_alarms_per_scan": float(per_scan.sum()),
+                "clutter_false_alarm_profile": {"range_edges_m": edges, "per_scan": per_scan}}
+
+    def _emit_meta(self, t: float, scan: int) -> None:
+        """The sensor metadata of revolution ``scan`` at time ``t``.  To a bus that only
+        moves frames (:class:`shipradar.sim.stream.bus.Bus`, the batched path's) it goes packed from
+        the items packed once (only ``scan`` changes;
+        :func:`shipradar.sim.stream.protocol.encode_items`, the same bytes as encoding the payload);
+        other buses get the payload."""
+        sim = self.sim
+        bus = sim.bus
+        if bus is None:
+            return
+        from shipradar.sim.stream.bus import Bus
+
+        if type(bus) is not Bus and type(bus) is not _BatchingBus:
+            sim.emit(protocol.TOPIC_META, t, self._meta_payload(scan))
+            return
+        parts = self._meta_items
+        if parts is None:
+            payload = self._meta_payload(0)
+            keys = list(payload)
+            k = keys.index("scan")
+            topic = protocol.TOPIC_META
+            parts = self._meta_items = (
+                len(keys), protocol.payload_items(topic, {c: payload[c] for c in keys[:k]}),
+                protocol.payload_items(topic, {c: payload[c] for c in keys[k + 1:]}))
+        n, before, after = parts
+        bus.emit_frames(t, protocol.encode_items(
+            protocol.TOPIC_META, t, n,
+            (before, protocol.payload_items(protocol.TOPIC_META, {"scan": scan}), after)))
+
+    def _meta_payload(self, scan: int) -> dict:
+        r = self.radar
+        payload = {
+            "sensor": r.id,
+            "platform": self.platform.id,
+            "scan": scan,
+            "radar": self._radar_dump,
+            "scan_period_s": r.scan_period_s,
+            "sectors_per_scan": self.n_sectors,
+            "pfa": self.model.pfa,
+            "noise_false_alarms_per_scan": self.model.noise_false_alarms_per_scan,
+            **self._clutter_fa_meta,
+            "target_ids": self.target_ids,
+            "origin_codes": list(ORIGIN_NAMES),
+            "interference_codes": list(self.model.INTERFERENCE_NAMES),
+            "origin": self.sim.scenario.origin.model_dump(),
+            "start_time": self.sim.scenario.start_time.isoformat(),
+            # for ASTERIX output (sim/adapters/asterix): the data source and the noise floor that
+            # turns a plot's S/I into an amplitude (I048/130 PAM)
+            "sac_sic": list(self.sim.scenario.asterix_sources()[r.id]),
+            "noise_power_dbm": 10.0 * math.log10(self.model.n0 * 1e3),
+        }
+        return payload
+
+    def _plan_scans(self, t_scans: list[float]) -> list[np.ndarray]:
+        """The targets the beam may meet in each revolution starting at ``t_scans``.
+
+        Those that exist during the revolution and can be inside the instrumented range at
+        some time of it (ground range at its start minus what the relative horizontal speed
+        covers in one period); the others are not solved for.  The revolutions of a block
+        are planned together (the geometry is computed element by element: the same rows as
+        one revolution at a time).
+        """
+        sim = self.sim
+        period = self.radar.scan_period_s
+        t_last, t_first = sim.targets.t_last, sim.targets.t_first
+        rows_of = [np.flatnonzero((t_last >= t) & (t_first < t + period)) for t in t_scans]
+        sizes = [r.size for r in rows_of]
+        if not sum(sizes):
+            return rows_of
+        rows = np.concatenate(rows_of)
+        t = np.repeat(np.asarray(t_scans, dtype=float), sizes)
+        tpos, tvel, _ = sim.targets.state(t, rows)
+        ppos, pvel = self.platform_state(t)
+        _, ground = antenna_azimuth(ppos, tpos, sim.frame)
+        reach = np.hypot(tvel[:, 0] - pvel[:, 0], tvel[:, 1] - pvel[:, 1]) * period
+        near = ground <= self.radar.instrumented_range_m + reach
+        edges = np.cumsum([0, *sizes]).tolist()
+        return [rows[a:b][near[a:b]] for a, b in zip(edges[:-1], edges[1:], strict=True)]
+
+    def _dwell(self, rows: np.ndarray, tc: np.ndarray, scan_of: np.ndarray,
+               bounds: list[tuple[float, float]]) -> dict | None:
+        """Run the dwell model on the targets crossed at times ``tc``; update the counters.
+
+        ``scan_of`` is the index in ``bounds`` (the [start, end) of each revolution of the
+        block) of each crossing; targets of different revolutions are never merged, and each
+        revolution sees the stand-off jammers where they are at its middle.
+        """
+        sim = self.sim
+        geom, active, tpos = self.geometry(tc, rows)
+        ppos, pvel = self.platform_state(tc)
+        ok = active & (geom.ground_range <= self.radar.instrumented_range_m)
+        ok &= geom.slant_range > 0.0
+        if not ok.any():
+            return None
+        idx = np.flatnonzero(ok)
+        geom, scan_of = _take(geom, idx), scan_of[idx]
+        jam_w = None
+        if sim.jammers.n:
+            jam_w = np.zeros(idx.size)
+            for j, (t_a, t_b) in enumerate(bounds):
+                sel = scan_of == j
+                if sel.any():
+                    jam_w[sel] = self.model.jamming_power(
+                        geom.azimuth[sel], *self.jammer_geometry(0.5 * (t_a + t_b)))
+        res = self.model.process_targets(
+            geom, rows[idx], tc[idx], tpos[idx], self.rng,
+            antenna_en=ppos[idx, :2], jam_power_w=jam_w, batch=scan_of,
+            platform_vel=pvel[idx] if self._platform_manoeuvres else None)
+        sim.stats.dwells += idx.size
+        sim.stats.missed_detections += res.pop("missed")
+        sim.stats.merged_targets += res.pop("merged")
+        sim.stats.propagation_fallbacks += res.pop("fallbacks", 0)
+        nplots = res["range_m"].size
+        sim.stats.target_plots += nplots
+        for code, name in enumerate(self.model.INTERFERENCE_NAMES):
+            sim.stats.by_interference[name] += int(np.count_nonzero(res["interference"] == code))
+        res["origin"] = np.full(nplots, ORIGIN_TARGET, dtype=np.uint8)
+        return res
+
+    def _false_alarms(self, bounds: list[tuple[float, float]]) -> list[dict]:
+        """The noise-induced ([90]-[93], uniform in R and θ) and sea-clutter-induced (seed
+        7.2) false alarms of the revolutions ``bounds`` ([start, end) each), drawn for all of
+        them together, timed when the beam sweeps their azimuths; each plot carries the
+        index of its ``revolution``."""
+        sim, model = self.sim, self.model
+        t_a = np.array([a for a, _ in bounds])
+        t_b = np.array([b for _, b in bounds])
+        beam = self.beam_azimuth(t_a)
+        parts = []
+        fa = model.noise_false_alarms(self.rng, len(bounds))
+        rev = fa["revolution"]
+        t = t_a[rev] + np.mod(fa["azimuth_rad"] - beam[rev], TWO_PI) / self.omega
+        keep = t < t_b[rev]
+        n = int(np.count_nonzero(keep))
+        if n:
+            plots = model.false_alarm_plots(fa["range_m"][keep], fa["azimuth_rad"][keep],
+                                            t[keep], self.rng)
+            plots["origin"] = np.full(n, ORIGIN_NOISE, dtype=np.uint8)
+            plots["revolution"] = rev[keep]
+            sim.stats.noise_false_alarms += n
+            parts.append(plots)
+        clutter = model.clutter_false_alarms(t_a, t_b, beam, self.omega, self.rng)
+        if clutter is not None and clutter["range_m"].size:
+            n = clutter["range_m"].size
+            clutter["origin"] = np.full(n, ORIGIN_SEA_CLUTTER, np.uint8)
+            sim.stats.clutter_false_alarms += n
+            parts.append(clutter)
+        return parts
+
+    def _compute_block(self, scan0: int) -> list[dict]:
+        """Every plot of the next revolutions from ``scan0``, one dict per revolution, each
+        sorted by time (emitted sector by sector).
+
+        The on-line level is vectorized over a block of revolutions (:data:`_BLOCK_S` of
+        simulated time, at least one): the beam-crossing times of every target in every
+        revolution are solved together and the dwell model runs once on all of them; the
+        false alarms of every revolution are drawn together too.  The plots still leave at
+        the end of the sector in which the beam made them, so the stream is the same whatever
+        the block (only the order of the random draws depends on it).
+        """
+        sim = self.sim
+        period = self.radar.scan_period_s
+        bounds = []
+        for j in range(self.scans_per_block):
+            t_a = (scan0 + j) * self.n_sectors * self.sector_s
+            if t_a >= sim.duration:
+                break
+            bounds.append((t_a, min(t_a + period, sim.duration)))
+        self._scan_end_states(scan0, len(bounds))
+        # beam crossings of every (revolution, target) pair, solved at once
+        rows_all, start_all, beam_all, scan_all = [], [], [], []
+        if sim.targets.n:
+            for j, ((t_a, _), rows) in enumerate(zip(bounds, self._plan_scans(
+                    [t_a for t_a, _ in bounds]), strict=True)):
+                rows_all.append(rows)
+                # the search starts a hair before the revolution, and a revolution owns the
+                # crossings in [start - ε, end - ε): a crossing on the boundary between two
+                # revolutions (a target on the start azimuth) is found once, by the later one
+                start_all.append(np.full(rows.size, t_a - _CROSSING_EPS_S))
+                beam_all.append(np.full(rows.size, self.beam_azimuth(t_a)
+                                        - self.omega * _CROSSING_EPS_S))
+                scan_all.append(np.full(rows.size, j, dtype=np.int64))
+        target_part = None
+        if rows_all and sum(r.size for r in rows_all):
+            rows = np.concatenate(rows_all)
+            t_start = np.concatenate(start_all)
+            scan_of = np.concatenate(scan_all)
+
+            def az_at(t, rows=rows):
+                tpos, _, _ = sim.targets.state(t, rows)
+                ppos, _ = self.platform_state(t)
+                return antenna_azimuth(ppos, tpos, sim.frame)[0]
+
+            tc = beam_crossing_times(az_at, t_start, np.concatenate(beam_all), self.omega,
+                                     rows.size)
+            t_end = np.array([b for _, b in bounds])[scan_of]
+            last = t_end >= sim.duration  # the run's end: nothing comes after it
+            sel = (tc >= t_start) & ((tc < t_end - _CROSSING_EPS_S) | (last & (tc < t_end)))
+            if sel.any():
+                target_part = self._dwell(rows[sel], tc[sel], scan_of[sel], bounds)
+                if target_part is not None:
+                    target_part["revolution"] = target_part.pop("batch")
+        parts = [] if target_part is None else [target_part]
+        parts += self._false_alarms(bounds)
+        merged = _merge_parts(parts)
+        edges = np.searchsorted(merged["revolution"], np.arange(len(bounds) + 1)).tolist()
+        self._block_plots = (scan0, merged, edges)  # for _encode_block
+        return [_slice_plots(merged, a, b) for a, b in zip(edges[:-1], edges[1:], strict=True)]
+
+    def _sector_cuts(self, scan: int, times: np.ndarray) -> np.ndarray:
+        """Index in revolution ``scan``'s plot ``times`` where each sector's plots end (the
+        sector frames of :meth:`_emit_sector`: times before the sector's end, everything
+        left in the last)."""
+        ends = self.sector_end(scan * self.n_sectors + np.arange(self.n_sectors - 1))
+        cuts = np.empty(self.n_sectors, dtype=np.int64)
+        cuts[:-1] = np.searchsorted(times, ends, side="left")
+        cuts[-1] = times.size
+        return cuts
+
+    def _encode_block(self) -> list[tuple[dict, list[bytes], list[int], list[int]]]:
+        """The plot and truth bodies of every non-empty sector of the revolutions
+        :meth:`_compute_block` computed last, encoded at once (byte for byte what
+        :meth:`_emit_sector` would encode); per revolution, its frames by sector
+        ``{sector: (rows, plots body, truth body)}`` and the plot bodies with their slices
+        of the revolution's plots (for the ASTERIX bus's ``plots_ahead``).
+
+        Sectors the run does not reach (its end inside a revolution) are encoded but never
+        sent.  Plot ids run on through the block: its plots are sent in their order.
+        """
+        scan0, merged, edges = self._block_plots
+        n = self.n_sectors
+        starts, cuts = [], []
+        for r in range(len(edges) - 1):
+            a, b = edges[r], edges[r + 1]
+            c = a + self._sector_cuts(scan0 + r, merged["time_s"][a:b])
+            cuts.append(c)
+            starts.append(np.concatenate(([a], c[:-1])))
+        cuts, starts = np.concatenate(cuts), np.concatenate(starts)
+        msg = np.flatnonzero(cuts > starts)  # non-empty sectors, sector k of the block
+        rev, sectors = np.divmod(msg, n)
+        i0, i1 = starts[msg], cuts[msg]
+        times = self.sector_end((scan0 + rev) * n + sectors)
+        total = int(edges[-1])
+        plot_id = np.arange(self.plot_counter, self.plot_counter + total, dtype=np.int64)
+        sid = self.radar.id
+        scans = range(scan0, scan0 + len(edges) - 1)
+        cols = {"plot_id": (plot_id, i0, i1)}
+        cols.update({c: (merged[c], i0, i1) for c in PLOT_COLUMNS})
+        plots = protocol.encode_slices(protocol.TOPIC_PLOTS, times,
+                                       [{"sensor": sid, "scan": k} for k in scans], cols, rev)
+        # each sector's contributor offsets start at 0: one array of every sector's rebased
+        # offsets (n + 1 per sector), sliced per sector
+        off = merged["contrib_offsets"]
+        length = i1 - i0 + 1
+        first = np.cumsum(length) - length
+        idx = np.repeat(i0 - first, length) + np.arange(int(length.sum()))
+        rebased = (off[idx] - np.repeat(off[i0], length)).astype(np.int64, copy=False)
+        truth = protocol.encode_slices(
+            protocol.TOPIC_TRUTH, times,
+            [{"sensor": sid, "scan": k, "kind": "plots"} for k in scans], {
+                "plot_id": (plot_id, i0, i1),
+                "origin": (merged["origin"], i0, i1),
+                "target": (merged["target"], i0, i1),
+                "contrib_offsets": (rebased, first, first + length),
+                "contrib_targets": (merged["contrib_targets"], off[i0], off[i1]),
+            }, rev)
+        out = [({}, [], [], []) for _ in scans]
+        for r, sector, a, b, p, q in zip(rev.tolist(), sectors.tolist(), i0.tolist(),
+                                          i1.tolist(), plots, truth, strict=True):
+            frames, bodies, s0, s1 = out[r]
+            frames[sector] = (b - a, p, q)
+            bodies.append(p)
+            s0.append(a - edges[r])
+            s1.append(b - edges[r])
+        return out
+
+    def _send_frames(self, t_b: float, frames: tuple[int, bytes, bytes]) -> None:
+        """Publish a sector's plot and truth bodies encoded ahead (:meth:`_encode_block`)."""
+        rows, plots, truth = frames
+        self._cursor += rows
+        self.plot_counter += rows
+        emit = self.sim.bus.emit_frames
+        emit(t_b, [protocol.TOPIC_PLOTS, plots])
+        emit(t_b, [protocol.TOPIC_TRUTH, truth])
+
+    def _emit_sector(self, t_a: float, t_b: float, scan: int, last: bool) -> None:
+        """Publish the plots (and their truth) whose times fall in the sector [t_a, t_b)
+        of revolution ``scan`` (``last``: its last sector, which takes every plot left)."""
+        scan_plots = self._scan
+        times = scan_plots["time_s"]
+        i0 = self._cursor
+        i1 = times.size if last else int(np.searchsorted(times, t_b, side="left"))
+        self._cursor = i1
+        if i1 <= i0:
+            return
+        n = i1 - i0
+        plot_id = np.arange(self.plot_counter, self.plot_counter + n, dtype=np.int64)
+        self.plot_counter += n
+        if self.sim.bus is None:
+            return
+        payload = {"sensor": self.radar.id, "scan": scan, "plot_id": plot_id}
+        payload.update({c: scan_plots[c][i0:i1] for c in PLOT_COLUMNS})
+        self.sim.emit(protocol.TOPIC_PLOTS, t_b, payload)
+        off = scan_plots["contrib_offsets"]
+        truth = {
+            "sensor": self.radar.id,
+            "scan": scan,
+            "kind": "plots",
+            "plot_id": plot_id,
+            "origin": scan_plots["origin"][i0:i1],
+            "target": scan_plots["target"][i0:i1],
+            "contrib_offsets": (off[i0:i1 + 1] - off[i0]).astype(np.int64, copy=False),
+            "contrib_targets": scan_plots["contrib_targets"][off[i0]:off[i1]],
+        }
+        self.sim.emit(protocol.TOPIC_TRUTH, t_b, truth)
+
+    def _scan_end_states(self, scan0: int, count: int) -> None:
+        """Platform and target states at the ends of revolutions ``scan0`` to ``scan0 +
+        count - 1`` (the end of their last sector, :meth:`sector_end`: the times the run
+        reaches them), computed together and kept by revolution for :meth:`_end_of_scan`:
+        the platform's position, velocity, latitude and longitude (the geodetic conversion
+        is iterative, ``pymap3d``) and every target's position, velocity, acceleration and
+        activity.  Element-wise the same numbers as one call per end of scan."""
+        sim = self.sim
+        t = self.sector_end(self.n_sectors * np.arange(scan0 + 1, scan0 + 1 + count) - 1)
+        pos, vel = self.platform_state(t)
+        lat, lon, _ = sim.frame.geodetic(pos)
+        n = sim.targets.n
+        if n:
+            tpos, tvel, tacc, active = sim.targets.state_acc(np.repeat(t, n),
+                                                             np.tile(np.arange(n), t.size))
+        for j in range(count):
+            target = None if not n else (tpos[j * n:(j + 1) * n], tvel[j * n:(j + 1) * n],
+                                         tacc[j * n:(j + 1) * n], active[j * n:(j + 1) * n])
+            self._eos_states[scan0 + j] = (pos[j], vel[j], float(lat[j]), float(lon[j]),
+                                           target)
+
+    def _end_of_scan(self, t: float, scan: int) -> None:
+        sim = self.sim
+        sim.stats.scans += 1
+        pos, vel, lat, lon, target = self._eos_states.pop(scan)  # at t (_scan_end_states)
+        speed = float(np.hypot(vel[0], vel[1]))
+        heading = (math.degrees(math.atan2(vel[0], vel[1])) % 360.0 if speed > 0
+                   else self.platform.heading_deg)
+        eos = {
+            "sensor": self.radar.id,
+            "scan": scan,
+            "time_s": t,
+            "position": {
+                "lat_deg": lat, "lon_deg": lon,
+                "alt_m": float(pos[2] + self.radar.antenna_height_m),
+                "east_m": float(pos[0]), "north_m": float(pos[1]),
+                "up_m": float(pos[2] + self.radar.antenna_height_m),
+            },
+            "velocity_enu_mps": [float(v) for v in vel],
+            "heading_deg": heading,
+        }
+        sim.emit(protocol.TOPIC_EOS, t, eos)
+        if target is not None:
+            tpos, tvel, tacc, active = target
+            sim.emit(protocol.TOPIC_TRUTH, t, {
+                "sensor": self.radar.id,
+                "scan": scan,
+                "kind": "targets",
+                "time_s": t,
+                "east_m": tpos[:, 0], "north_m": tpos[:, 1], "up_m": tpos[:, 2],
+                "v_east_mps": tvel[:, 0], "v_north_mps": tvel[:, 1], "v_up_mps": tvel[:, 2],
+                "a_east_mps2": tacc[:, 0], "a_north_mps2": tacc[:, 1], "a_up_mps2": tacc[:, 2],
+                "active": active,
+            })
+        if sim.bus is not None:
+            sim.bus.flush()
+
+
+#: Margin of the beam-crossing search at the boundary between two revolutions [s].
+_CROSSING_EPS_S = 1e-6
+#: Simulated time whose revolutions are computed together [s] (at least one revolution).
+_BLOCK_S = 64.0
+#: Expected false alarms a block of revolutions holds at most (fewer revolutions, at least
+#: one, when a scan has many: ≈ 200 bytes each while the block is computed).
+_BLOCK_PLOTS = 250_000
+
+#: Plot-topic columns, in the order they are published.
+PLOT_COLUMNS = ("time_s", "range_m", "azimuth_rad", "snr_db", "sigma_range_m",
+                "sigma_azimuth_rad", "interference", "range_rate_mps", "sigma_range_rate_mps")
+
+
+def _merge_parts(parts: list[dict]) -> dict:
+    """Concatenate plot batches (targets, noise and clutter false alarms) sorted by
+    revolution and by time within each (every batch carries the ``revolution`` index of each
+    plot, kept in the result); ties keep the batches' order.
+
+    Each batch may carry the targets merged into each plot as ``contrib_offsets`` (one more
+    than its plots) and ``contrib_targets``; batches without them have no contributors.
+    """
+    if not parts:
+        out = {c: np.zeros(0) for c in PLOT_COLUMNS}
+        out["interference"] = np.zeros(0, dtype=np.uint8)
+        out.update(origin=np.zeros(0, dtype=np.uint8), target=np.zeros(0, dtype=np.int32),
+                   contrib_offsets=np.zeros(1, dtype=np.int64),
+                   contrib_targets=np.zeros(0, dtype=np.int32),
+                   revolution=np.zeros(0, dtype=np.int64))
+        return out
+    sizes = [p["range_m"].size for p in parts]
+    first = np.cumsum([0, *sizes])
+    time_s = np.concatenate([p["time_s"] for p in parts])
+    order = np.argsort(time_s)  # introsort: a stable sort only when two times are equal
+    if np.any(np.diff(time_s[order]) == 0.0):
+        order = np.argsort(time_s, kind="stable")
+    rev = np.concatenate([p["revolution"] for p in parts])
+    if np.any(np.diff(rev[order]) < 0):
+        # a plot a hair before its revolution's start (a target crossing the start
+        # azimuth) sorts before the previous revolution's last plots: by revolution first
+        order = np.lexsort((time_s, rev))
+    out = {c: np.concatenate([p[c] for p in parts])[order] for c in PLOT_COLUMNS}
+    out["revolution"] = rev[order]
+    out["origin"] = np.concatenate([p["origin"] for p in parts])[order]
+    out["target"] = np.concatenate([p.get("target", np.full(p["range_m"].size, -1, np.int32))
+                                    for p in parts])[order].astype(np.int32)
+    # contributors: only some batches have them (the targets'); the others count none
+    counts = np.zeros(time_s.size, dtype=np.int64)
+    starts = np.zeros(time_s.size, dtype=np.int64)
+    pool, base = [], 0
+    for p, a, b in zip(parts, first[:-1], first[1:], strict=True):
+        off = p.get("contrib_offsets")
+        if off is None:
+            continue
+        starts[a:b] = off[:-1] + base
+        counts[a:b] = np.diff(off)
+        pool.append(p["contrib_targets"])
+        base += p["contrib_targets"].size
+    c_sorted = counts[order]
+    new_off = np.concatenate([[0], np.cumsum(c_sorted)]).astype(np.int64)
+    if base:
+        s_sorted = starts[order]
+        gather = np.repeat(s_sorted, c_sorted) + (np.arange(new_off[-1])
+                                                  - np.repeat(new_off[:-1], c_sorted))
+        contrib = np.concatenate(pool)[gather].astype(np.int32)
+    else:
+        contrib = np.zeros(0, dtype=np.int32)
+    out.update(contrib_offsets=new_off, contrib_targets=contrib)
+    return out
+
+
+def _slice_plots(part: dict, i0: int, i1: int) -> dict:
+    """Plots ``i0:i1`` of a batch, with their contributors."""
+    off = part["contrib_offsets"]
+    out = {c: part[c][i0:i1] for c in (*PLOT_COLUMNS, "origin", "target")}
+    out["contrib_offsets"] = off[i0:i1 + 1] - off[i0]
+    out["contrib_targets"] = part["contrib_targets"][off[i0]:off[i1]]
+    return out
+
+
+def _take(geom, idx):
+    from dataclasses import fields, replace
+
+    return replace(geom, **{f.name: getattr(geom, f.name)[idx] for f in fields(geom)})
