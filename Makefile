@@ -37,7 +37,7 @@ tail: $(STAMP)
 
 # the tests in two processes (pytest-xdist; this machine has 2 cores): about 4 minutes
 test: $(STAMP) tshark chromium
-	MPLBACKEND=Agg $(PY) -m pytest -q -n 2
+	MPLBACKEND=Agg $(PY) -m pytest -q -n 2 --dist loadgroup
 
 # Wireshark's ASTERIX dissector checks our CAT048/CAT034 bytes (tests/test_asterix.py);
 # installed when missing and we are root, never failing here (the tests say what is missing)
