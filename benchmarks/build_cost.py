@@ -218,6 +218,7 @@ def _diff_stats(a, b) -> str:
 def accuracy() -> None:
     """What each large-grid change of the PE does to F, on a proxy small enough to build
     three times (30 GHz, 30 km, the missile from 10 km): the large-grid rules forced on."""
+    import shipradar.sensors.parabolic_equation as pe
     import shipradar.tables.propagation as tp
     from shipradar.sensors.radar import radar_constants
     from shipradar.sim.world.scenario import parse_scenario
@@ -232,10 +233,10 @@ def accuracy() -> None:
     kind, phi_b, sl, tilt = k.pattern_key(radar)
     desc = {"kind": kind, "beamwidth_rad": phi_b, "sidelobe_db": sl, "tilt_rad": tilt,
             "convention": "absolute elevation"}
-    saved = tp.LARGE_GRID_WORK
+    saved = pe.LARGE_GRID_WORK
 
     def build(large: float, capped: bool):
-        tp.LARGE_GRID_WORK = large
+        pe.LARGE_GRID_WORK = large
         try:
             kw = pe_table_grid_kwargs(s, radar)
             if not capped:
@@ -247,7 +248,7 @@ def accuracy() -> None:
                                            pattern_description=desc, **kw)
             return t, time.perf_counter() - t0
         finally:
-            tp.LARGE_GRID_WORK = saved
+            pe.LARGE_GRID_WORK = saved
 
     old, t_old = build(float("inf"), False)
     fast, t_fast = build(0.0, False)
@@ -260,8 +261,8 @@ def accuracy() -> None:
 
 
 def slow(before: bool, everything: bool) -> None:
+    import shipradar.sensors.parabolic_equation as pe
     import shipradar.tables.improvement as ti
-    import shipradar.tables.propagation as tp
 
     for label, d in slow_scenes():
         kinds = {"improvement"} if "stagger" in label else {"propagation"}
@@ -273,14 +274,14 @@ def slow(before: bool, everything: bool) -> None:
               f"shape {after['table'].values.shape}", flush=True)
         if not before or ("1e6" in label and not everything):
             continue
-        saved = (tp.LARGE_GRID_WORK, ti.DIRECT_WORK_MAX)
-        tp.LARGE_GRID_WORK = ti.DIRECT_WORK_MAX = float("inf")
+        saved = (pe.LARGE_GRID_WORK, ti.DIRECT_WORK_MAX)
+        pe.LARGE_GRID_WORK = ti.DIRECT_WORK_MAX = float("inf")
         try:
             with tempfile.TemporaryDirectory() as cache:
                 os.environ["SHIPRADAR_TABLES"] = cache
                 (old,) = build_and_time(label, d, kinds)
         finally:
-            tp.LARGE_GRID_WORK, ti.DIRECT_WORK_MAX = saved
+            pe.LARGE_GRID_WORK, ti.DIRECT_WORK_MAX = saved
         print(f"{label:36s} before: measured {old['measured']:7.1f} s, shape "
               f"{old['table'].values.shape}; speed-up {old['measured'] / after['measured']:.1f}x,"
               f" |difference| {_compare(old['table'], after['table'])}",

@@ -32,6 +32,7 @@ import tracemalloc
 
 import numpy as np
 
+from shipradar.sensors import parabolic_equation as pe
 from shipradar.tables import propagation as tp
 
 FREQ_HZ = 10e9
@@ -59,7 +60,7 @@ def build(fidelity: str, pol: str):
 
 
 def solve(fidelity: str, pol: str, range_step_m: float, height_step_m: float | None = None):
-    return tp.solve_pe(
+    return pe.solve_pe(
         FREQ_HZ, ANTENNA_M, polarization=pol, elevation_pattern=None, profile=PROFILE,
         max_range_m=MAX_RANGE_M, max_height_m=MAX_HEIGHT_M, fidelity=fidelity,
         range_step_m=range_step_m, height_step_m=height_step_m, progress=False,
@@ -120,7 +121,7 @@ def fallback_errors(freq_hz: float, pol: str):
     angles), the intermediate region (interpolated in dB) and the diffraction region."""
     from shipradar.sensors import propagation as prop
 
-    r, h, f = tp.solve_pe(freq_hz, ANTENNA_M, polarization=pol, elevation_pattern=None,
+    r, h, f = pe.solve_pe(freq_hz, ANTENNA_M, polarization=pol, elevation_pattern=None,
                           profile={"kind": "standard"}, max_range_m=70e3, max_height_m=200.0,
                           fidelity="standard", range_step_m=250.0, height_step_m=0.5,
                           progress=False)

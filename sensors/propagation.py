@@ -2,7 +2,8 @@
 and the standard (two-ray) multipath factor.
 
 Seed section 3.1.2, equations [4]-[7].  The off-line parabolic-equation solver that uses these
-profiles and surface properties lives in :mod:`shipradar.tables.propagation`; this module holds the
+profiles and surface properties lives in :mod:`shipradar.sensors.parabolic_equation` (its
+tables in :mod:`shipradar.tables.propagation`); this module holds the
 pure, vectorized physics and the on-line fallback :func:`two_ray_factor` that the seed's last
 paragraph of 3.1.2 asks for ("a standard multipath factor calculation ... Ref. 8", Blake).
 

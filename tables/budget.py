@@ -43,7 +43,7 @@ __all__ = [
 #: variable ``SHIPRADAR_MEMORY_BUDGET_MIB`` change it.
 DEFAULT_MEMORY_BUDGET_MIB: int = 4096
 # Bytes per PE output cell while the table is built: the float32 rows, their stacked copy
-# and the boolean "beyond the angles carried" mask (shipradar.tables.propagation.solve_pe).
+# and the boolean "beyond the angles carried" mask (shipradar.sensors.parabolic_equation.solve_pe).
 _PE_BYTES_PER_CELL = 4 + 4 + 1
 # Bytes per clutter-map cell: eight float64 fields (power, sigma0, sigma0_diff, a, Doppler
 # mean and spread, ...) and as many temporaries while they are computed.
@@ -93,7 +93,7 @@ def _fmt(n: float) -> str:
 def estimate_tables(scenario: Scenario) -> list[TableEstimate]:
     """Estimated build memory of each PE table, I_F table and clutter map of the scene.
 
-    Uses the builders' own grid rules (:func:`shipradar.tables.propagation.grid_steps`,
+    Uses the builders' own grid rules (:func:`shipradar.sensors.parabolic_equation.grid_steps`,
     :func:`shipradar.tables.scene.clutter_grid_size`) without building anything; the estimate covers
     the output arrays and their temporaries, not the PE's working field (a few columns).
     """
@@ -101,7 +101,7 @@ def estimate_tables(scenario: Scenario) -> list[TableEstimate]:
     import scipy.constants as sc
 
     from shipradar.sensors import propagation as prop
-    from shipradar.tables.propagation import grid_steps, pe_top_height
+    from shipradar.sensors.parabolic_equation import grid_steps, pe_top_height
     from shipradar.tables.scene import (
         clutter_grid_size,
         pe_table_height_m,

@@ -506,7 +506,7 @@ def pe_table_range_m(scenario: Scenario, radar: Radar, grid: dict[str, Any] | No
 
     F is read only at the targets' and jammers' positions (shipradar.sim.dwell.model). When the
     table to the instrumented range is a large grid
-    (:data:`shipradar.tables.propagation.LARGE_GRID_WORK`, e.g. a 100 GHz radar or a 1000 km
+    (:data:`shipradar.sensors.parabolic_equation.LARGE_GRID_WORK`, e.g. a 100 GHz radar or a 1000 km
     instrumented range), it stops at the farthest ground range from the radar's platform that any
     target or jammer of the scene reaches, plus :data:`PE_RANGE_MARGIN` and
     :data:`PE_RANGE_MARGIN_M`: beyond it nothing is there to look up (a look beyond would fall back
@@ -514,7 +514,8 @@ def pe_table_range_m(scenario: Scenario, radar: Radar, grid: dict[str, Any] | No
     jammers hold their ends, so the farthest range holds for any run duration. Smaller grids keep
     the instrumented range (the shipped scenes' tables are unchanged).
     """
-    from shipradar.tables.propagation import LARGE_GRID_WORK, table_grid
+    from shipradar.sensors.parabolic_equation import LARGE_GRID_WORK
+    from shipradar.tables.propagation import table_grid
 
     full = radar.instrumented_range_m
     if grid is None:

@@ -899,12 +899,14 @@ def companion_cases() -> list[Case]:
 def pe_work(scene: schema.Scenario) -> list[tuple[str, float]]:
     """Split-step work of each radar's PE table: height points x range steps [-].
 
-    From the builder's own grid rules (:func:`shipradar.tables.propagation.grid_steps` over the PE
-    domain :func:`shipradar.tables.propagation.pe_top_height`, as :mod:`shipradar.tables.budget`
-    does); the demo's 60 km C-band table is ~3e6 and builds in about a second on one core.
+    From the builder's own grid rules
+    (:func:`shipradar.sensors.parabolic_equation.grid_steps` over the PE domain
+    :func:`shipradar.sensors.parabolic_equation.pe_top_height`, as
+    :mod:`shipradar.tables.budget` does); the demo's 60 km C-band table is ~3e6 and builds in
+    about a second on one core.
     """
     from shipradar.sensors import propagation as prop
-    from shipradar.tables.propagation import grid_steps, pe_top_height
+    from shipradar.sensors.parabolic_equation import grid_steps, pe_top_height
     from shipradar.tables.scene import pe_table_height_m, refractivity_profile
 
     if scene.fidelity.propagation != "pe":

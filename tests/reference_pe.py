@@ -1,8 +1,8 @@
 """An independent parabolic-equation solver, the test oracle of the propagation tables.
 
-Written from the literature, sharing no code with :mod:`shipradar.tables.propagation` (a split-step
-*Fourier* solver): this one is the split-step **Padé** method of Collins (1993, J. Acoust.
-Soc. Am. 93(4) 1736-1742) on a finite-difference height grid, as in PyWaveProp and RAM:
+Written from the literature, sharing no code with :mod:`shipradar.sensors.parabolic_equation` (a
+split-step *Fourier* solver): this one is the split-step **Padé** method of Collins (1993,
+J. Acoust. Soc. Am. 93(4) 1736-1742) on a finite-difference height grid, as in PyWaveProp and RAM:
 
 * one-way equation ``u_x = i k (sqrt(1 + X) - 1) u`` with ``X = k^-2 d^2/dz^2 + (n^2 - 1)``,
   ``n^2 - 1 = 2 (M(z) - M(0)) 1e-6`` (earth flattening inside M);

@@ -194,7 +194,8 @@ def test_blocked_stagger_table_agrees_with_the_direct_one(monkeypatch):
 
 def test_shipped_scene_tables_stay_below_the_large_grid_rules():
     """The shipped scenes' PE and I_F tables are built by the former paths (same bytes)."""
-    from shipradar.tables.propagation import LARGE_GRID_WORK, table_grid
+    from shipradar.sensors.parabolic_equation import LARGE_GRID_WORK
+    from shipradar.tables.propagation import table_grid
 
     for name in ("single_missile", "raid", "stress", "manoeuvres", "jammed_squall"):
         s = parse_scenario(yaml.safe_load((ROOT / f"scenarios/{name}.yaml").read_text()))

@@ -1,10 +1,12 @@
-"""Split-step parabolic-equation solver and propagation tables (tables/propagation.py)."""
+"""Split-step parabolic-equation solver (sensors/parabolic_equation.py) and propagation tables
+(tables/propagation.py)."""
 
 import numpy as np
 import pytest
 import scipy.constants as sc
 from scipy.signal import argrelmin
 
+from shipradar.sensors import parabolic_equation as pe
 from shipradar.sensors import propagation as p
 from shipradar.tables import propagation as tp
 from shipradar.tables.store import Table
@@ -29,7 +31,7 @@ STANDARD = {"kind": "standard"}
 def test_pec_flat_earth_matches_image_theory(pol):
     f, za = 3e9, 20.0
     k = 2 * np.pi * f / sc.c
-    r, h, F = tp.solve_pe(f, za, polarization=pol, elevation_pattern=None, profile=FLAT,
+    r, h, F = pe.solve_pe(f, za, polarization=pol, elevation_pattern=None, profile=FLAT,
                           max_range_m=20e3, max_height_m=300.0, fidelity="coarse", surface="pec")
     R, H = np.meshgrid(r, h, indexing="ij")
     rd, rr = np.hypot(R, H - za), np.hypot(R, H + za)
@@ -47,7 +49,7 @@ def test_pec_flat_earth_matches_image_theory(pol):
 def test_pe_matches_two_ray_in_the_lit_region(freq, pol):
     """Standard atmosphere, smooth sea: where two-ray F >= -10 dB, within 1 dB."""
     za = 20.0
-    r, h, F = tp.solve_pe(freq, za, polarization=pol, elevation_pattern=gaussian, profile=STANDARD,
+    r, h, F = pe.solve_pe(freq, za, polarization=pol, elevation_pattern=gaussian, profile=STANDARD,
                           max_range_m=40e3, max_height_m=150.0, fidelity="coarse",
                           range_step_m=250.0)
     R, H = np.meshgrid(r, h, indexing="ij")
@@ -64,7 +66,7 @@ def test_pe_beyond_horizon_matches_smooth_earth_diffraction():
     f, za = 10e9, 20.0
     # the domain must reach well above the shadow boundary (~100 m at 60 km): the field that
     # diffracts into the shadow comes from just above it
-    r, h, F = tp.solve_pe(f, za, polarization="H", elevation_pattern=None, profile=STANDARD,
+    r, h, F = pe.solve_pe(f, za, polarization="H", elevation_pattern=None, profile=STANDARD,
                           max_range_m=60e3, max_height_m=200.0, fidelity="coarse",
                           range_step_m=500.0, height_step_m=1.0)
     R, H = np.meshgrid(r, h, indexing="ij")
@@ -79,8 +81,8 @@ def test_pe_beyond_horizon_matches_smooth_earth_diffraction():
 def test_impedance_boundary_tends_to_dirichlet_for_horizontal_polarization():
     kw = dict(polarization="H", elevation_pattern=None, profile=STANDARD, max_range_m=20e3,
               max_height_m=150.0, fidelity="coarse")
-    _, _, f_sea = tp.solve_pe(3e9, 20.0, surface="sea", **kw)
-    _, _, f_pec = tp.solve_pe(3e9, 20.0, surface="pec", **kw)
+    _, _, f_sea = pe.solve_pe(3e9, 20.0, surface="sea", **kw)
+    _, _, f_pec = pe.solve_pe(3e9, 20.0, surface="pec", **kw)
     ok = np.isfinite(f_pec) & (f_pec > 10 ** (-10 / 20))
     # |Gamma_H| > 0.98 at these angles: F differs by < 0.2 dB from the perfect conductor
     assert np.max(np.abs(db(f_sea[ok]) - db(f_pec[ok]))) < 0.3
@@ -94,7 +96,7 @@ def test_free_space_normalization_on_the_beam_peak():
     BEAMWIDTH = np.radians(0.8)
     try:
         tilt = np.radians(2.0)
-        r, h, F = tp.solve_pe(10e9, 50.0, polarization="H", elevation_pattern=gaussian,
+        r, h, F = pe.solve_pe(10e9, 50.0, polarization="H", elevation_pattern=gaussian,
                               profile=FLAT, max_range_m=4e3, max_height_m=300.0,
                               fidelity="coarse", tilt_rad=tilt, max_angle_rad=np.radians(8.0))
     finally:
@@ -111,8 +113,8 @@ def test_convergence_halving_steps_at_fine_fidelity():
     kw = dict(polarization="V", elevation_pattern=gaussian,
               profile={"kind": "evaporation", "duct_height_m": 12.0}, max_range_m=15e3,
               max_height_m=80.0, fidelity="fine", range_step_m=500.0, height_step_m=0.5)
-    r1, h1, f1 = tp.solve_pe(10e9, 20.0, **kw)
-    r2, h2, f2 = tp.solve_pe(10e9, 20.0, step_scale=0.5, **kw)
+    r1, h1, f1 = pe.solve_pe(10e9, 20.0, **kw)
+    r2, h2, f2 = pe.solve_pe(10e9, 20.0, step_scale=0.5, **kw)
     assert np.allclose(r1, r2)
     f2i = np.array([np.interp(h1, h2, row) for row in f2])
     ok = np.isfinite(f1) & np.isfinite(f2i) & (f1 > 10 ** (-30 / 20))
@@ -128,7 +130,7 @@ def test_seed_figure_4_ducting_behaviour():
     nulls = []
     f50 = {}
     for duct in (0.0, 5.0, 10.0, 15.0):
-        r, h, F = tp.solve_pe(10e9, 20.0, polarization="H", elevation_pattern=None,
+        r, h, F = pe.solve_pe(10e9, 20.0, polarization="H", elevation_pattern=None,
                               profile={"kind": "evaporation", "duct_height_m": duct},
                               max_range_m=52e3, max_height_m=100.0, fidelity="coarse",
                               range_step_m=25.0)
@@ -140,7 +142,7 @@ def test_seed_figure_4_ducting_behaviour():
     assert all(len(n) == len(nulls[0]) >= 3 for n in nulls)
     stacked = np.array(nulls)
     assert np.all(np.diff(stacked, axis=0) > 0)
-    r, h, F = tp.solve_pe(10e9, 20.0, polarization="H", elevation_pattern=None, profile=STANDARD,
+    r, h, F = pe.solve_pe(10e9, 20.0, polarization="H", elevation_pattern=None, profile=STANDARD,
                           max_range_m=52e3, max_height_m=100.0, fidelity="coarse",
                           range_step_m=25.0)
     f_std = np.interp(10.0, h, F[np.argmin(np.abs(r - 50e3))])
@@ -150,8 +152,8 @@ def test_seed_figure_4_ducting_behaviour():
 def test_rough_sea_fills_the_nulls():
     kw = dict(polarization="H", elevation_pattern=None, profile=STANDARD, max_range_m=10e3,
               max_height_m=100.0, fidelity="coarse")
-    r, h, smooth = tp.solve_pe(10e9, 20.0, wave_height_m=0.0, **kw)
-    _, _, rough = tp.solve_pe(10e9, 20.0, wave_height_m=1.0, **kw)
+    r, h, smooth = pe.solve_pe(10e9, 20.0, wave_height_m=0.0, **kw)
+    _, _, rough = pe.solve_pe(10e9, 20.0, wave_height_m=1.0, **kw)
     R, H = np.meshgrid(r, h, indexing="ij")
     lit = np.isfinite(smooth) & (H > 20)
     # deep nulls exist over a calm sea and are filled by 1 m waves (rho ~ 0.3 at 1 deg, 10 GHz)
@@ -164,17 +166,17 @@ def test_rough_sea_fills_the_nulls():
 
 def test_grid_steps_follow_frequency_angle_and_fidelity():
     prof = p.profile_from_spec(STANDARD)
-    g10 = tp.grid_steps(10e9, 1000, 100e3, prof, "standard")
-    g3 = tp.grid_steps(3e9, 1000, 100e3, prof, "standard")
+    g10 = pe.grid_steps(10e9, 1000, 100e3, prof, "standard")
+    g3 = pe.grid_steps(3e9, 1000, 100e3, prof, "standard")
     assert g3["dz"] == pytest.approx(g10["dz"] * 10 / 3, rel=0.05)
-    coarse = tp.grid_steps(10e9, 1000, 100e3, prof, "coarse")
-    fine = tp.grid_steps(10e9, 1000, 100e3, prof, "fine")
+    coarse = pe.grid_steps(10e9, 1000, 100e3, prof, "coarse")
+    fine = pe.grid_steps(10e9, 1000, 100e3, prof, "fine")
     assert coarse["dz"] > g10["dz"] > fine["dz"]
     assert coarse["dx"] > g10["dx"] > fine["dx"]
-    v = tp.grid_steps(10e9, 1000, 100e3, prof, "standard", polarization="V")
+    v = pe.grid_steps(10e9, 1000, 100e3, prof, "standard", polarization="V")
     assert v["dz"] * 2 * np.pi * 10e9 / sc.c * np.sin(v["max_angle_rad"]) <= 0.45 + 1e-9
     with pytest.raises(ValueError):
-        tp.grid_steps(10e9, 1000, 100e3, prof, "ultra")
+        pe.grid_steps(10e9, 1000, 100e3, prof, "ultra")
 
 
 def test_table_cache_provenance_and_lookup(table_cache):
@@ -243,8 +245,8 @@ def lookup_case():
     # the same PE as the table's: its domain reaches one w cell above max_height_m
     kw = {**LOOKUP_CASE, "max_height_m": LOOKUP_CASE["max_height_m"]
           + LOOKUP_CASE["max_range_m"] * np.diff(table.axes[1]).max()}
-    r1, h1, f1 = tp.solve_pe(10e9, 20.0, range_step_m=step, height_step_m=0.1, **kw)
-    r2, h2, f2 = tp.solve_pe(10e9, 20.0, range_step_m=step / 2, height_step_m=0.1, **kw)
+    r1, h1, f1 = pe.solve_pe(10e9, 20.0, range_step_m=step, height_step_m=0.1, **kw)
+    r2, h2, f2 = pe.solve_pe(10e9, 20.0, range_step_m=step / 2, height_step_m=0.1, **kw)
     assert np.allclose(r1, table.axes[0]) and np.allclose(r2[1::2], r1)
     return table, (r1, h1, f1), (r2, h2, f2)
 
@@ -292,10 +294,10 @@ def test_table_axes_follow_lobes_and_surface_step():
     dw = np.diff(w)
     assert w[0] == 0.0 and w[-1] >= np.tan(np.radians(5.0))
     # near the surface at max range, heights every surface_step_m (0.5 m) or finer
-    assert dw[0] * 100e3 == pytest.approx(tp.FIDELITY["standard"]["surface_step_m"], rel=1e-9)
+    assert dw[0] * 100e3 == pytest.approx(tp.TABLE_SAMPLING["standard"]["surface_step_m"], rel=1e-9)
     assert w[np.argmax(dw > 1.5 * dw[0])] * 100e3 >= tp.LOW_LAYER_M - 1e-6
     # above it, the lobe period lambda / (2 h_a) sampled at least lobe_samples times
-    assert dw.max() <= lam / (2 * 20.0 * tp.FIDELITY["standard"]["lobe_samples"]) * (1 + 1e-9)
+    assert dw.max() <= lam / (2 * 20.0 * tp.TABLE_SAMPLING["standard"]["lobe_samples"]) * (1 + 1e-9)
     # a higher antenna has shorter lobes in h / R
     _, w40 = tp.table_axes(3e9, 40.0, 100e3, 1000.0, 200.0, np.radians(5.0), "standard")
     _, w10 = tp.table_axes(3e9, 10.0, 100e3, 1000.0, 200.0, np.radians(5.0), "standard")
@@ -334,9 +336,9 @@ def test_piecewise_surface_duct_traps_energy():
     duct = {"kind": "piecewise", "heights_m": [0.0, 50.0, 1000.0],
             "m_units": [330.0, 320.0, 320.0 + 0.118 * 950.0]}
     straight = {"kind": "piecewise", "heights_m": [0.0, 1000.0], "m_units": [320.0, 438.0]}
-    r, h, f_duct = tp.solve_pe(3e9, 20.0, profile=duct, **kw)
-    _, _, f_std = tp.solve_pe(3e9, 20.0, profile=STANDARD, **kw)
-    _, _, f_pw = tp.solve_pe(3e9, 20.0, profile=straight, **kw)
+    r, h, f_duct = pe.solve_pe(3e9, 20.0, profile=duct, **kw)
+    _, _, f_std = pe.solve_pe(3e9, 20.0, profile=STANDARD, **kw)
+    _, _, f_pw = pe.solve_pe(3e9, 20.0, profile=straight, **kw)
     i = np.argmin(np.abs(r - 60e3))
     in_duct = (h > 5) & (h < 45)
     assert np.min(db(f_duct[i, in_duct]) - db(f_std[i, in_duct])) > 20.0
@@ -350,8 +352,8 @@ def test_domain_reaches_above_the_shadow_boundary():
     25 m, target 10 m, 40-60 km: with a 100 m domain F was 14 dB off with a false null)."""
     kw = dict(polarization="V", elevation_pattern=None, profile={"kind": "standard"},
               max_range_m=60e3, fidelity="coarse", range_step_m=2000.0)
-    r, h, low = tp.solve_pe(5.6e9, 25.0, max_height_m=100.0, **kw)
-    _, h_hi, high = tp.solve_pe(5.6e9, 25.0, max_height_m=400.0, **kw)
+    r, h, low = pe.solve_pe(5.6e9, 25.0, max_height_m=100.0, **kw)
+    _, h_hi, high = pe.solve_pe(5.6e9, 25.0, max_height_m=400.0, **kw)
     assert h[-1] < 120.0  # the output still stops at the requested height
     far = r >= 40e3
     f_low = np.array([np.interp(10.0, h, row) for row in low[far]])

@@ -2,10 +2,10 @@
 
 F enters S/N as F^4, so a table that fills a -30 dB null to -18 dB turns a blind band into
 detections.  The table stores the complex field with its smooth phase removed and the
-lookup interpolates it (shipradar.tables.propagation.reference_phase); the former lookup
-interpolated |F|.  Checked (1) against the PE the table was built from, where its own F is -35 to
--20 dB, with the former lookup failing the same test, and (2) against an independent solver
-(tests/reference_pe.py: split-step Padé on a Numerov grid), itself checked against image
+lookup interpolates it (shipradar.sensors.parabolic_equation.reference_phase); the former
+lookup interpolated |F|.  Checked (1) against the PE the table was built from, where its own F
+is -35 to -20 dB, with the former lookup failing the same test, and (2) against an independent
+solver (tests/reference_pe.py: split-step Padé on a Numerov grid), itself checked against image
 theory.
 """
 
@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 import scipy.constants as sc
 
+from shipradar.sensors import parabolic_equation as pe
 from shipradar.sensors import propagation as prop
 from shipradar.tables import propagation as tp
 from shipradar.tables.store import Table
@@ -51,7 +52,7 @@ def test_table_keeps_the_nulls_of_its_pe(case):
     table = tp.build_propagation_table(10e9, 20.0, progress=False, **kw)
     step = table.axes[0][1] - table.axes[0][0]
     top = kw["max_height_m"] + kw["max_range_m"] * np.diff(table.axes[1]).max()
-    r, h, f = tp.solve_pe(10e9, 20.0, **{**kw, "max_height_m": top}, range_step_m=step,
+    r, h, f = pe.solve_pe(10e9, 20.0, **{**kw, "max_height_m": top}, range_step_m=step,
                           height_step_m=0.05, progress=False)
     R, H = np.meshgrid(r, h, indexing="ij")
     f_db = db(f)

@@ -13,6 +13,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from shipradar.sensors import parabolic_equation as pe  # noqa: E402
 from shipradar.sensors import propagation as prop  # noqa: E402
 from shipradar.tables import propagation as tp  # noqa: E402
 from shipradar.tables.store import Table  # noqa: E402
@@ -65,7 +66,7 @@ def plot_factor_vs_range(
     top = max(3 * target_height_m, 2 * antenna_height_m, 100.0)
     fig, ax = plt.subplots(figsize=(7.5, 4.5), dpi=110)
     for duct in duct_heights_m:
-        r, h, f = tp.solve_pe(
+        r, h, f = pe.solve_pe(
             freq_hz, antenna_height_m, polarization=polarization, elevation_pattern=None,
             profile={"kind": "evaporation", "duct_height_m": float(duct)},
             wave_height_m=wave_height_m, max_range_m=max_range_m, max_height_m=top,
