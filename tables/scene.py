@@ -271,16 +271,6 @@ def _improvement_specs(scenario: Scenario, platform: Platform, radar: Radar) -> 
                       key)]
 
 
-def ship_motion(platform: Platform) -> tuple[float, float]:
-    """Speed [m/s] and course [rad] of the platform's first leg (0, heading if stationary)."""
-    w = platform.waypoints
-    if len(w) < 2 or w[0].east_m is None or w[1].east_m is None:
-        return 0.0, math.radians(platform.heading_deg)
-    de, dn = w[1].east_m - w[0].east_m, w[1].north_m - w[0].north_m
-    dt = w[1].time_s - w[0].time_s
-    return math.hypot(de, dn) / dt, math.atan2(de, dn) % (2 * math.pi)
-
-
 def clutter_grid_size(radar: Radar) -> tuple[int, int]:
     """Clutter map grid: range step near a tenth of the range cell-limited detail, capped.
 
@@ -297,6 +287,7 @@ def _clutter_specs(scenario: Scenario, platform: Platform, radar: Radar) -> list
     if not scenario.fidelity.clutter:
         return []
     from shipradar.sensors.radar import radar_constants
+    from shipradar.sim.world.kinematics import ship_motion
     from shipradar.tables import clutter as tc
 
     env = scenario.environment

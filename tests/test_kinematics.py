@@ -15,6 +15,7 @@ from shipradar.sim.world.kinematics import (
     Trajectories,
     antenna_geometry,
     beam_crossing_times,
+    ship_motion,
     slant_range_elevation,
     waypoint_enu,
     wrap_pi,
@@ -161,3 +162,21 @@ def test_one_segment_fast_path_equals_the_general_search(hold):
             tt = t if r is not None or np.isscalar(t) else t[: len(tracks)]
             for a, b in zip(fast.state(tt, r), slow.state(tt, r), strict=True):
                 np.testing.assert_array_equal(a, b)
+
+
+def test_ship_motion_first_leg():
+    """Speed and course of the first leg; a stationary ship (or a geodetic leg) keeps its
+    heading and speed 0."""
+    from types import SimpleNamespace
+
+    leg = [Waypoint(time_s=0.0, east_m=0.0, north_m=0.0),
+           Waypoint(time_s=100.0, east_m=300.0, north_m=-400.0),
+           Waypoint(time_s=200.0, east_m=0.0, north_m=0.0)]
+    speed, course = ship_motion(SimpleNamespace(waypoints=leg, heading_deg=10.0))
+    assert speed == pytest.approx(5.0, rel=1e-12)
+    assert course == pytest.approx(math.atan2(300.0, -400.0) % (2 * math.pi), rel=1e-12)
+    still = SimpleNamespace(waypoints=leg[:1], heading_deg=30.0)
+    assert ship_motion(still) == (0.0, pytest.approx(math.radians(30.0), rel=1e-12))
+    geo = [Waypoint(time_s=0.0, lat_deg=45.0, lon_deg=-63.0),
+           Waypoint(time_s=60.0, lat_deg=45.01, lon_deg=-63.0)]
+    assert ship_motion(SimpleNamespace(waypoints=geo, heading_deg=90.0))[0] == 0.0

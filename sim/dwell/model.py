@@ -205,9 +205,10 @@ class DwellModel:
 
     def _prepare_compensation(self, platform: Platform, radar: Radar) -> None:
         # The platform motion the processor removes ([35], motion_compensated): the same
-        # ship speed and course as the clutter tables' f1 [34] (shipradar.tables.scene.ship_motion),
-        # so the target Doppler relative to the clutter is the same with and without it.
-        from shipradar.tables.scene import ship_motion
+        # ship speed and course as the clutter tables' f1 [34]
+        # (shipradar.sim.world.kinematics.ship_motion), so the target Doppler relative to the
+        # clutter is the same with and without it.
+        from shipradar.sim.world.kinematics import ship_motion
 
         speed, course = ship_motion(platform)
         self._table_motion = (speed, course)

@@ -14,6 +14,7 @@ elevation on the 4/3 effective earth used throughout the radar model.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -21,7 +22,7 @@ import numpy as np
 import pymap3d
 from scipy.special import ellipeinc
 
-from shipradar.sim.world.scenario import Origin, Waypoint
+from shipradar.sim.world.scenario import Origin, Platform, Waypoint
 
 #: Mean earth radius [m] (IUGG).
 EARTH_RADIUS_M = 6_371_008.8
@@ -95,8 +96,23 @@ def waypoint_enu(waypoints: Sequence[Waypoint], frame: LocalFrame | Origin) -> n
     return out
 
 
-#: Standard gravity [m/s²] (scipy.constants.g), the unit of the turn and acceleration loads.
-G0 = 9.80665
+def ship_motion(platform: Platform) -> tuple[float, float]:
+    """Speed [m/s] and course [rad, clockwise from north] of the platform's first leg.
+
+    The ship's own motion the clutter spectrum [34] is shifted by (the clutter tables and the
+    dwell model read it once).  A stationary platform, or one whose first two waypoints are
+    given as latitude/longitude, gives speed 0 and its declared heading.
+    """
+    w = platform.waypoints
+    if len(w) < 2:
+        return 0.0, math.radians(platform.heading_deg)
+    e0, n0, e1, n1 = w[0].east_m, w[0].north_m, w[1].east_m, w[1].north_m
+    if e0 is None or n0 is None or e1 is None or n1 is None:
+        return 0.0, math.radians(platform.heading_deg)
+    de, dn = e1 - e0, n1 - n0
+    dt = w[1].time_s - w[0].time_s
+    return math.hypot(de, dn) / dt, math.atan2(de, dn) % (2 * math.pi)
+
 #: Piece kinds of :class:`Trajectories`: constant velocity; a horizontal arc or straight line
 #: with a constant turn rate or a constant along-track acceleration (never both: their product
 #: has no closed form) and a constant vertical acceleration; a sinusoidal offset (weave, or
