@@ -1,0 +1,484 @@
+"""One seeded run of a study: the simulator, the tracker under test, everything recorded.
+
+:func:`run_tracker_command` runs a tracker given as a command line, in its own process:
+
+1. the simulator's publisher binds a free loopback port (``{plots}``), in ``pace`` mode (a
+   slow tracker slows the run and loses nothing, docs/protocol.md section 8) with a stall
+   timeout (a tracker that stops reading fails the run instead of hanging it), and records
+   the stream to ``stream.rec``;
+2. a SUB socket of the harness connects to ``{tracks}`` (a free loopback port the tracker
+   binds, topic ``tracks``, docs/protocol.md section 4.6) before the tracker starts;
+3. the tracker starts with its placeholders filled in (``{plots}``, ``{tracks}``,
+   ``{asterix}``: a free UDP port on 127.0.0.1 where ASTERIX CAT048/034 goes, docs/asterix.md;
+   ``{seed}``; ``{run_dir}``), its stdout and stderr to files of the run directory;
+4. the run starts once the tracker has subscribed (``--wait-subscribers 1``; a tracker that
+   only reads ASTERIX is ready when its ``{tracks}`` endpoint is up) or fails with a clear
+   timeout; it stops early, at an end of scan, if the tracker dies;
+5. after the last message, the harness waits until the tracker has published tracks for the
+   last scan, has exited, or has been quiet for ``drain_s``; then stops it (SIGTERM to its
+   process group, SIGKILL 5 s later).
+
+A tracker that exits by itself with a non-zero code fails the run (its exit code and the
+tail of its stderr in ``run.json``); one that exits with 0 is scored on what it published.
+
+:func:`run_tracker_object` is the in-process form for a tracker written as a Python object.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import shlex
+import signal
+import socket
+import subprocess
+import threading
+import time
+import traceback
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import zmq
+
+from shipradar.sim.stream.bus import Bus, Publisher, PublisherStalledError, RunInterrupted
+from shipradar.sim.stream.protocol import ProtocolError, decode, encode
+from shipradar.sim.stream.recording import Recorder
+from shipradar.sim.studies.evaluate.data import TOPIC_TRACKS, RunData, _add_tracks, _Collect
+
+__all__ = ["RunSpec", "fill_placeholders", "free_port", "run_tracker_command",
+           "run_tracker_object"]
+
+#: Lines of the tracker's stderr kept in ``run.json`` when it fails.
+STDERR_TAIL_LINES = 20
+#: Grace between SIGTERM and SIGKILL when the harness stops a tracker [s].
+KILL_GRACE_S = 5.0
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """One run of a study.
+
+    Attributes
+    ----------
+    scenario : str
+        Scenario file.
+    seed : int
+        The run's seed (the simulator's; also ``{seed}`` for the tracker).
+    run_dir : str
+        Directory of the run's files (created).
+    tracker : str
+        Tracker command with placeholders (module docstring).
+    duration_s : float or None
+        Simulated duration [s]; None: the scenario's.
+    wait_timeout_s : float
+        Longest wait for the tracker to subscribe [s].
+    stall_timeout_s : float
+        A tracker that reads nothing for this long fails the run [s].
+    drain_s : float
+        After the run, how long a silent tracker is given before it is stopped [s].
+    realtime : float or None
+        Run paced at this multiple of the wall clock (latency then measures the tracker, not
+        its input queue); None: as fast as the tracker reads.
+    """
+
+    scenario: str
+    seed: int
+    run_dir: str
+    tracker: str
+    duration_s: float | None = None
+    wait_timeout_s: float = 30.0
+    stall_timeout_s: float = 120.0
+    drain_s: float = 5.0
+    realtime: float | None = None
+
+
+def free_port(kind: int = socket.SOCK_STREAM) -> int:
+    """A free port on 127.0.0.1 (TCP or UDP), as the OS hands it out."""
+    with socket.socket(socket.AF_INET, kind) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def fill_placeholders(command: str, values: dict[str, str]) -> list[str]:
+    """The tracker's argv: ``command`` split as a shell would (no shell runs), each
+    ``{name}`` of ``values`` replaced; other braces are left as they are."""
+    argv = shlex.split(command)
+    out = []
+    for a in argv:
+        for k, v in values.items():
+            a = a.replace("{" + k + "}", v)
+        out.append(a)
+    return out
+
+
+class _TimedPublisher(Publisher):
+    """The publisher, noting the wall time of each message it sends (the latency's start),
+    and asking the bus to stop at the next end of scan once the tracker has died."""
+
+    def __init__(self, *args, t0: float, proc_alive: Callable[[], bool], **kwargs):
+        super().__init__(*args, **kwargs)
+        self.t0 = t0
+        self.sent_s: list[float] = []
+        self.proc_alive = proc_alive
+        self.bus: Bus | None = None
+
+    def send(self, frames) -> bool:
+        ok = super().send(frames)
+        self.sent_s.append(time.perf_counter() - self.t0)
+        if len(self.sent_s) % 64 == 0 and self.bus is not None and not self.proc_alive():
+            self.bus.stop_requested = True
+        return ok
+
+
+class _Collector(threading.Thread):
+    """Receives the tracker's ``tracks`` messages with their wall times; ``connected`` is set
+    once the connection to the tracker is made."""
+
+    def __init__(self, endpoint: str, t0: float):
+        super().__init__(daemon=True, name="evaluate-tracks")
+        self.ctx = zmq.Context()
+        self.sock = self.ctx.socket(zmq.SUB)
+        self.sock.setsockopt(zmq.LINGER, 0)
+        self.sock.setsockopt(zmq.RCVHWM, 0)  # keep everything the tracker sends
+        self.monitor = self.sock.get_monitor_socket(
+            zmq.EVENT_HANDSHAKE_SUCCEEDED | zmq.EVENT_CONNECTED)
+        self.sock.setsockopt(zmq.SUBSCRIBE, TOPIC_TRACKS)
+        self.sock.connect(endpoint)
+        self.t0 = t0
+        self.records: list[tuple[float, float, list[bytes]]] = []  # (t, recv, frames)
+        self.last_time_s = -math.inf
+        self.last_recv = time.perf_counter()
+        self.connected = threading.Event()
+        self.stop = threading.Event()
+
+    def run(self) -> None:
+        poller = zmq.Poller()
+        poller.register(self.sock, zmq.POLLIN)
+        poller.register(self.monitor, zmq.POLLIN)
+        try:
+            while not self.stop.is_set():
+                for s, _ in poller.poll(100):
+                    if s is self.monitor:
+                        self.monitor.recv_multipart()
+                        self.connected.set()
+                        continue
+                    frames = self.sock.recv_multipart()
+                    now = time.perf_counter()
+                    try:
+                        _, t, p = decode(frames)
+                        ts = p.get("time_s", t) if isinstance(p, dict) else t
+                        if isinstance(ts, (int, float)) and math.isfinite(ts):
+                            self.last_time_s = max(self.last_time_s, float(ts))
+                    except ProtocolError:
+                        t = math.nan
+                    self.records.append((t, now - self.t0, frames))
+                    self.last_recv = now
+        finally:
+            self.sock.disable_monitor()
+            self.monitor.close(linger=0)
+            self.sock.close(linger=0)
+            self.ctx.term()
+
+
+def _tail(path: Path, lines: int = STDERR_TAIL_LINES) -> str:
+    try:
+        text = path.read_text(errors="replace")
+    except OSError:
+        return ""
+    return "\n".join(text.splitlines()[-lines:])
+
+
+def _stop(proc: subprocess.Popen) -> int | None:
+    """SIGTERM to the tracker's process group, SIGKILL after the grace; its exit code."""
+    if proc.poll() is not None:
+        return proc.returncode
+    try:
+        os.killpg(proc.pid, signal.SIGTERM)
+        return proc.wait(KILL_GRACE_S)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        return proc.wait()
+    except ProcessLookupError:
+        return proc.wait()
+
+
+def _write_tracks(run_dir: Path, records: list[tuple[float, float, list[bytes]]]) -> None:
+    with Recorder(run_dir / "tracks.rec", overwrite=True) as rec:
+        for t, _, frames in records:
+            rec.write(t, frames)
+
+
+def run_tracker_command(spec: RunSpec) -> dict[str, Any]:
+    """Run one seeded run with the tracker command of ``spec``; write its run directory.
+
+    Returns
+    -------
+    dict
+        The content of ``run.json``: ``seed``, ``status`` (``ok`` or ``failed``),
+        ``error`` (why it failed), ``exit_code`` and ``stderr_tail`` of the tracker,
+        ``stopped_by_harness``, the endpoints, ``duration_s``, the simulator's summary and the
+        wall times: ``wall_s`` (the whole run), ``run_s`` (the simulation with the tracker
+        reading), ``startup_s`` (scenario, tables, tracker start until it subscribed),
+        ``drain_s``, ``harness_s`` (the rest: the harness's own work after the run, stopping
+        the tracker, writing the files).
+    """
+    from shipradar.sim.engine.simulation import Simulation
+    from shipradar.sim.world.scenario import load_scenario
+    from shipradar.tables.scene import load_scene_tables
+
+    wall0 = time.perf_counter()
+    run_dir = Path(spec.run_dir)
+    run_dir.mkdir(parents=True, exist_ok=True)
+    scenario = load_scenario(spec.scenario)
+    tables = load_scene_tables(scenario)
+    duration = float(scenario.duration_s if spec.duration_s is None else spec.duration_s)
+    info: dict[str, Any] = {"seed": spec.seed, "status": "ok", "error": None,
+                            "scenario": scenario.name, "duration_s": duration,
+                            "tracker": spec.tracker, "exit_code": None, "stderr_tail": "",
+                            "stopped_by_harness": False, "spec": asdict(spec)}
+    proc: subprocess.Popen | None = None
+    collector = publisher = bus = None
+    stdout = open(run_dir / "tracker.stdout", "wb")  # noqa: SIM115 - closed below
+    stderr = open(run_dir / "tracker.stderr", "wb")  # noqa: SIM115
+    run_s = drain_s = startup_s = 0.0
+    summary = None
+    try:
+        publisher = _TimedPublisher("tcp://127.0.0.1:*", on_slow="pace",
+                                    stall_timeout_s=spec.stall_timeout_s, t0=wall0,
+                                    proc_alive=lambda: proc is not None and proc.poll() is None)
+        tracks_ep = f"tcp://127.0.0.1:{free_port()}"
+        asterix_ep = f"udp://127.0.0.1:{free_port(socket.SOCK_DGRAM)}"
+        values = {"plots": publisher.endpoint, "tracks": tracks_ep, "asterix": asterix_ep,
+                  "seed": str(spec.seed), "run_dir": str(run_dir)}
+        info["endpoints"] = {"plots": publisher.endpoint, "tracks": tracks_ep,
+                             "asterix": asterix_ep}
+        collector = _Collector(tracks_ep, wall0)
+        collector.start()
+        argv = fill_placeholders(spec.tracker, values)
+        info["argv"] = argv
+        try:
+            proc = subprocess.Popen(argv, stdout=stdout, stderr=stderr, stdin=subprocess.DEVNULL,
+                                    start_new_session=True)
+        except OSError as exc:
+            raise _RunFailed(f"cannot start the tracker: {exc}") from None
+        _wait_ready(spec, proc, publisher, collector, uses_plots="{plots}" in spec.tracker,
+                    uses_tracks="{tracks}" in spec.tracker)
+        startup_s = time.perf_counter() - wall0
+        recorder = Recorder(run_dir / "stream.rec", overwrite=True)
+        bus = Bus(publisher, recorder)
+        publisher.bus = bus
+        sim_bus: Any = bus
+        if "{asterix}" in spec.tracker:
+            from shipradar.sim.adapters.asterix.udp import AsterixBus, UdpSender
+
+            sim_bus = AsterixBus(bus, UdpSender(asterix_ep), 1400)
+        sim = Simulation(scenario, bus=sim_bus, seed=spec.seed, duration_s=duration,
+                         realtime=spec.realtime, tables=tables)
+        t_run = time.perf_counter()
+        try:
+            summary = sim.run()
+        except RunInterrupted:
+            summary = sim.summary(time.perf_counter() - t_run)
+        except PublisherStalledError as exc:
+            raise _RunFailed(f"the tracker stopped reading: {exc}") from None
+        finally:
+            (sim_bus if sim_bus is not bus else bus).close()
+            bus = None
+        run_s = time.perf_counter() - t_run
+        t_drain = time.perf_counter()
+        _drain(spec, proc, collector, duration)
+        drain_s = time.perf_counter() - t_drain
+    except _RunFailed as exc:
+        info["status"], info["error"] = "failed", str(exc)
+    except Exception as exc:  # the harness's own failure: reported on the run, not raised
+        info["status"] = "failed"
+        info["error"] = f"harness error: {exc!r}"
+        info["traceback"] = traceback.format_exc(limit=8)
+    finally:
+        if bus is not None:
+            bus.close(linger_ms=0)
+        elif publisher is not None and not publisher._closed:
+            publisher.close(linger_ms=0)
+        if proc is not None:
+            exited = proc.poll()
+            code = _stop(proc)
+            info["exit_code"] = code
+            info["stopped_by_harness"] = exited is None
+            if exited is not None and exited != 0:
+                info["status"] = "failed"
+                info["error"] = info["error"] or f"the tracker exited with code {exited}"
+        if collector is not None:
+            collector.stop.set()
+            collector.join()
+        stdout.close()
+        stderr.close()
+    if info["status"] != "ok":
+        info["stderr_tail"] = _tail(run_dir / "tracker.stderr")
+    records = collector.records if collector is not None else []
+    _write_tracks(run_dir, records)
+    sent = publisher.sent_s if publisher is not None else []
+    np.savez(run_dir / "timing.npz", stream_sent_s=np.array(sent, float),
+             tracks_recv_s=np.array([r[1] for r in records], float))
+    info["summary"] = summary
+    wall = time.perf_counter() - wall0
+    info.update(wall_s=wall, startup_s=startup_s, run_s=run_s, drain_s=drain_s,
+                harness_s=max(wall - startup_s - run_s - drain_s, 0.0))
+    (run_dir / "run.json").write_text(json.dumps(info, indent=1, default=_json_default))
+    return info
+
+
+def _json_default(obj):
+    if isinstance(obj, np.generic):
+        return obj.item()
+    return str(obj)
+
+
+class _RunFailed(Exception):
+    """The run cannot be scored (the message says why)."""
+
+
+def _wait_ready(spec: RunSpec, proc, publisher, collector, *, uses_plots: bool,
+                uses_tracks: bool) -> None:
+    """Until the tracker has subscribed to ``{plots}`` (or, for an ASTERIX-only tracker,
+    bound ``{tracks}``), and the harness is connected to its ``{tracks}``."""
+    deadline = time.monotonic() + spec.wait_timeout_s
+    if uses_plots:
+        while publisher.poll_subscriptions(0.1) < 1:
+            if proc.poll() is not None:
+                raise _RunFailed(f"the tracker exited with code {proc.returncode} before "
+                                 f"subscribing to {publisher.endpoint}")
+            if time.monotonic() > deadline:
+                raise _RunFailed(f"the tracker did not subscribe to {publisher.endpoint} "
+                                 f"within {spec.wait_timeout_s:g} s (--wait-timeout)")
+    if uses_tracks:
+        # the tracker binds {tracks} before it subscribes, in the usual order; this only
+        # makes sure the harness hears its first message
+        while not collector.connected.wait(0.1):
+            if proc.poll() is not None:
+                raise _RunFailed(f"the tracker exited with code {proc.returncode} before "
+                                 f"binding its tracks endpoint")
+            if time.monotonic() > deadline:
+                if uses_plots:
+                    return  # subscribed but never binds {tracks}: scored as silent
+                raise _RunFailed(f"the tracker did not bind its tracks endpoint within "
+                                 f"{spec.wait_timeout_s:g} s (--wait-timeout)")
+
+
+def _drain(spec: RunSpec, proc, collector, last_t: float) -> None:
+    """Wait for the tracker's last tracks (at the last scan), its exit, or its silence."""
+    while proc.poll() is None:
+        if collector.last_time_s >= last_t - 1e-6:
+            return
+        if time.perf_counter() - collector.last_recv > spec.drain_s:
+            return
+        time.sleep(0.05)  # a bounded poll of three conditions, none of them an event
+
+
+# ----------------------------------------------------------------------------- in process
+class _InProcessSink:
+    """The simulation's bus for an in-process tracker: every message goes to the collector
+    of truth; ``meta``, ``plots`` and ``eos`` go to the tracker, whose answers are checked
+    and kept with their wall times. ``record`` encodes everything for the run directory."""
+
+    def __init__(self, tracker, collect: _Collect, data_tracks: RunData, t0: float,
+                 record: bool):
+        self.tracker = tracker
+        self.collect = collect
+        self.data = data_tracks
+        self.t0 = t0
+        self.stream: list[tuple[float, list[bytes]]] | None = [] if record else None
+        self.tracks: list[tuple[float, list[bytes]]] | None = [] if record else None
+        self.sent: list[float] = []
+        self.recv: list[float] = []
+        self.messages = 0
+
+    def emit(self, topic: bytes, t: float, payload: dict) -> None:
+        self.messages += 1
+        now = time.perf_counter() - self.t0
+        self.collect.add(topic, t, payload, now)
+        if self.stream is not None:
+            self.stream.append((t, encode(topic, t, payload)))
+            self.sent.append(now)
+        if topic == b"truth":
+            return
+        out = self.tracker.on_message(topic.decode(), t, payload)
+        if out is None:
+            return
+        for p in (out if isinstance(out, (list, tuple)) else [out]):
+            recv = time.perf_counter() - self.t0
+            _add_tracks(self.data, p, recv, decoded=True)
+            if self.tracks is not None:
+                try:
+                    self.tracks.append((float(p.get("time_s", t)), encode(TOPIC_TRACKS,
+                                        float(p.get("time_s", t)), p)))
+                    self.recv.append(recv)
+                except Exception:  # noqa: BLE001 - malformed: counted above, not recorded
+                    pass
+
+    def flush(self, fsync: bool = False) -> None:
+        """Nothing is buffered."""
+
+    @property
+    def stats(self) -> dict[str, Any]:
+        return {"messages": self.messages}
+
+
+def run_tracker_object(scenario, tracker, *, seed: int, duration_s: float | None = None,
+                       tables=None, run_dir: str | Path | None = None) -> RunData:
+    """One seeded run with an in-process tracker object; the run's data, ready to score.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scene.
+    tracker : object or callable
+        An object with ``on_message(topic, t_sim, payload)`` that returns None, a ``tracks``
+        payload (docs/protocol.md section 4.6, as a dict) or a list of them; or a callable
+        returning such an object (called once per run: a fresh tracker per seed). It sees
+        the ``meta``, ``plots`` and ``eos`` messages, never ``truth``.
+    seed : int
+    duration_s : float or None
+        [s]
+    tables : SceneTables or None
+    run_dir : path or None
+        Also write the run directory (recordings, timings, ``run.json``) for ``--rescore``.
+    """
+    from shipradar.sim.engine.simulation import Simulation
+
+    obj = tracker if hasattr(tracker, "on_message") else tracker()
+    duration = float(scenario.duration_s if duration_s is None else duration_s)
+    info: dict[str, Any] = {"seed": seed, "status": "ok", "error": None,
+                            "scenario": scenario.name, "duration_s": duration,
+                            "tracker": type(obj).__name__}
+    collect = _Collect()
+    holder = RunData(info, [], "", np.zeros(0), np.zeros((0, 0, 3)), np.zeros((0, 0, 3)),
+                     np.zeros((0, 0), bool), {}, {})
+    t0 = time.perf_counter()
+    sink = _InProcessSink(obj, collect, holder, t0, record=run_dir is not None)
+    sim = Simulation(scenario, bus=sink, seed=seed, duration_s=duration, tables=tables)
+    try:
+        info["summary"] = sim.run()
+    except Exception as exc:  # the tracker's failure is the run's result
+        info["status"], info["error"] = "failed", f"the tracker raised {exc!r}"
+        info["stderr_tail"] = traceback.format_exc(limit=-4)
+    info["wall_s"] = time.perf_counter() - t0
+    data = collect.result(info)
+    data.tracks, data.malformed = holder.tracks, holder.malformed
+    data.malformed_examples = holder.malformed_examples
+    if run_dir is not None:
+        run_dir = Path(run_dir)
+        run_dir.mkdir(parents=True, exist_ok=True)
+        with Recorder(run_dir / "stream.rec", overwrite=True) as rec:
+            for t, frames in sink.stream or []:
+                rec.write(t, frames)
+        with Recorder(run_dir / "tracks.rec", overwrite=True) as rec:
+            for t, frames in sink.tracks or []:
+                rec.write(t, frames)
+        np.savez(run_dir / "timing.npz", stream_sent_s=np.array(sink.sent, float),
+                 tracks_recv_s=np.array(sink.recv, float))
+        (run_dir / "run.json").write_text(json.dumps(info, indent=1, default=_json_default))
+    return data
