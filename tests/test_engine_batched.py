@@ -69,7 +69,39 @@ def test_batched_only_without_a_live_consumer():
             pass
 
     assert not Simulation(s, bus=Bus(Publisher()), duration_s=1.0).batched
-    assert not Simulation(s, bus=type("Sub", (Bus,), {})(None), duration_s=1.0).batched
+    # the path follows the bus's declared capabilities (shipradar.sim.stream.sink), not its
+    # class: a subclass inherits them, and one that declines batches is not batched
+    assert Simulation(s, bus=type("Sub", (Bus,), {})(None), duration_s=1.0).batched
+    per_frame = type("PerFrame", (Bus,), {"accepts_batches": False})(None)
+    assert not Simulation(s, bus=per_frame, duration_s=1.0).batched
+    assert Simulation(s, bus=per_frame, duration_s=1.0).encodes_ahead
+    per_payload = type("PerPayload", (Bus,), {"encodes_ahead": False})(None)
+    assert not Simulation(s, bus=per_payload, duration_s=1.0).batched
+    assert not Simulation(s, bus=per_payload, duration_s=1.0).encodes_ahead
+
+
+class _PayloadBus(Bus):
+    """A recording bus that takes payloads: the engine's dict path (what in-process sinks
+    get), encoded by ``Bus.emit``."""
+
+    encodes_ahead = False
+
+
+def test_payload_path_is_the_frame_path(tmp_path):
+    # both output paths frame their sectors with shipradar.sim.stream.framing.sector_columns:
+    # the payloads, encoded one by one, are the bodies encoded at once; 13.7 s ends inside a
+    # revolution of both radars
+    s = load_scenario(ROOT / "scenarios/raid.yaml")
+
+    def run(bus_cls, path):
+        bus = bus_cls(None, Recorder(path))
+        sim = Simulation(s, bus=bus, duration_s=13.7, seed=3)
+        assert sim.encodes_ahead is (bus_cls is Bus)
+        sim.run()
+        bus.close()
+        return path.read_bytes()
+
+    assert run(_PayloadBus, tmp_path / "payloads.rec") == run(Bus, tmp_path / "frames.rec")
 
 
 def test_batched_without_a_bus_counts_the_same():

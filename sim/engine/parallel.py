@@ -14,9 +14,10 @@ resumption (a sector's frames, an end of scan, the next metadata).  SimPy orders
 by (time, priority, event id), the id counting events in the order they were *scheduled*,
 and a radar schedules its next timeout while it runs.  So the order is reproduced from the
 times alone: every worker records ``env.now`` at each resumption of each radar, and
-:func:`merge_order` replays SimPy's heap on those times: the processes start in radar order
-(urgent initialisation events at t = 0), and each popped resumption schedules that radar's
-next one with the next id.  Ties between radars at one instant (common sector ends) are
+:func:`merge_order` replays SimPy's heap on those times
+(:class:`shipradar.sim.engine.order.EventOrder`, the batched path's too): the processes start
+in radar order (urgent initialisation events at t = 0), and each popped resumption schedules
+that radar's next one with the next id.  Ties between radars at one instant (common sector ends) are
 broken exactly as SimPy breaks them, with no assumption about the radars' timings.
 
 Fast mode only (a wall-clock run is paced by one clock); ``Simulation.messages`` stays in one
@@ -26,20 +27,18 @@ pickled); where fork is unavailable the run stays in one process.
 
 from __future__ import annotations
 
-import heapq
 import multiprocessing
 import pickle
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import fields
 from typing import Any
 
 import numpy as np
 
+from shipradar.sim.engine.order import EventOrder
 from shipradar.sim.stream import protocol
-
-#: SimPy's priorities: process initialisation (URGENT) before timeouts (NORMAL).
-_URGENT, _NORMAL = 0, 1
+from shipradar.sim.stream.sink import takes_frames
 
 # What a forked worker needs, set by the parent just before it forks (not pickled).
 _FORK_STATE: dict[str, Any] = {}
@@ -48,20 +47,20 @@ _FORK_STATE: dict[str, Any] = {}
 class FrameCollector:
     """A bus that keeps every message encoded, tagged with its radar and resumption.
 
-    The engine encodes ahead for it (``encodes_ahead``), as for
-    :class:`shipradar.sim.stream.bus.Bus`.
+    A :class:`shipradar.sim.stream.sink.FrameSink`: the engine encodes ahead for it
+    (``encodes_ahead``), as for :class:`shipradar.sim.stream.bus.Bus`.
     """
 
     encodes_ahead = True
 
-    def __init__(self, sim) -> None:
+    def __init__(self, sim: Any) -> None:
         self.sim = sim
         self.messages: list[tuple[int, int, float, bytes, bytes]] = []
         for r in sim.radars:  # the engine records its resumptions only when asked
             r.resume_times = []
         self._resumes = {r.index: r.resume_times for r in sim.radars}
 
-    def emit(self, topic: bytes, t_sim: float, payload: dict) -> None:
+    def emit(self, topic: bytes, t_sim: float, payload: Mapping[str, Any]) -> None:
         self.emit_frames(t_sim, protocol.encode(topic, t_sim, payload))
 
     def emit_frames(self, t_sim: float, frames: Sequence[bytes]) -> None:
@@ -139,17 +138,18 @@ def merge_order(resume_times: dict[int, list[float]]) -> list[tuple[int, int]]:
         Every (radar, k) once, in the single-process order (module notes).
     """
     radars = sorted(resume_times)
-    heap = [(0.0, _URGENT, eid, r, 0) for eid, r in enumerate(radars) if resume_times[r]]
-    heapq.heapify(heap)
-    eid = len(radars)
+    events = EventOrder(len(radars))
+    taken = [0] * len(radars)  # resumptions of each radar replayed so far
     order = []
-    while heap:
-        _, _, _, r, k = heapq.heappop(heap)
-        order.append((r, k))
-        times = resume_times[r]
+    for i, _ in events.resumptions():
+        times = resume_times[radars[i]]
+        k = taken[i]
+        if k >= len(times):  # a radar that never started (no times)
+            continue
+        order.append((radars[i], k))
+        taken[i] = k + 1
         if k + 1 < len(times):
-            heapq.heappush(heap, (times[k + 1], _NORMAL, eid, r, k + 1))
-            eid += 1
+            events.schedule(i, times[k + 1])
     return order
 
 
@@ -176,7 +176,8 @@ def run_parallel(sim) -> dict[str, Any]:
     Returns
     -------
     dict
-        The summary, as :meth:`Simulation.run` (counts summed over the radars).
+        The summary, as :meth:`shipradar.sim.engine.simulation.Simulation.run` (counts
+        summed over the radars).
     """
     try:
         ctx = multiprocessing.get_context("fork")
@@ -221,10 +222,10 @@ def run_parallel(sim) -> dict[str, Any]:
                 setattr(sim.stats, name, getattr(sim.stats, name) + value)
     bus = sim.bus
     if bus is not None:
-        takes_frames = hasattr(bus, "emit_frames")
+        frames = takes_frames(bus)
         for key in merge_order(resume_times):
             for t, topic, body in batches.get(key, ()):
-                if takes_frames:
+                if frames:
                     bus.emit_frames(t, [topic, body])
                 else:
                     bus.emit(*protocol.decode([topic, body]))

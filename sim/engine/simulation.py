@@ -16,10 +16,16 @@ frame boundary of the stream, only the order of the random draws.
 
 Fast mode uses :class:`simpy.Environment`, real-time mode :class:`simpy.rt.RealtimeEnvironment`;
 the process code is the same in both (STYLE: SimPy's ``rt`` only overrides ``step()``).  A
-fast run with nothing live downstream (no bus, or a recording-only
-:class:`shipradar.sim.stream.bus.Bus`: :attr:`Simulation.batched`) drives the same processes on a
-plain clock that replays SimPy's event order (:meth:`Simulation._run_batched`), and hands the
-recorder a scan's messages at once; the bytes are the same.
+fast run with nothing live downstream (no bus, or one that accepts a scan's messages at once,
+:class:`shipradar.sim.stream.sink.BatchSink`: :attr:`Simulation.batched`) drives the same
+processes on a plain clock that replays SimPy's event order
+(:class:`shipradar.sim.engine.order.EventOrder`), and hands the recorder a scan's messages at
+once; the bytes are the same.
+
+What the engine asks of its bus is declared in :mod:`shipradar.sim.stream.sink`; the keys of
+its messages in :mod:`shipradar.sim.stream.schema`; which plots go in which sector message in
+:func:`shipradar.sim.stream.framing.sector_columns`, for a bus that takes frames and for one
+that takes payloads alike.
 """
 
 from __future__ import annotations
@@ -30,7 +36,7 @@ import math
 import sys
 import time
 from collections import deque
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -38,7 +44,25 @@ import numpy as np
 import simpy
 import simpy.rt
 
+from shipradar.sim.engine.order import EventOrder
 from shipradar.sim.stream import protocol
+from shipradar.sim.stream.framing import sector_columns
+from shipradar.sim.stream.schema import (
+    EOS,
+    META,
+    PLOT_COLUMNS,
+    PLOT_TRUTH_COLUMNS,
+    TRUTH_PLOTS,
+    TRUTH_TARGETS,
+    empty_plots,
+)
+from shipradar.sim.stream.sink import (
+    CallbackSink,
+    MessageSink,
+    PlotsAheadSink,
+    takes_batches,
+    takes_frames,
+)
 from shipradar.sim.world.kinematics import (
     TWO_PI,
     LocalFrame,
@@ -71,38 +95,14 @@ class RunStats:
     propagation_fallbacks: int = 0
 
 
-class CallbackSink:
-    """A bus for in-process use: hands each message to ``callback(topic, t_sim, payload)``.
-
-    ``topic`` is the topic as text (``"meta"``, ``"plots"``, ``"eos"``, ``"truth"``), ``t_sim``
-    the simulated time [s] and ``payload`` the message's keys exactly as the stream carries
-    them (numpy columns for plots); nothing is encoded, no socket is opened.
-    """
-
-    def __init__(self, callback: Callable[[str, float, dict], None]):
-        self.callback = callback
-        self.messages = 0
-
-    def emit(self, topic: bytes, t_sim: float, payload: dict) -> None:
-        self.messages += 1
-        self.callback(topic.decode(), t_sim, payload)
-
-    def flush(self, fsync: bool = False) -> None:
-        """Nothing is buffered."""
-
-    @property
-    def stats(self) -> dict[str, Any]:
-        return {"messages": self.messages}
-
-
 class Simulation:
     """A scenario ready to run.
 
     Parameters
     ----------
     scenario : the validated scenario
-    bus : object with ``emit(topic, t_sim, payload)`` and ``flush()``
-    (``shipradar.sim.stream.bus.Bus``), or None
+    bus : a :class:`shipradar.sim.stream.sink.MessageSink` (``emit(topic, t_sim, payload)``
+        and ``flush()``; e.g. :class:`shipradar.sim.stream.bus.Bus`), or None
     seed : overrides the scenario's seed
     duration_s : overrides the scenario's duration [s]
     realtime : None for as fast as possible, or a speed factor (1 = wall clock, 10 = 10x)
@@ -120,7 +120,7 @@ class Simulation:
         self,
         scenario: Scenario,
         *,
-        bus=None,
+        bus: MessageSink | None = None,
         seed: int | None = None,
         duration_s: float | None = None,
         realtime: float | None = None,
@@ -133,7 +133,7 @@ class Simulation:
         from shipradar.tables.scene import load_scene_tables
 
         self.scenario = scenario
-        self.bus = bus
+        self.bus: MessageSink | None = bus
         self.seed = scenario.seed if seed is None else seed
         self.duration = float(scenario.duration_s if duration_s is None else duration_s)
         self.realtime = realtime
@@ -209,66 +209,53 @@ class Simulation:
     @property
     def batched(self) -> bool:
         """True when :meth:`run` takes the batched fast path (:meth:`_run_batched`): fast
-        mode (no ``realtime``) and nothing live downstream, i.e. no bus, or a
-        :class:`shipradar.sim.stream.bus.Bus` without a publisher (recording only).  A publisher (a
-        live subscriber sees each sector as it is made), the ASTERIX bus, in-process sinks, test
-        doubles and the wall-clock modes keep SimPy's event loop."""
+        mode (no ``realtime``) and nothing live downstream, i.e. no bus, or a bus that accepts
+        a scan's messages at once (:func:`shipradar.sim.stream.sink.takes_batches`: a
+        :class:`shipradar.sim.stream.bus.Bus` without a publisher, recording only).  A
+        publisher (a live subscriber sees each sector as it is made), the ASTERIX bus,
+        in-process sinks, test doubles and the wall-clock modes keep SimPy's event loop."""
         if self.realtime:
             return False
-        bus = self.bus
-        if bus is None:
-            return True
-        from shipradar.sim.stream.bus import Bus
+        return self.bus is None or takes_batches(self.bus)
 
-        return type(bus) is Bus and bus.publisher is None
-
-    def _run_batched(self, bar=None) -> None:
+    def _run_batched(self, bar: Any = None) -> None:
         """Run the radars' processes (:meth:`_RadarProcess.run`, the same code as under
         SimPy) on a plain clock, and hand the recording a scan's messages at once.
 
-        The loop is SimPy's own for these processes: a heap of (time, priority, event id),
-        the processes started in radar order (urgent, at 0), each resumption scheduling the
-        next one at ``now + delay`` with the next id, nothing at or after ``duration +
-        1e-9``; so the radars' messages interleave exactly as under
-        :class:`simpy.Environment` (``tests/test_engine_batched.py``).  The messages go to a
-        :class:`_BatchingBus` that passes them on to the run's bus at each end of scan (the
-        flush the engine does there), in one :meth:`shipradar.sim.stream.bus.Bus.emit_many`.
+        The processes resume in SimPy's own order (:class:`shipradar.sim.engine.order.EventOrder`:
+        started in radar order, each resumption scheduling the next at ``now + delay``,
+        nothing at or after ``duration + 1e-9``); so the radars' messages interleave exactly
+        as under :class:`simpy.Environment` (``tests/test_engine_batched.py``).  The messages
+        go to a :class:`_BatchingBus` that passes them on to the run's bus at each end of
+        scan (the flush the engine does there), in one
+        :meth:`shipradar.sim.stream.bus.Bus.emit_many`.
         """
-        import heapq
-
         real = self.bus
         batch = _BatchingBus(real) if real is not None else None
         clock = _FastClock()
-        heap = [(0.0, 0, eid, r.run(clock)) for eid, r in enumerate(self.radars)]
-        eid = len(heap)
-        until = self.duration + 1e-9
+        procs = [r.run(clock) for r in self.radars]
+        order = EventOrder(len(procs))
         step = max(self.duration / 200.0, 0.5)
         next_bar = step
-        pop, push = heapq.heappop, heapq.heappush
         self.bus = batch
         try:
-            while heap:
-                t, _, _, proc = heap[0]
-                if t >= until:
-                    break
-                pop(heap)
+            for i, t in order.resumptions(self.duration + 1e-9):
                 clock.now = t
                 try:
-                    delay = next(proc)
+                    delay = next(procs[i])
                 except StopIteration:
                     continue
-                push(heap, (t + delay, 1, eid, proc))
-                eid += 1
+                order.schedule(i, t + delay)
                 if bar is not None and t >= next_bar:
                     bar.n = min(round(t), bar.total)
                     bar.refresh()
                     next_bar = t + step
             if batch is not None:
-                real.emit_many(batch.take())
+                batch.hand_on()
         except BaseException:
             if batch is not None and batch.pending:  # what was emitted reaches the bus
                 try:
-                    real.emit_many(batch.take())
+                    batch.hand_on()
                 except Exception:
                     pass
             raise
@@ -338,19 +325,14 @@ class Simulation:
 
     @property
     def encodes_ahead(self) -> bool:
-        """True when the bus is a :class:`shipradar.sim.stream.bus.Bus`, which only moves encoded
-        frames: the
-        sector frames of a revolution are then encoded together when it starts
-        (:func:`shipradar.sim.stream.protocol.encode_slices`, the same bytes).  Other buses (the
-        in-process :class:`CallbackSink`, test doubles) get each payload as a dict, unless they say
-        they take frames (``encodes_ahead`` True: the ASTERIX bus over a ``Bus``, which is
-        also handed each revolution's plots by its ``plots_ahead``)."""
-        bus = self.bus
-        if bus is None:
-            return False
-        from shipradar.sim.stream.bus import Bus
-
-        return type(bus) is Bus or getattr(bus, "encodes_ahead", False) is True
+        """True when the bus takes encoded frames (:func:`shipradar.sim.stream.sink.takes_frames`:
+        a :class:`shipradar.sim.stream.bus.Bus`, the ASTERIX bus over one): the sector frames
+        of a block of revolutions are then encoded together
+        (:meth:`shipradar.sim.stream.framing.Slices.encode`, the same bytes) and the metadata
+        from items packed once.  Other buses (the in-process
+        :class:`shipradar.sim.stream.sink.CallbackSink`, test doubles) get each payload as a
+        dict."""
+        return takes_frames(self.bus)
 
 
 class _FastClock:
@@ -375,22 +357,23 @@ class _BatchingBus:
 
     encodes_ahead = True
 
-    def __init__(self, bus) -> None:
+    def __init__(self, bus: Any) -> None:
         self.bus = bus
-        self.pending: list[tuple[float, list[bytes]]] = []
+        self.pending: list[tuple[float, Sequence[bytes]]] = []
 
-    def emit(self, topic: bytes, t_sim: float, payload: dict) -> None:
+    def emit(self, topic: bytes, t_sim: float, payload: Mapping[str, Any]) -> None:
         self.pending.append((t_sim, protocol.encode(topic, t_sim, payload)))
 
-    def emit_frames(self, t_sim: float, frames) -> None:
+    def emit_frames(self, t_sim: float, frames: Sequence[bytes]) -> None:
         self.pending.append((t_sim, frames))
 
-    def take(self) -> list[tuple[float, list[bytes]]]:
+    def hand_on(self) -> None:
+        """Pass what is pending on to the run's bus, in one ``emit_many``."""
         pending, self.pending = self.pending, []
-        return pending
+        self.bus.emit_many(pending)
 
     def flush(self, fsync: bool = False) -> None:
-        self.bus.emit_many(self.take())
+        self.hand_on()
         self.bus.flush(fsync)
 
 
@@ -412,7 +395,6 @@ class _RadarProcess:
         self.plot_counter = 0
         self._radar_dump = radar.model_dump(mode="json")
         self._scan = _merge_parts([])
-        self._cursor = 0
         self._meta_items: tuple[int, bytes, bytes] | None = None
         #: position in scenario.radars(); env.now at each resumption of run() (the order of
         #: the messages between radars in shipradar.sim.engine.parallel), kept only in a parallel
@@ -426,7 +408,7 @@ class _RadarProcess:
         # revolutions computed ahead (see _compute_block), consumed one per scan
         self._block: list[dict] = []
         self._block_plots: tuple[int, dict, list[int]] | None = None
-        self._block_frames: list[tuple[dict, list[bytes], list[int], list[int]]] | None = None
+        self._block_frames: list[_Revolution] | None = None
         # a block's false alarms are held at once: fewer revolutions when a scan has many
         expected = model.noise_false_alarms_per_scan + self._clutter_fa_meta.get(
             "clutter_false_alarms_per_scan", 0.0)
@@ -501,15 +483,13 @@ class _RadarProcess:
                 self._emit_meta(k * sector_s, scan)
             if not self._block:
                 self._block = self._compute_block(scan)
-                self._block_frames = self._encode_block() if sim.encodes_ahead else None
+                self._block_frames = self._frame_block() if sim.bus is not None else None
             self._scan = self._block.pop(0)
-            self._cursor = 0
             frames = None
             if self._block_frames is not None:
                 frames, bodies, s0, s1 = self._block_frames.pop(0)
-                ahead = getattr(sim.bus, "plots_ahead", None)
-                if ahead is not None:  # the ASTERIX bus: its CAT048 records ahead
-                    ahead(self.radar.id, bodies, self._scan, s0, s1)
+                if bodies and isinstance(sim.bus, PlotsAheadSink):  # ASTERIX: CAT048 ahead
+                    sim.bus.plots_ahead(self.radar.id, bodies, self._scan, s0, s1)
             for sector in range(n):
                 t_a = k * sector_s
                 if t_a >= duration:
@@ -521,12 +501,10 @@ class _RadarProcess:
                 sim.active_radar = self.index
                 if resumes is not None:
                     resumes.append(env.now)
-                if frames is not None:  # the revolution's frames encoded ahead
+                if frames is not None:  # the revolution's messages, framed ahead
                     sent = frames.pop(sector, None)
                     if sent is not None:
-                        self._send_frames(t_b, sent)
-                else:
-                    self._emit_sector(t_a, t_b, scan, last=sector == n - 1)
+                        self._send_sector(t_b, *sent)
                 stats.sectors += 1
                 k += 1
                 if sector == n - 1 or t_b >= duration:
@@ -546,19 +524,16 @@ class _RadarProcess:
                 "clutter_false_alarm_profile": {"range_edges_m": edges, "per_scan": per_scan}}
 
     def _emit_meta(self, t: float, scan: int) -> None:
-        """The sensor metadata of revolution ``scan`` at time ``t``.  To a bus that only
-        moves frames (:class:`shipradar.sim.stream.bus.Bus`, the batched path's) it goes packed from
-        the items packed once (only ``scan`` changes;
-        :func:`shipradar.sim.stream.protocol.encode_items`, the same bytes as encoding the payload);
-        other buses get the payload."""
+        """The sensor metadata of revolution ``scan`` at time ``t``.  To a bus that takes
+        frames (:func:`shipradar.sim.stream.sink.takes_frames`) it goes packed from the items
+        packed once (only ``scan`` changes; :func:`shipradar.sim.stream.protocol.encode_items`,
+        the same bytes as encoding the payload); other buses get the payload."""
         sim = self.sim
         bus = sim.bus
         if bus is None:
             return
-        from shipradar.sim.stream.bus import Bus
-
-        if type(bus) is not Bus and type(bus) is not _BatchingBus:
-            sim.emit(protocol.TOPIC_META, t, self._meta_payload(scan))
+        if not takes_frames(bus):
+            bus.emit(protocol.TOPIC_META, t, self._meta_payload(scan))
             return
         parts = self._meta_items
         if parts is None:
@@ -576,27 +551,26 @@ class _RadarProcess:
 
     def _meta_payload(self, scan: int) -> dict:
         r = self.radar
-        payload = {
-            "sensor": r.id,
-            "platform": self.platform.id,
-            "scan": scan,
-            "radar": self._radar_dump,
-            "scan_period_s": r.scan_period_s,
-            "sectors_per_scan": self.n_sectors,
-            "pfa": self.model.pfa,
-            "noise_false_alarms_per_scan": self.model.noise_false_alarms_per_scan,
+        return META.message(
+            sensor=r.id,
+            platform=self.platform.id,
+            scan=scan,
+            radar=self._radar_dump,
+            scan_period_s=r.scan_period_s,
+            sectors_per_scan=self.n_sectors,
+            pfa=self.model.pfa,
+            noise_false_alarms_per_scan=self.model.noise_false_alarms_per_scan,
             **self._clutter_fa_meta,
-            "target_ids": self.target_ids,
-            "origin_codes": list(ORIGIN_NAMES),
-            "interference_codes": list(self.model.INTERFERENCE_NAMES),
-            "origin": self.sim.scenario.origin.model_dump(),
-            "start_time": self.sim.scenario.start_time.isoformat(),
+            target_ids=self.target_ids,
+            origin_codes=list(ORIGIN_NAMES),
+            interference_codes=list(self.model.INTERFERENCE_NAMES),
+            origin=self.sim.scenario.origin.model_dump(),
+            start_time=self.sim.scenario.start_time.isoformat(),
             # for ASTERIX output (sim/adapters/asterix): the data source and the noise floor that
             # turns a plot's S/I into an amplitude (I048/130 PAM)
-            "sac_sic": list(self.sim.scenario.asterix_sources()[r.id]),
-            "noise_power_dbm": 10.0 * math.log10(self.model.n0 * 1e3),
-        }
-        return payload
+            sac_sic=list(self.sim.scenario.asterix_sources()[r.id]),
+            noise_power_dbm=10.0 * math.log10(self.model.n0 * 1e3),
+        )
 
     def _plan_scans(self, t_scans: list[float]) -> list[np.ndarray]:
         """The targets the beam may meet in each revolution starting at ``t_scans``.
@@ -755,25 +729,26 @@ class _RadarProcess:
         return [_slice_plots(merged, a, b) for a, b in zip(edges[:-1], edges[1:], strict=True)]
 
     def _sector_cuts(self, scan: int, times: np.ndarray) -> np.ndarray:
-        """Index in revolution ``scan``'s plot ``times`` where each sector's plots end (the
-        sector frames of :meth:`_emit_sector`: times before the sector's end, everything
-        left in the last)."""
+        """Index in revolution ``scan``'s plot ``times`` where each sector's plots end: times
+        before the sector's end (:meth:`sector_end`), everything left in the last."""
         ends = self.sector_end(scan * self.n_sectors + np.arange(self.n_sectors - 1))
         cuts = np.empty(self.n_sectors, dtype=np.int64)
         cuts[:-1] = np.searchsorted(times, ends, side="left")
         cuts[-1] = times.size
         return cuts
 
-    def _encode_block(self) -> list[tuple[dict, list[bytes], list[int], list[int]]]:
-        """The plot and truth bodies of every non-empty sector of the revolutions
-        :meth:`_compute_block` computed last, encoded at once (byte for byte what
-        :meth:`_emit_sector` would encode); per revolution, its frames by sector
-        ``{sector: (rows, plots body, truth body)}`` and the plot bodies with their slices
-        of the revolution's plots (for the ASTERIX bus's ``plots_ahead``).
+    def _frame_block(self) -> list[_Revolution]:
+        """The ``plots`` and ``truth`` messages of every non-empty sector of the revolutions
+        :meth:`_compute_block` computed last (:func:`shipradar.sim.stream.framing.sector_columns`):
+        for a bus that takes frames, their bodies encoded at once; for another, their
+        payloads.  Per revolution, its messages by sector ``{sector: (rows, plots, truth)}``
+        and (frames only) the plot bodies with their slices of the revolution's plots (for
+        the ASTERIX bus's ``plots_ahead``).
 
-        Sectors the run does not reach (its end inside a revolution) are encoded but never
+        Sectors the run does not reach (its end inside a revolution) are framed but never
         sent.  Plot ids run on through the block: its plots are sent in their order.
         """
+        assert self._block_plots is not None
         scan0, merged, edges = self._block_plots
         n = self.n_sectors
         starts, cuts = [], []
@@ -782,84 +757,45 @@ class _RadarProcess:
             c = a + self._sector_cuts(scan0 + r, merged["time_s"][a:b])
             cuts.append(c)
             starts.append(np.concatenate(([a], c[:-1])))
-        cuts, starts = np.concatenate(cuts), np.concatenate(starts)
-        msg = np.flatnonzero(cuts > starts)  # non-empty sectors, sector k of the block
+        i1, i0 = np.concatenate(cuts), np.concatenate(starts)
+        msg = np.flatnonzero(i1 > i0)  # non-empty sectors, sector k of the block
         rev, sectors = np.divmod(msg, n)
-        i0, i1 = starts[msg], cuts[msg]
-        times = self.sector_end((scan0 + rev) * n + sectors)
+        i0, i1 = i0[msg], i1[msg]
         total = int(edges[-1])
         plot_id = np.arange(self.plot_counter, self.plot_counter + total, dtype=np.int64)
-        sid = self.radar.id
         scans = range(scan0, scan0 + len(edges) - 1)
-        cols = {"plot_id": (plot_id, i0, i1)}
-        cols.update({c: (merged[c], i0, i1) for c in PLOT_COLUMNS})
-        plots = protocol.encode_slices(protocol.TOPIC_PLOTS, times,
-                                       [{"sensor": sid, "scan": k} for k in scans], cols, rev)
-        # each sector's contributor offsets start at 0: one array of every sector's rebased
-        # offsets (n + 1 per sector), sliced per sector
-        off = merged["contrib_offsets"]
-        length = i1 - i0 + 1
-        first = np.cumsum(length) - length
-        idx = np.repeat(i0 - first, length) + np.arange(int(length.sum()))
-        rebased = (off[idx] - np.repeat(off[i0], length)).astype(np.int64, copy=False)
-        truth = protocol.encode_slices(
-            protocol.TOPIC_TRUTH, times,
-            [{"sensor": sid, "scan": k, "kind": "plots"} for k in scans], {
-                "plot_id": (plot_id, i0, i1),
-                "origin": (merged["origin"], i0, i1),
-                "target": (merged["target"], i0, i1),
-                "contrib_offsets": (rebased, first, first + length),
-                "contrib_targets": (merged["contrib_targets"], off[i0], off[i1]),
-            }, rev)
-        out = [({}, [], [], []) for _ in scans]
+        plots, truth = sector_columns(self.radar.id, scans, merged, plot_id, i0, i1, rev)
+        encoded = self.sim.encodes_ahead
+        if encoded:
+            times = self.sector_end((scan0 + rev) * n + sectors)
+            p_msgs: Sequence[bytes | dict] = plots.encode(times)
+            t_msgs: Sequence[bytes | dict] = truth.encode(times)
+        else:
+            p_msgs = [plots.message(j) for j in range(len(plots))]
+            t_msgs = [truth.message(j) for j in range(len(truth))]
+        out: list[_Revolution] = [({}, [], [], []) for _ in scans]
         for r, sector, a, b, p, q in zip(rev.tolist(), sectors.tolist(), i0.tolist(),
-                                          i1.tolist(), plots, truth, strict=True):
+                                          i1.tolist(), p_msgs, t_msgs, strict=True):
             frames, bodies, s0, s1 = out[r]
             frames[sector] = (b - a, p, q)
-            bodies.append(p)
-            s0.append(a - edges[r])
-            s1.append(b - edges[r])
+            if encoded:
+                bodies.append(p)
+                s0.append(a - edges[r])
+                s1.append(b - edges[r])
         return out
 
-    def _send_frames(self, t_b: float, frames: tuple[int, bytes, bytes]) -> None:
-        """Publish a sector's plot and truth bodies encoded ahead (:meth:`_encode_block`)."""
-        rows, plots, truth = frames
-        self._cursor += rows
+    def _send_sector(self, t_b: float, rows: int, plots: bytes | dict, truth: bytes | dict
+                     ) -> None:
+        """Publish a sector's ``plots`` and ``truth`` messages framed ahead
+        (:meth:`_frame_block`): their bodies, or their payloads."""
         self.plot_counter += rows
-        emit = self.sim.bus.emit_frames
-        emit(t_b, [protocol.TOPIC_PLOTS, plots])
-        emit(t_b, [protocol.TOPIC_TRUTH, truth])
-
-    def _emit_sector(self, t_a: float, t_b: float, scan: int, last: bool) -> None:
-        """Publish the plots (and their truth) whose times fall in the sector [t_a, t_b)
-        of revolution ``scan`` (``last``: its last sector, which takes every plot left)."""
-        scan_plots = self._scan
-        times = scan_plots["time_s"]
-        i0 = self._cursor
-        i1 = times.size if last else int(np.searchsorted(times, t_b, side="left"))
-        self._cursor = i1
-        if i1 <= i0:
-            return
-        n = i1 - i0
-        plot_id = np.arange(self.plot_counter, self.plot_counter + n, dtype=np.int64)
-        self.plot_counter += n
-        if self.sim.bus is None:
-            return
-        payload = {"sensor": self.radar.id, "scan": scan, "plot_id": plot_id}
-        payload.update({c: scan_plots[c][i0:i1] for c in PLOT_COLUMNS})
-        self.sim.emit(protocol.TOPIC_PLOTS, t_b, payload)
-        off = scan_plots["contrib_offsets"]
-        truth = {
-            "sensor": self.radar.id,
-            "scan": scan,
-            "kind": "plots",
-            "plot_id": plot_id,
-            "origin": scan_plots["origin"][i0:i1],
-            "target": scan_plots["target"][i0:i1],
-            "contrib_offsets": (off[i0:i1 + 1] - off[i0]).astype(np.int64, copy=False),
-            "contrib_targets": scan_plots["contrib_targets"][off[i0]:off[i1]],
-        }
-        self.sim.emit(protocol.TOPIC_TRUTH, t_b, truth)
+        bus = self.sim.bus
+        if isinstance(plots, bytes) and isinstance(truth, bytes):
+            bus.emit_frames(t_b, [protocol.TOPIC_PLOTS, plots])
+            bus.emit_frames(t_b, [protocol.TOPIC_TRUTH, truth])
+        else:
+            bus.emit(protocol.TOPIC_PLOTS, t_b, plots)
+            bus.emit(protocol.TOPIC_TRUTH, t_b, truth)
 
     def _scan_end_states(self, scan0: int, count: int) -> None:
         """Platform and target states at the ends of revolutions ``scan0`` to ``scan0 +
@@ -889,32 +825,31 @@ class _RadarProcess:
         speed = float(np.hypot(vel[0], vel[1]))
         heading = (math.degrees(math.atan2(vel[0], vel[1])) % 360.0 if speed > 0
                    else self.platform.heading_deg)
-        eos = {
-            "sensor": self.radar.id,
-            "scan": scan,
-            "time_s": t,
-            "position": {
+        eos = EOS.message(
+            sensor=self.radar.id,
+            scan=scan,
+            time_s=t,
+            position={
                 "lat_deg": lat, "lon_deg": lon,
                 "alt_m": float(pos[2] + self.radar.antenna_height_m),
                 "east_m": float(pos[0]), "north_m": float(pos[1]),
                 "up_m": float(pos[2] + self.radar.antenna_height_m),
             },
-            "velocity_enu_mps": [float(v) for v in vel],
-            "heading_deg": heading,
-        }
+            velocity_enu_mps=[float(v) for v in vel],
+            heading_deg=heading,
+        )
         sim.emit(protocol.TOPIC_EOS, t, eos)
         if target is not None:
             tpos, tvel, tacc, active = target
-            sim.emit(protocol.TOPIC_TRUTH, t, {
-                "sensor": self.radar.id,
-                "scan": scan,
-                "kind": "targets",
-                "time_s": t,
-                "east_m": tpos[:, 0], "north_m": tpos[:, 1], "up_m": tpos[:, 2],
-                "v_east_mps": tvel[:, 0], "v_north_mps": tvel[:, 1], "v_up_mps": tvel[:, 2],
-                "a_east_mps2": tacc[:, 0], "a_north_mps2": tacc[:, 1], "a_up_mps2": tacc[:, 2],
-                "active": active,
-            })
+            sim.emit(protocol.TOPIC_TRUTH, t, TRUTH_TARGETS.message(
+                sensor=self.radar.id,
+                scan=scan,
+                time_s=t,
+                east_m=tpos[:, 0], north_m=tpos[:, 1], up_m=tpos[:, 2],
+                v_east_mps=tvel[:, 0], v_north_mps=tvel[:, 1], v_up_mps=tvel[:, 2],
+                a_east_mps2=tacc[:, 0], a_north_mps2=tacc[:, 1], a_up_mps2=tacc[:, 2],
+                active=active,
+            ))
         if sim.bus is not None:
             sim.bus.flush()
 
@@ -927,9 +862,18 @@ _BLOCK_S = 64.0
 #: one, when a scan has many: ≈ 200 bytes each while the block is computed).
 _BLOCK_PLOTS = 250_000
 
-#: Plot-topic columns, in the order they are published.
-PLOT_COLUMNS = ("time_s", "range_m", "azimuth_rad", "snr_db", "sigma_range_m",
-                "sigma_azimuth_rad", "interference", "range_rate_mps", "sigma_range_rate_mps")
+#: One revolution's messages framed ahead (:meth:`_RadarProcess._frame_block`): by sector,
+#: ``(rows, plots, truth)`` (bodies or payloads); the plot bodies and, for each, its first and
+#: last row + 1 in the revolution's plots (empty for payloads).
+_Revolution = tuple[dict[int, tuple[int, Any, Any]], list[bytes], list[int], list[int]]
+
+
+# every per-plot column the engine carries, with its dtype; a batch without ``target`` (false
+# alarms) has -1
+_PLOT_DTYPES = {c: a.dtype for c, a in empty_plots().items()
+                if c in PLOT_COLUMNS or c in PLOT_TRUTH_COLUMNS}
+_ABSENT = {"target": -1}
+_CONTRIB_DTYPES = (TRUTH_PLOTS["contrib_offsets"].dtype, TRUTH_PLOTS["contrib_targets"].dtype)
 
 
 def _merge_parts(parts: list[dict]) -> dict:
@@ -938,16 +882,12 @@ def _merge_parts(parts: list[dict]) -> dict:
     plot, kept in the result); ties keep the batches' order.
 
     Each batch may carry the targets merged into each plot as ``contrib_offsets`` (one more
-    than its plots) and ``contrib_targets``; batches without them have no contributors.
+    than its plots) and ``contrib_targets``; batches without them have no contributors, nor a
+    ``target`` (-1).  The columns and their dtypes are the schema's
+    (:mod:`shipradar.sim.stream.schema`); no batch gives an empty block of plots.
     """
     if not parts:
-        out = {c: np.zeros(0) for c in PLOT_COLUMNS}
-        out["interference"] = np.zeros(0, dtype=np.uint8)
-        out.update(origin=np.zeros(0, dtype=np.uint8), target=np.zeros(0, dtype=np.int32),
-                   contrib_offsets=np.zeros(1, dtype=np.int64),
-                   contrib_targets=np.zeros(0, dtype=np.int32),
-                   revolution=np.zeros(0, dtype=np.int64))
-        return out
+        parts = [{**empty_plots(), "revolution": np.zeros(0, dtype=np.int64)}]
     sizes = [p["range_m"].size for p in parts]
     first = np.cumsum([0, *sizes])
     time_s = np.concatenate([p["time_s"] for p in parts])
@@ -959,11 +899,10 @@ def _merge_parts(parts: list[dict]) -> dict:
         # a plot a hair before its revolution's start (a target crossing the start
         # azimuth) sorts before the previous revolution's last plots: by revolution first
         order = np.lexsort((time_s, rev))
-    out = {c: np.concatenate([p[c] for p in parts])[order] for c in PLOT_COLUMNS}
+    out = {c: np.concatenate([p[c] if c in p else np.full(p["range_m"].size, _ABSENT[c], dtype)
+                              for p in parts])[order].astype(dtype, copy=False)
+           for c, dtype in _PLOT_DTYPES.items()}
     out["revolution"] = rev[order]
-    out["origin"] = np.concatenate([p["origin"] for p in parts])[order]
-    out["target"] = np.concatenate([p.get("target", np.full(p["range_m"].size, -1, np.int32))
-                                    for p in parts])[order].astype(np.int32)
     # contributors: only some batches have them (the targets'); the others count none
     counts = np.zeros(time_s.size, dtype=np.int64)
     starts = np.zeros(time_s.size, dtype=np.int64)
@@ -977,14 +916,14 @@ def _merge_parts(parts: list[dict]) -> dict:
         pool.append(p["contrib_targets"])
         base += p["contrib_targets"].size
     c_sorted = counts[order]
-    new_off = np.concatenate([[0], np.cumsum(c_sorted)]).astype(np.int64)
+    new_off = np.concatenate([[0], np.cumsum(c_sorted)]).astype(_CONTRIB_DTYPES[0])
     if base:
         s_sorted = starts[order]
         gather = np.repeat(s_sorted, c_sorted) + (np.arange(new_off[-1])
                                                   - np.repeat(new_off[:-1], c_sorted))
-        contrib = np.concatenate(pool)[gather].astype(np.int32)
+        contrib = np.concatenate(pool)[gather].astype(_CONTRIB_DTYPES[1])
     else:
-        contrib = np.zeros(0, dtype=np.int32)
+        contrib = np.zeros(0, dtype=_CONTRIB_DTYPES[1])
     out.update(contrib_offsets=new_off, contrib_targets=contrib)
     return out
 
@@ -992,7 +931,7 @@ def _merge_parts(parts: list[dict]) -> dict:
 def _slice_plots(part: dict, i0: int, i1: int) -> dict:
     """Plots ``i0:i1`` of a batch, with their contributors."""
     off = part["contrib_offsets"]
-    out = {c: part[c][i0:i1] for c in (*PLOT_COLUMNS, "origin", "target")}
+    out = {c: part[c][i0:i1] for c in (*PLOT_COLUMNS, *PLOT_TRUTH_COLUMNS)}
     out["contrib_offsets"] = off[i0:i1 + 1] - off[i0]
     out["contrib_targets"] = part["contrib_targets"][off[i0]:off[i1]]
     return out

@@ -458,6 +458,10 @@ class Bus:
         recording holds every message of the run, including any dropped on the live stream.
     """
 
+    #: The engine hands this bus encoded frames (:class:`shipradar.sim.stream.sink.FrameSink`):
+    #: it only moves bytes.
+    encodes_ahead = True
+
     def __init__(self, publisher: Publisher | None = None, recorder: Recorder | None = None):
         self.publisher = publisher
         self.recorder = recorder
@@ -467,6 +471,13 @@ class Bus:
         self.stop_requested = False
         #: Simulated time of the last message [s] (None before the first).
         self.t_last: float | None = None
+
+    @property
+    def accepts_batches(self) -> bool:
+        """True without a publisher (:class:`shipradar.sim.stream.sink.BatchSink`): nothing
+        live sees the messages as they are made, so a fast run may hand over a scan's
+        messages at once (:meth:`emit_many`)."""
+        return self.publisher is None
 
     def emit(self, topic: bytes, t_sim: float, payload: Mapping[str, Any]) -> list[bytes]:
         """Encode one message and send it to the recorder and the publisher.
