@@ -274,6 +274,30 @@ def _phi_h(zeta: np.ndarray) -> np.ndarray:
     return np.where(zeta < 0, unstable, stable)
 
 
+def surface_duct_height(heights_m: ArrayLike, m_units: ArrayLike) -> float:
+    """Top [m] of a surface-based duct of a piecewise-linear M-profile, 0 if it has none.
+
+    A layer traps down to the surface when the profile's minimum M is not above M(0); the
+    duct then reaches from the sea to the height of that minimum (its trapping layer's top).
+    An elevated duct (minimum above M(0)) and a profile whose minimum is at the surface give 0.
+
+    Parameters
+    ----------
+    heights_m : array_like
+        Heights of the profile's nodes [m], ascending from the surface.
+    m_units : array_like
+        Modified refractivity M at those heights [M units].
+
+    Returns
+    -------
+    float
+        Height of the duct's top [m], or 0.
+    """
+    m = np.asarray(m_units, dtype=float)
+    i = int(np.argmin(m))
+    return float(np.asarray(heights_m, dtype=float)[i]) if i > 0 and m[i] <= m[0] else 0.0
+
+
 def evaporation_duct_height(
     air_temperature_c: ArrayLike,
     sea_temperature_c: ArrayLike,

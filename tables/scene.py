@@ -352,6 +352,8 @@ def _duct_height(scenario: Scenario) -> float:
     duct, seen by the clutter like an evaporation duct of that height), else 0 (an elevated
     duct leaves the sea-clutter horizon alone; the PE table still carries its effect on F).
     """
+    from shipradar.sensors.propagation import evaporation_duct_height, surface_duct_height
+
     duct = scenario.environment.duct
     if duct is None:
         return 0.0
@@ -359,23 +361,10 @@ def _duct_height(scenario: Scenario) -> float:
         return duct.height_m
     if duct.type == "profile":
         return surface_duct_height(duct.heights_m, duct.m_units)
-    from shipradar.sensors.propagation import evaporation_duct_height
-
     env = scenario.environment
     return float(evaporation_duct_height(
         duct.air_temperature_c, duct.sea_temperature_c, duct.relative_humidity,
         env.wind_speed_mps, duct.pressure_hpa))
-
-
-def surface_duct_height(heights_m, m_units) -> float:
-    """Top [m] of a surface-based duct of a piecewise-linear M-profile, 0 if it has none.
-
-    A layer traps down to the surface when the profile's minimum M is not above M(0); the
-    duct then reaches from the sea to the height of that minimum (its trapping layer's top).
-    """
-    m = np.asarray(m_units, dtype=float)
-    i = int(np.argmin(m))
-    return float(heights_m[i]) if i > 0 and m[i] <= m[0] else 0.0
 
 
 @provider

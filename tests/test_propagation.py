@@ -253,3 +253,12 @@ def test_two_ray_is_finite_and_bounded(d, h1, h2, pol, wave):
     f = float(p.two_ray_factor(d, h1, h2, 5e9, pol, wave_height_m=wave))
     assert np.isfinite(f)
     assert 0.0 <= f <= 2.0 + 1e-9  # |g_d + rho D Gamma g_r| with |.| <= 1 each
+
+
+def test_surface_duct_height_of_a_profile():
+    """A trapping layer reaching down to the sea is a surface duct up to its minimum; an
+    elevated duct or a monotone profile has none."""
+    assert p.surface_duct_height([0.0, 150.0, 300.0], [330.0, 320.0, 350.0]) == 150.0
+    assert p.surface_duct_height([0.0, 100.0, 150.0, 300.0], [330.0, 331.0, 329.0, 350.0]) == 150.0
+    assert p.surface_duct_height([0.0, 200.0, 300.0], [330.0, 350.0, 340.0]) == 0.0
+    assert p.surface_duct_height([0.0, 1000.0], [330.0, 448.0]) == 0.0
