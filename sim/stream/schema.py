@@ -348,8 +348,8 @@ _TABLE_HEAD = "| key | type | unit | meaning |\n|---|---|---|---|\n"
 
 def markdown_table(payload: Payload) -> str:
     """The payload's table in docs/protocol.md: one row per key (key, type, unit, meaning)."""
-    rows = [f"| `{f.key}` | {f.type} | {f.unit} | {f.meaning}"
-            f"{'' if f.required else ' (optional)'} |" for f in payload.fields]
+    rows = [f"| `{f.key}` | {f.type} |{f' {f.unit} ' if f.unit else ' '}| {f.meaning} |"
+            for f in payload.fields]
     return _TABLE_HEAD + "\n".join(rows) + "\n"
 
 
