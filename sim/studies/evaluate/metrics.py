@@ -51,8 +51,8 @@ import numpy as np
 from shipradar.sensors.propagation import horizon_range
 from shipradar.sim.studies.evaluate.data import RunData, TracksMessage
 
-__all__ = ["MetricConfig", "RunScores", "detectable", "score_run", "siap", "gospa_metric",
-           "tracks_at", "EPOCH"]
+__all__ = ["DEFAULT_METRICS", "EPOCH", "MetricConfig", "RunScores", "detectable",
+           "gospa_metric", "score_run", "siap", "tracks_at"]
 
 #: Timestamps handed to Stone Soup: simulated t [s] after this (any fixed epoch would do).
 EPOCH = dt.datetime(2000, 1, 1)
@@ -96,6 +96,10 @@ class MetricConfig:
 
     def as_dict(self) -> dict[str, Any]:
         return dict(asdict(self), alpha=2)
+
+
+#: The documented defaults.
+DEFAULT_METRICS = MetricConfig()
 
 
 def detectable(pos_m: np.ndarray, active: np.ndarray, antennas: list[tuple[np.ndarray, float]]
@@ -249,12 +253,14 @@ def siap(tracks: dict[str, list[tuple[float, np.ndarray]]],
 
 @dataclass
 class RunScores:
-    """Scores of one run: ``per_scan``, ``per_target`` (lists of row dicts) and ``run``
-    (one dict), every row carrying the run's ``seed``."""
+    """Scores of one run: ``per_scan``, ``per_target`` (lists of row dicts), ``run`` (one
+    dict) and ``holding`` (per scan and counted target: the track that held it, or None),
+    every row carrying the run's ``seed``."""
 
     per_scan: list[dict[str, Any]]
     per_target: list[dict[str, Any]]
     run: dict[str, Any]
+    holding: list[dict[str, Any]]
 
 
 def _max_age(data: RunData, config: MetricConfig) -> float:
@@ -288,7 +294,7 @@ def _merged_inputs(data: RunData) -> tuple[np.ndarray, np.ndarray]:
     return t[order], s[order]
 
 
-def score_run(data: RunData, config: MetricConfig = MetricConfig()) -> RunScores:
+def score_run(data: RunData, config: MetricConfig = DEFAULT_METRICS) -> RunScores:
     """Score one run (see the module docstring for every definition).
 
     Parameters
@@ -381,7 +387,11 @@ def score_run(data: RunData, config: MetricConfig = MetricConfig()) -> RunScores
         "malformed_messages": int(sum(data.malformed.values())),
         "malformed_by_reason": dict(sorted(data.malformed.items())),
     }
-    return RunScores(per_scan, per_target, run)
+    holding = [{"seed": seed, "scan": i, "t_s": float(data.scan_t[i]), "target": name,
+                "track_id": held[i][j]}
+               for i in range(len(held)) for j, name in enumerate(data.target_ids)
+               if counted_all[i][j]]
+    return RunScores(per_scan, per_target, run, holding)
 
 
 def _per_target(data: RunData, held, counted_all, err_sum, ref_range, seed):

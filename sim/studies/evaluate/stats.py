@@ -1,0 +1,114 @@
+"""Means over runs with 95 % intervals, and paired differences between two trackers.
+
+Runs are independent replications (one seed each), so a figure's mean over runs has the
+Student-t interval ``mean ± t_{0.975, n-1} s / sqrt(n)``; a comparison pairs runs by seed
+(the same plots went to both trackers) and takes the same interval on the per-seed
+differences, which removes the scene-to-scene variation the two share. A figure undefined in
+a run (NaN: no target was ever tracked, no latency measured) is left out of that figure's
+runs, and ``n`` says how many were used.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+from typing import Any
+
+import numpy as np
+from scipy import stats as _st
+
+__all__ = ["CONFIDENCE", "RUN_METRICS", "TARGET_METRICS", "SCAN_METRICS", "by_key",
+           "mean_interval", "paired_differences", "summarise"]
+
+#: Confidence of every interval.
+CONFIDENCE = 0.95
+
+#: Per-run figures summarised over runs, in the report's order.
+RUN_METRICS: tuple[str, ...] = (
+    "gospa", "localisation", "missed", "false",
+    "siap_completeness", "siap_ambiguity", "siap_spuriousness", "siap_position_accuracy_m",
+    "siap_velocity_accuracy_mps", "siap_track_number_change_rate", "siap_longest_segment",
+    "false_tracks_per_hour", "track_breaks", "identity_swaps",
+    "latency_median_s", "latency_p95_s", "malformed_messages")
+#: Per-target figures summarised over runs, per target.
+TARGET_METRICS: tuple[str, ...] = (
+    "held_fraction", "first_track_delay_s", "first_track_range_m", "track_breaks",
+    "identity_swaps", "mean_error_m")
+#: Per-scan figures summarised over runs, per scan.
+SCAN_METRICS: tuple[str, ...] = ("gospa", "localisation", "missed", "false", "truths",
+                                 "tracks", "completeness")
+
+
+def mean_interval(values: Iterable[float], confidence: float = CONFIDENCE
+                  ) -> tuple[float, float, float, int]:
+    """Mean and its two-sided Student-t interval over the finite values.
+
+    Returns
+    -------
+    (mean, low, high, n)
+        NaN for an empty set; the interval is the mean itself for one value or no spread.
+    """
+    x = np.asarray([v for v in values if v is not None], dtype=float)
+    x = x[np.isfinite(x)]
+    n = int(x.size)
+    if n == 0:
+        return math.nan, math.nan, math.nan, 0
+    m = float(x.mean())
+    if n == 1:
+        return m, math.nan, math.nan, 1
+    half = float(_st.t.ppf(0.5 + confidence / 2, n - 1) * x.std(ddof=1) / math.sqrt(n))
+    return m, m - half, m + half, n
+
+
+def summarise(rows: Sequence[dict[str, Any]], metrics: Sequence[str] = RUN_METRICS
+              ) -> list[dict[str, Any]]:
+    """One row per metric: ``metric``, ``mean``, ``low``, ``high``, ``runs``."""
+    out = []
+    for k in metrics:
+        m, lo, hi, n = mean_interval(r.get(k) for r in rows)
+        out.append({"metric": k, "mean": m, "low": lo, "high": hi, "runs": n})
+    return out
+
+
+def by_key(rows: Sequence[dict[str, Any]], key: str, metrics: Sequence[str]
+           ) -> list[dict[str, Any]]:
+    """Per value of ``key`` (a scan, a target): each metric's mean and interval over runs."""
+    groups: dict[Any, list[dict[str, Any]]] = {}
+    for r in rows:
+        groups.setdefault(r[key], []).append(r)
+    out = []
+    for k in sorted(groups, key=lambda v: (str(type(v)), v)):
+        row: dict[str, Any] = {key: k, "runs": len(groups[k])}
+        for m in metrics:
+            mean, lo, hi, _ = mean_interval(g.get(m) for g in groups[k])
+            row[m], row[f"{m}_low"], row[f"{m}_high"] = mean, lo, hi
+        if key == "scan":
+            row["t_s"] = groups[k][0].get("t_s")
+        out.append(row)
+    return out
+
+
+def paired_differences(a: Sequence[dict[str, Any]], b: Sequence[dict[str, Any]],
+                       metrics: Sequence[str] = RUN_METRICS) -> list[dict[str, Any]]:
+    """B − A per metric on the seeds both scored: mean difference and its interval.
+
+    Returns
+    -------
+    list of dict
+        ``metric``, ``a``, ``b`` (means over the common seeds), ``difference``, ``low``,
+        ``high``, ``runs`` (pairs used).
+    """
+    ra = {r["seed"]: r for r in a}
+    rb = {r["seed"]: r for r in b}
+    common = sorted(set(ra) & set(rb))
+    out = []
+    for k in metrics:
+        pairs = [(ra[s].get(k), rb[s].get(k)) for s in common]
+        pairs = [(x, y) for x, y in pairs if x is not None and y is not None
+                 and math.isfinite(x) and math.isfinite(y)]
+        d, lo, hi, n = mean_interval(y - x for x, y in pairs)
+        out.append({"metric": k,
+                    "a": float(np.mean([x for x, _ in pairs])) if pairs else math.nan,
+                    "b": float(np.mean([y for _, y in pairs])) if pairs else math.nan,
+                    "difference": d, "low": lo, "high": hi, "runs": n})
+    return out
