@@ -3,7 +3,10 @@
 One :class:`DwellModel` per radar and scene.  Everything that does not change during a run is
 computed once in its constructor (radar constant, system noise, P_fa, pulses per beam, the
 false-alarm rate, pattern and RCS parameters, the scene's tables); :meth:`process_targets`
-is then vectorized over all the targets the beam crosses in one sector:
+is then vectorized over all the targets the beam crosses in one sector, a chain of named steps
+(:mod:`shipradar.sim.dwell.look`: geometry, propagation, target power, clutter, jamming,
+processing, S/I, N_e, P_d, measurement) whose intermediate results reach the observers of
+``DwellModel.on_look`` as one :class:`shipradar.sim.dwell.look.LookResults` per call:
 
 1. cross section σ ([15], a table against aspect, or a constant);
 2. propagation factor F (the PE table [5]-[7], the two-ray fallback, or free space — each
@@ -31,6 +34,7 @@ from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -51,6 +55,15 @@ from shipradar.sensors.radar import (
     false_alarm_probability,
     pulses_per_beamwidth,
     radar_constants,
+)
+from shipradar.sim.dwell.look import (
+    Contacts,
+    Decision,
+    Look,
+    LookObserver,
+    LookResults,
+    Propagation,
+    TargetPower,
 )
 from shipradar.sim.world.scenario import Platform, Radar, Scenario
 from shipradar.tables.store import StackedLookup2D
@@ -99,12 +112,16 @@ class DwellModel:
         fid = scenario.fidelity
         env = scenario.environment
         self.method = fid.pd_method
-        # Opt-in common random numbers (shipradar.sim.studies.fidelity; None in a normal run, whose
-        # stream is unchanged): ``look_uniforms(target_rows, t_s) -> u`` replaces the detection draw
-        # by one uniform per look derived from the look itself, and ``look_probe(**cols)``
-        # receives every look's P_d, so two fidelity settings see the same dice per look.
-        self.look_uniforms = None
-        self.look_probe = None
+        #: Observers of every look (:class:`shipradar.sim.dwell.look.LookObserver`): each call
+        #: of :meth:`process_targets` hands each of them one
+        #: :class:`~shipradar.sim.dwell.look.LookResults` after the detection draw (empty in a
+        #: normal run, which then never builds it).
+        self.on_look: list[LookObserver] = []
+        #: Opt-in common random numbers (:func:`shipradar.sim.studies.fidelity.look_uniforms`;
+        #: None in a normal run, whose stream is then unchanged): ``look_uniforms(target_rows,
+        #: t_s) -> u`` replaces the detection draw by one uniform per look derived from the
+        #: look itself, so two fidelity settings see the same dice per look.
+        self.look_uniforms: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None
         self.k = k = radar_constants(scenario, radar)
         self.wavelength, self.gain, self.k_r0 = k.wavelength, k.gain, k.k_r0
         self.l_x, self.l_c, self.l_r = k.l_x, k.l_c, k.l_r
@@ -169,7 +186,7 @@ class DwellModel:
         self.rcs_const = np.zeros(n)
         self.rcs_missile = np.zeros((n, 3))
         self.swerling = np.zeros(n, dtype=np.int8)
-        tables = []
+        tables: list[np.ndarray] = []
         self.rcs_table_row = np.full(n, -1)
         grid = np.arange(0.0, 180.0 + 0.5 * _RCS_TABLE_STEP_DEG, _RCS_TABLE_STEP_DEG)
         for i, t in enumerate(scenario.targets):
@@ -572,11 +589,14 @@ class DwellModel:
         inside the rain region"). Without a region every cell is in the rain and the map's
         own trip sum is read instead.
         """
-        region = self.scenario.environment.rain.region
+        rain = self.scenario.environment.rain
+        region = None if rain is None else rain.region
+        reader = self._wx_trip_reader
+        if region is None or reader is None:
+            raise RuntimeError("the folded rain power is read only with a rain region")
         az = geom.azimuth
         east0, north0 = antenna_en[:, 0], antenna_en[:, 1]
         sin_az, cos_az = np.sin(az), np.cos(az)
-        reader = self._wx_trip_reader
 
         def one_trip(x):
             inside = np.hypot(east0 + x * sin_az - region.east_m,
@@ -630,48 +650,127 @@ class DwellModel:
         With a Doppler bank each plot carries ``range_rate_mps``, the centre of the filter
         its strongest target is detected in, folded by the PRF
         (:meth:`range_rate_from_filter`), and ``sigma_range_rate_mps``; both NaN otherwise.
+
+        The look runs as a chain of named steps (:mod:`shipradar.sim.dwell.look`), each a
+        method a subclass may replace; after the detection draw every callback of
+        :attr:`on_look` receives the look's :class:`~shipradar.sim.dwell.look.LookResults`.
         """
-        sigma = self.cross_section(rows, geom.los_enu, geom.velocity_enu)
-        f, fallbacks = self.propagation_factor(geom.ground_range, tpos[:, 2], geom.elevation)
+        look = self.look_geometry(geom, rows, t, tpos, antenna_en=antenna_en, batch=batch,
+                                  platform_vel=platform_vel)
+        prop = self.look_propagation(look)
+        power = self.target_power(look, prop)
+        clutter = self.clutter_at(geom, tpos, look.antenna_en, platform_vel)
+        jam_w = self.look_jamming(look, jam_geom, jam_power_w)
+        contacts = self.processing(look, power, clutter)
+        lead = contacts.lead
+        clutter_w = np.zeros(look.size) if clutter is None else clutter["power_w"]
+        si, code = self.signal_to_interference(
+            contacts.power_w, clutter_w[lead], jam_w[lead], contacts.improvement,
+            contacts.distribution_loss, contacts.coherent_gain)
+        n_e = self.effective_pulses(clutter, lead, code)
+        si_db = db(si)
+        pd = self.detection_probability(si_db, n_e, self.swerling[rows[lead]])
+        hit = self.detection_draw(look, lead, pd, rng)
+        decision = Decision(si, si_db, code, n_e, pd, hit)
+        if self.on_look:
+            results = self._look_results(look, prop, power, clutter_w, jam_w, contacts,
+                                         decision)
+            for observer in self.on_look:
+                observer(results)
+        return self.measurement(look, power, clutter, contacts, decision, rng,
+                                fallbacks=prop.fallbacks)
+
+    # ------------------------------------------------------------------ the look's steps
+    def look_geometry(self, geom, rows, t, tpos, *, antenna_en=None, batch=None,
+                      platform_vel=None) -> Look:
+        """The geometry step: the look's targets and where the antenna is (default: at the
+        origin), as one :class:`~shipradar.sim.dwell.look.Look`."""
         radar_en = np.zeros((rows.size, 2)) if antenna_en is None else antenna_en
-        l_atm = self.atmospheric_loss(geom.slant_range, geom.elevation, radar_en, tpos[:, :2],
-                                      tpos[:, 2])
-        p_r = noise.received_power(self.k_r0 / l_atm**2, sigma, f, geom.slant_range)
-        n = rows.size
-        clutter = self.clutter_at(geom, tpos, radar_en, platform_vel)
-        clutter_w = np.zeros(n) if clutter is None else clutter["power_w"]
-        improvement = np.ones(n) if clutter is None else clutter["improvement"]
-        dist_loss = np.ones(n) if clutter is None else clutter["distribution_loss"]
-        coherent_gain = np.ones(n) if clutter is None else clutter["coherent_gain"]
-        jam_w = (self.jamming_power(geom.azimuth, jam_geom) if jam_power_w is None
-                 else np.asarray(jam_power_w, dtype=float))
-        # unresolved targets (2.2.1): one contact per range cell, beam and Doppler filter
-        group, n_groups = self._resolution_groups(geom, clutter, batch, platform_vel)
+        return Look(geom, rows, t, tpos, radar_en, batch, platform_vel)
+
+    def look_propagation(self, look: Look) -> Propagation:
+        """The propagation step: F of every target [4]-[7] (:meth:`propagation_factor`) and
+        the one-way atmospheric loss [16] (:meth:`atmospheric_loss`)."""
+        geom, tpos = look.geom, look.position_m
+        f, fallbacks = self.propagation_factor(geom.ground_range, tpos[:, 2], geom.elevation)
+        l_atm = self.atmospheric_loss(geom.slant_range, geom.elevation, look.antenna_en,
+                                      tpos[:, :2], tpos[:, 2])
+        return Propagation(f, l_atm, fallbacks)
+
+    def target_power(self, look: Look, prop: Propagation) -> TargetPower:
+        """The target-power step: σ [15] (:meth:`cross_section`) and the echo power S at the
+        RF input [2]-[3], with the two-way atmospheric loss L_atm² [16]."""
+        geom = look.geom
+        sigma = self.cross_section(look.rows, geom.los_enu, geom.velocity_enu)
+        p_r = noise.received_power(self.k_r0 / prop.atmospheric_loss**2, sigma, prop.f,
+                                   geom.slant_range)
+        return TargetPower(sigma, p_r)
+
+    def look_jamming(self, look: Look, jam_geom=None, jam_power_w=None) -> np.ndarray:
+        """The jamming step: P_j [W] at each target's beam azimuth [47]; ``jam_power_w`` when
+        the caller computed it (per revolution), else :meth:`jamming_power` from ``jam_geom``."""
+        if jam_power_w is None:
+            return self.jamming_power(look.geom.azimuth, jam_geom)
+        return np.asarray(jam_power_w, dtype=float)
+
+    def processing(self, look: Look, power: TargetPower, clutter: dict | None) -> Contacts:
+        """The processing step: unresolved targets (2.2.1), one contact per range cell, beam
+        and Doppler filter (and batch), each led by its strongest target, whose Doppler sets
+        the processor's I_F [57], L_d [63]-[64] and coherent gain for the contact."""
+        group, n_groups = self._resolution_groups(look.geom, clutter, look.batch,
+                                                  look.platform_vel)
+        p_r = power.received_power_w
         p_sum = np.bincount(group, weights=p_r, minlength=n_groups)
         lead = _argmax_by_group(group, p_r, n_groups)
-        si, code = self.signal_to_interference(
-            p_sum, clutter_w[lead], jam_w[lead], improvement[lead], dist_loss[lead],
-            coherent_gain[lead])
-        n_e = detection.effective_pulses(
-            self.n_pulses, clutter_dominated=code == CLUTTER, **self._pulse_args(clutter, lead))
-        si_db = db(si)
-        swerling = self.swerling[rows[lead]]
+        if clutter is None:
+            one = np.ones(n_groups)
+            return Contacts(group, n_groups, lead, p_sum, one, one, one)
+        return Contacts(group, n_groups, lead, p_sum, clutter["improvement"][lead],
+                        clutter["distribution_loss"][lead], clutter["coherent_gain"][lead])
+
+    def effective_pulses(self, clutter: dict | None, lead: np.ndarray,
+                         code: np.ndarray) -> np.ndarray:
+        """The N_e step: effective number of pulses [73]-[77] of each contact
+        (:func:`shipradar.sensors.detection.effective_pulses`), clutter-dominated where the
+        dominant interference ``code`` is clutter."""
+        return np.asarray(detection.effective_pulses(
+            self.n_pulses, clutter_dominated=code == CLUTTER, **self._pulse_args(clutter, lead)))
+
+    def detection_probability(self, si_db: np.ndarray, n_e: np.ndarray,
+                              swerling: np.ndarray) -> np.ndarray:
+        """The P_d step: P_d of each contact at per-pulse S/I ``si_db`` [dB] over ``n_e``
+        pulses, by the fidelity's ``pd_method``: the seed's [78]-[83], the exact Swerling
+        P_d, or the exact P_d's table (:class:`shipradar.tables.pd.PdTables`)."""
         if self.method == "table":
-            pd = self._pd_tables(si_db, n_e, swerling)
-        else:
-            pd = detection.probability_of_detection(
-                si_db, self.pfa, n_e, swerling, method=self.method,
-                integrator=self.radar.integrator, detector=self.radar.detector)
+            return np.asarray(self._pd_tables(si_db, n_e, swerling))
+        return np.asarray(detection.probability_of_detection(
+            si_db, self.pfa, n_e, swerling, method=self.method,
+            integrator=self.radar.integrator, detector=self.radar.detector))
+
+    def detection_draw(self, look: Look, lead: np.ndarray, pd: np.ndarray,
+                       rng: np.random.Generator) -> np.ndarray:
+        """Which contacts are detected: one uniform per contact below its P_d, from ``rng``
+        or, when set, from :attr:`look_uniforms` (common random numbers, keyed on the lead
+        target and its crossing time)."""
         if self.look_uniforms is None:
-            hit = rng.random(n_groups) < pd
-        else:
-            hit = self.look_uniforms(rows[lead], t[lead]) < pd
-        if self.look_probe is not None:
-            self.look_probe(rows=rows, t=t, pd=pd[group], si_db=si_db[group],
-                            interference=code[group], hit=hit[group],
-                            slant_range_m=geom.slant_range, ground_range_m=geom.ground_range,
-                            height_m=tpos[:, 2])
-        # power-weighted position of each contact (a single target: its own)
+            return rng.random(pd.size) < pd
+        return self.look_uniforms(look.rows[lead], look.time_s[lead]) < pd
+
+    def measurement(self, look: Look, power: TargetPower, clutter: dict | None,
+                    contacts: Contacts, decision: Decision, rng: np.random.Generator, *,
+                    fallbacks: int = 0) -> dict:
+        """The measurement step: the plot columns of the detected contacts [84]-[89].
+
+        Each detected contact (``decision.hit``) is reported at the power-weighted range,
+        azimuth and time of its targets (a single target: its own), measured with noise from
+        its S/I and N_e (:func:`shipradar.sensors.measurement.measure`), with its
+        range rate (:meth:`_range_rate_columns`), its lead target and every contributor (the
+        truth links), and the counts ``missed``, ``merged`` and ``fallbacks``.
+        """
+        geom, rows, t = look.geom, look.rows, look.time_s
+        group, n_groups, lead = contacts.group, contacts.n_groups, contacts.lead
+        p_r, p_sum = power.received_power_w, contacts.power_w
+        si, code, hit = decision.si, decision.interference, decision.hit
         w = p_r / np.maximum(p_sum[group], _DB_FLOOR)
         r_true = np.bincount(group, weights=w * geom.slant_range, minlength=n_groups)
         az_c = np.bincount(group, weights=w * np.cos(geom.azimuth), minlength=n_groups)
@@ -680,8 +779,8 @@ class DwellModel:
         t_c = np.bincount(group, weights=w * t, minlength=n_groups)
         sel = np.flatnonzero(hit)
         meas = measurement.measure(
-            r_true[sel], az_true[sel], si[sel], n_e[sel], self.range_cell, self.theta_b, rng,
-            h_range=self.radar.h_range, h_azimuth=self.radar.h_azimuth)
+            r_true[sel], az_true[sel], si[sel], decision.n_e[sel], self.range_cell,
+            self.theta_b, rng, h_range=self.radar.h_range, h_azimuth=self.radar.h_azimuth)
         # contributors of each reported contact
         order = np.argsort(group, kind="stable")
         counts = np.bincount(group, minlength=n_groups)
@@ -690,23 +789,44 @@ class DwellModel:
         c_off = np.concatenate([[0], np.cumsum(c_counts)]).astype(np.int64)
         gather = np.repeat(starts[sel], c_counts) + (
             np.arange(c_off[-1]) - np.repeat(c_off[:-1], c_counts))
+        batch = look.batch
         return {
             "time_s": t_c[sel],
             "range_m": meas["range_m"],
             "azimuth_rad": meas["azimuth_rad"],
-            "snr_db": si_db[sel],
+            "snr_db": decision.si_db[sel],
             "sigma_range_m": meas["sigma_range_m"],
             "sigma_azimuth_rad": meas["sigma_azimuth_rad"],
             "interference": code[sel],
-            **self._range_rate_columns(geom, clutter, lead[sel], platform_vel),
+            **self._range_rate_columns(geom, clutter, lead[sel], look.platform_vel),
             "target": rows[lead[sel]].astype(np.int32),
             "contrib_offsets": c_off,
             "contrib_targets": rows[order[gather]].astype(np.int32),
             **({} if batch is None else {"batch": np.asarray(batch)[lead[sel]]}),
             "missed": int(n_groups - sel.size),
-            "merged": int(n - n_groups),
+            "merged": int(look.size - n_groups),
             "fallbacks": fallbacks,
         }
+
+    def _look_results(self, look: Look, prop: Propagation, power: TargetPower,
+                      clutter_w: np.ndarray, jam_w: np.ndarray, contacts: Contacts,
+                      decision: Decision) -> LookResults:
+        """The steps' results as one :class:`~shipradar.sim.dwell.look.LookResults`, every
+        contact's value given to each of its targets."""
+        group, d = contacts.group, decision
+        geom = look.geom
+        n = look.size
+        return LookResults(
+            radar=self.radar.id, target=look.rows, time_s=look.time_s,
+            slant_range_m=geom.slant_range, ground_range_m=geom.ground_range,
+            height_m=look.position_m[:, 2], sigma_m2=power.sigma_m2, f=prop.f,
+            atmospheric_loss=prop.atmospheric_loss, received_power_w=power.received_power_w,
+            noise_w=np.full(n, self.n0), clutter_w=clutter_w,
+            jamming_w=np.broadcast_to(jam_w, (n,)).copy(),
+            improvement=contacts.improvement[group], si=d.si[group], si_db=d.si_db[group],
+            interference=d.interference[group], n_e=d.n_e[group], pd=d.pd[group],
+            hit=d.hit[group], contact=group,
+            merged=np.bincount(group, minlength=contacts.n_groups)[group] > 1)
 
     def _range_rate_columns(self, geom, clutter, lead, platform_vel=None) -> dict:
         """``range_rate_mps`` and ``sigma_range_rate_mps`` of the contacts led by targets
@@ -783,19 +903,17 @@ class DwellModel:
         """Noise-induced false alarms [90]-[93]: count, uniform R and θ.  One revolution's,
         or with ``revolutions`` those of that many revolutions drawn together (every count
         first, then all ranges and all azimuths) with the ``revolution`` index of each."""
+        per_scan, channels = self.noise_false_alarms_per_scan, self.radar.n_channels
+        r_max = self.radar.instrumented_range_m
         if revolutions is None:
-            count = int(false_alarms.false_alarm_count(self.noise_false_alarms_per_scan,
-                                                       self.radar.n_channels, rng))
-        else:
-            count = false_alarms.false_alarm_count(self.noise_false_alarms_per_scan,
-                                                   self.radar.n_channels, rng,
-                                                   size=revolutions)
-        r, az = false_alarms.uniform_positions(
-            count, 0.0, self.radar.instrumented_range_m, 0.0, 2.0 * math.pi, rng)
-        out = {"range_m": np.asarray(r, dtype=float), "azimuth_rad": np.asarray(az, dtype=float)}
-        if revolutions is not None:
-            out["revolution"] = np.repeat(np.arange(revolutions), count)
-        return out
+            count = int(false_alarms.false_alarm_count(per_scan, channels, rng))
+            r, az = false_alarms.uniform_positions(count, 0.0, r_max, 0.0, 2.0 * math.pi, rng)
+            return {"range_m": np.asarray(r, dtype=float),
+                    "azimuth_rad": np.asarray(az, dtype=float)}
+        counts = false_alarms.false_alarm_count(per_scan, channels, rng, size=revolutions)
+        r, az = false_alarms.uniform_positions(counts, 0.0, r_max, 0.0, 2.0 * math.pi, rng)
+        return {"range_m": np.asarray(r, dtype=float), "azimuth_rad": np.asarray(az, dtype=float),
+                "revolution": np.repeat(np.arange(revolutions), counts)}
 
     def false_alarm_plots(self, range_m, azimuth_rad, time_s, rng) -> dict:
         """Plot columns for noise false alarms at the given positions and times.
@@ -876,7 +994,7 @@ class _TwoRayFallback:
         self.wave = float(wave_height_m)
         self.pattern = elevation_pattern
         self.k_factor = prop.STANDARD_K_FACTOR
-        self.eps = prop.sea_water_permittivity(self.freq)
+        self.eps = complex(prop.sea_water_permittivity(self.freq))
         a_e = self.k_factor * prop.EARTH_RADIUS_M
         self.g_horizon = float(np.abs(elevation_pattern(
             -np.arccos(np.array([a_e / (a_e + self.h1)]))))[0])

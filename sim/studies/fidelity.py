@@ -4,10 +4,11 @@ The scene is run under each fidelity choice that applies to it (``fidelity:`` in
 :class:`shipradar.sim.world.scenario.Fidelity`) and compared with the most accurate setting, the
 *reference*, with **common random numbers**: every look (one radar, one target, one scan) gets one
 uniform number derived from (run seed, radar, target, scan) alone, and is detected when it is below
-that look's P_d (the dwell model's opt-in ``look_uniforms`` / ``look_probe`` hooks, which a
-normal run leaves at None). Two settings therefore differ only where their P_d differ: the
-reference against itself gives exactly zero, and a change that the scene never reads gives
-exactly zero too.
+that look's P_d (the dwell model's opt-in ``look_uniforms``, which a normal run leaves at
+None); each look's P_d is read by an observer of the model's looks (``on_look``,
+:class:`shipradar.sim.dwell.look.LookResults`). Two settings therefore differ only where their
+P_d differ: the reference against itself gives exactly zero, and a change that the scene never
+reads gives exactly zero too.
 
 What is measured per setting, per (radar, target) and in total
 ---------------------------------------------------------------
@@ -63,6 +64,7 @@ from typing import Any
 
 import numpy as np
 
+from shipradar.sim.dwell.look import LookObserver, LookResults
 from shipradar.sim.world.scenario import Fidelity, Scenario, ScenarioError
 
 __all__ = [
@@ -554,7 +556,7 @@ def run_setting(scenario: Scenario, setting: Setting, seeds: Sequence[int], dura
             period = proc.radar.scan_period_s
             if crn:
                 model.look_uniforms = look_uniforms(seed, k, period)
-            model.look_probe = _probe(cols, run, k, period)
+            model.on_look.append(_look_recorder(cols, run, k, period))
             if run == 0:
                 expected[(proc.radar.id, "noise")] = float(model.noise_false_alarms_per_scan)
                 expected[(proc.radar.id, "sea_clutter")] = _clutter_fa_per_scan(model)
@@ -573,18 +575,21 @@ def run_setting(scenario: Scenario, setting: Setting, seeds: Sequence[int], dura
                      wall, cpu, duration_s, fallbacks // n)
 
 
-def _probe(cols: dict[str, list[np.ndarray]], run: int, radar: int, period: float):
-    def probe(*, rows, t, pd, hit, slant_range_m, **_):
-        scan = np.floor((np.asarray(t) + _CROSSING_EPS_S) / period).astype(np.int64)
-        cols["run"].append(np.full(rows.size, run, dtype=np.int64))
-        cols["radar"].append(np.full(rows.size, radar, dtype=np.int64))
-        cols["target"].append(np.asarray(rows, dtype=np.int64))
+def _look_recorder(cols: dict[str, list[np.ndarray]], run: int, radar: int,
+                   period: float) -> LookObserver:
+    """An observer of the dwell model's looks (``DwellModel.on_look``) that appends each
+    look's run, radar, target, scan, P_d, detection and slant range to ``cols``."""
+    def record(look: LookResults) -> None:
+        scan = np.floor((look.time_s + _CROSSING_EPS_S) / period).astype(np.int64)
+        cols["run"].append(np.full(look.size, run, dtype=np.int64))
+        cols["radar"].append(np.full(look.size, radar, dtype=np.int64))
+        cols["target"].append(np.asarray(look.target, dtype=np.int64))
         cols["scan"].append(scan)
-        cols["pd"].append(np.asarray(pd, dtype=float))
-        cols["hit"].append(np.asarray(hit, dtype=bool))
-        cols["range_m"].append(np.asarray(slant_range_m, dtype=float))
+        cols["pd"].append(np.asarray(look.pd, dtype=float))
+        cols["hit"].append(np.asarray(look.hit, dtype=bool))
+        cols["range_m"].append(np.asarray(look.slant_range_m, dtype=float))
 
-    return probe
+    return record
 
 
 def _clutter_fa_per_scan(model) -> float:

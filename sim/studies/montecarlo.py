@@ -63,6 +63,8 @@ from typing import Any
 
 import numpy as np
 
+from shipradar.sim.dwell.look import LookResults
+
 __all__ = [
     "cli_main",
     "model_pd_looks",
@@ -469,83 +471,51 @@ def run_study(
 
 
 # --------------------------------------------------------------------------- model P_d
-_PD_LOCK = threading.Lock()
-
-
-class _PdRecorder:
-    """Stands in for :mod:`shipradar.sensors.detection` inside :mod:`shipradar.sim.dwell.model`
-    during
-    :func:`model_pd_looks`: delegates everything and keeps the last P_d computed."""
-
-    def __init__(self, real):
-        self._real = real
-        self.last = None
-
-    def __getattr__(self, name):
-        return getattr(self._real, name)
-
-    def probability_of_detection(self, *args, **kwargs):
-        pd = self._real.probability_of_detection(*args, **kwargs)
-        self.last = np.array(pd, dtype=float, copy=True)
-        return pd
-
-
 def model_pd_looks(scenario, *, tables=None, duration_s: float | None = None, bus=None,
                    seed: int | None = None) -> list[dict]:
     """The dwell model's P_d at every beam crossing of every target (no random draw used).
 
-    Runs the engine once (no bus) and records, for each target the beam crosses inside the
+    Runs the engine once and records, for each target the beam crosses inside the
     instrumented range, the P_d the dwell model computed before its detection draw: the
     exact probability every replication draws from, since crossings depend on the
     kinematics only. ``bus`` (optional) receives the run's messages, so the same run can
-    feed a figure. Rows: ``sensor, target, kind, scan, time_s, ground_range_m, pd``.
+    feed a figure. Rows: ``sensor, target, kind, scan, time_s, ground_range_m, pd``, sorted
+    by sensor, target and time.
 
     Notes
     -----
-    The dwell model exposes no "P_d only" entry point, so the P_d is read where the model
-    computes it: :mod:`shipradar.sim.dwell.model`'s reference to :mod:`shipradar.sensors.detection`
-    is replaced, for the duration of this call and under a lock, by a recorder that delegates to it.
-    Targets merged into one contact (2.2.1) share their group's P_d and are skipped (rare: same
-    range cell, beam and Doppler filter).
+    The P_d is read through the dwell model's look hook (``DwellModel.on_look``, one
+    :class:`shipradar.sim.dwell.look.LookResults` per call), whatever the fidelity's
+    ``pd_method`` (exact, seed or table). Targets merged into one contact (2.2.1) share
+    their contact's P_d and are skipped (rare: same range cell, beam and Doppler filter).
     """
-    import shipradar.sim.dwell.model as dwell_mod
     from shipradar.sim.engine.simulation import Simulation
 
     sim = Simulation(scenario, tables=tables, duration_s=duration_s, bus=bus, seed=seed)
-    kinds = [t.kind for t in scenario.targets]
-    ids = [t.id for t in scenario.targets]
     rows: list[dict] = []
-    with _PD_LOCK:
-        real = dwell_mod.detection
-        recorder = _PdRecorder(real)
-        for rp in sim.radars:
-            original = rp.model.process_targets
-            sector_s, n_sectors = rp.sector_s, rp.n_sectors
-
-            def wrapped(geom, trows, t, tpos, rng, *, _orig=original, _rid=rp.radar.id,
-                        _sector_s=sector_s, _n=n_sectors, **kw):
-                recorder.last = None
-                res = _orig(geom, trows, t, tpos, rng, **kw)
-                pd = recorder.last
-                if pd is not None and pd.size == trows.size:
-                    for j in range(trows.size):
-                        i = int(trows[j])
-                        rows.append({
-                            "sensor": _rid, "target": ids[i], "kind": kinds[i],
-                            "scan": int(math.floor(t[j] / _sector_s + 1e-9)) // _n,
-                            "time_s": float(t[j]),
-                            "ground_range_m": float(geom.ground_range[j]),
-                            "pd": float(pd[j])})
-                return res
-
-            rp.model.process_targets = wrapped
-        dwell_mod.detection = recorder
-        try:
-            sim.run()
-        finally:
-            dwell_mod.detection = real
+    for rp in sim.radars:
+        rp.model.on_look.append(_pd_recorder(rows, scenario, rp.sector_s, rp.n_sectors))
+    sim.run()
     rows.sort(key=lambda r: (r["sensor"], r["target"], r["time_s"]))
     return rows
+
+
+def _pd_recorder(rows: list[dict], scenario, sector_s: float, n_sectors: int):
+    """An observer of a dwell model's looks appending one row per unmerged target to
+    ``rows`` (:func:`model_pd_looks`); the scan is the revolution of the crossing's sector."""
+    kinds = [t.kind for t in scenario.targets]
+    ids = [t.id for t in scenario.targets]
+
+    def record(look: LookResults) -> None:
+        for j in np.flatnonzero(~look.merged):
+            i = int(look.target[j])
+            t = float(look.time_s[j])
+            rows.append({"sensor": look.radar, "target": ids[i], "kind": kinds[i],
+                         "scan": int(math.floor(t / sector_s + 1e-9)) // n_sectors,
+                         "time_s": t, "ground_range_m": float(look.ground_range_m[j]),
+                         "pd": float(look.pd[j])})
+
+    return record
 
 
 # --------------------------------------------------------------------------- CLI
