@@ -44,7 +44,7 @@ COSEC_MAX_ELEVATION_RAD = float(np.deg2rad(40.0))
 
 def _wrap(angle_rad: ArrayLike) -> NDArray[np.float64]:
     """Wrap angles to (-π, π] [rad]."""
-    a = np.asarray(angle_rad, dtype=float)
+    a = np.asarray(angle_rad, dtype=np.float64)
     return np.pi - np.mod(np.pi - a, 2.0 * np.pi)
 
 
@@ -61,7 +61,7 @@ def isotropic_directivity(angle_rad: ArrayLike) -> NDArray[np.float64]:
     ndarray
         Ones, same shape as ``angle_rad``.
     """
-    return np.ones_like(np.asarray(angle_rad, dtype=float))
+    return np.ones_like(np.asarray(angle_rad, dtype=np.float64))
 
 
 def gaussian_directivity(angle_rad: ArrayLike, beamwidth_rad: ArrayLike) -> NDArray[np.float64]:
@@ -83,8 +83,9 @@ def gaussian_directivity(angle_rad: ArrayLike, beamwidth_rad: ArrayLike) -> NDAr
         Gaussian beam has no sidelobes: use the sinc pattern when sidelobes matter).
     """
     a = _wrap(angle_rad)
-    bw = np.asarray(beamwidth_rad, dtype=float)
-    return np.exp(-4.0 * (a / bw) ** 2 * np.log(np.sqrt(2.0)))
+    bw = np.asarray(beamwidth_rad, dtype=np.float64)
+    g: NDArray[np.float64] = np.exp(-4.0 * (a / bw) ** 2 * np.log(np.sqrt(2.0)))
+    return g
 
 
 def sinc_constant_k(beamwidth_rad: ArrayLike) -> NDArray[np.float64]:
@@ -95,7 +96,7 @@ def sinc_constant_k(beamwidth_rad: ArrayLike) -> NDArray[np.float64]:
     beamwidth_rad : array_like
         Half-power beamwidth φ_b [rad], in (0, π).
     """
-    return SINC_HALF_POWER_X / np.sin(0.5 * np.asarray(beamwidth_rad, dtype=float))
+    return SINC_HALF_POWER_X / np.sin(0.5 * np.asarray(beamwidth_rad, dtype=np.float64))
 
 
 def sinc_first_null_rad(beamwidth_rad: ArrayLike) -> NDArray[np.float64]:
@@ -115,7 +116,7 @@ def sinc_first_null_rad(beamwidth_rad: ArrayLike) -> NDArray[np.float64]:
         exceeds 1 and the pattern has no null before the back of the antenna: π is returned,
         so the whole pattern is the main lobe [10] and no sidelobe factor is applied.
     """
-    x = SINC_FIRST_NULL_RATIO * np.sin(0.5 * np.asarray(beamwidth_rad, dtype=float))
+    x = SINC_FIRST_NULL_RATIO * np.sin(0.5 * np.asarray(beamwidth_rad, dtype=np.float64))
     return np.where(x < 1.0, np.arcsin(np.minimum(x, 1.0)), np.pi)
 
 
@@ -155,7 +156,7 @@ def sinc_directivity(
         obliquity factor (1 + cos φ)/2 vanishes behind the antenna).
     """
     a = _wrap(angle_rad)
-    bw = np.asarray(beamwidth_rad, dtype=float)
+    bw = np.asarray(beamwidth_rad, dtype=np.float64)
     k = sinc_constant_k(bw)
     x = k * np.sin(a)
     obliquity = 0.5 * (1.0 + np.cos(a))
@@ -166,7 +167,9 @@ def sinc_directivity(
         # where sin φ -> 0 again: never exceed the main-lobe value there.
         env = 1.0 / np.maximum(np.abs(x), np.pi)
         core = np.where(beyond, env, core)
-    reduction = 10.0 ** (-0.05 * (np.asarray(sidelobe_db, dtype=float) - SINC_NATURAL_SIDELOBE_DB))
+    reduction = 10.0 ** (
+        -0.05 * (np.asarray(sidelobe_db, dtype=np.float64) - SINC_NATURAL_SIDELOBE_DB)
+    )
     g = obliquity * core * np.where(beyond, reduction, 1.0)
     return np.clip(g, -1.0, 1.0)
 
@@ -221,9 +224,9 @@ def cosec2_directivity(
     ValueError
         If ``tilt_rad + beamwidth_rad/2 <= 0`` anywhere.
     """
-    el = np.clip(np.asarray(elevation_rad, dtype=float), -0.5 * np.pi, 0.5 * np.pi)
-    bw = np.asarray(beamwidth_rad, dtype=float)
-    tilt = np.asarray(tilt_rad, dtype=float)
+    el = np.clip(np.asarray(elevation_rad, dtype=np.float64), -0.5 * np.pi, 0.5 * np.pi)
+    bw = np.asarray(beamwidth_rad, dtype=np.float64)
+    tilt = np.asarray(tilt_rad, dtype=np.float64)
     phi_j = tilt + 0.5 * bw
     if np.any(phi_j <= 0.0):
         raise ValueError(
@@ -240,7 +243,7 @@ def cosec2_directivity(
     cosec = g_junction * np.sin(phi_j) / sin_el
     # above φ_max the cosec envelope caps the sinc sidelobes, never the main beam below φ_j:
     # a beam whose junction is above φ_max (tilt + φ_b/2 > 40°) has no cosec² part at all
-    above_max = (el > cosec_max_rad) & (el >= phi_j)
+    above_max = (el > np.asarray(cosec_max_rad, dtype=np.float64)) & (el >= phi_j)
     g = np.where(el < phi_j, sinc, cosec)
     g = np.where(above_max, np.sign(sinc) * np.minimum(np.abs(sinc), cosec), g)
     return np.clip(g, -1.0, 1.0)
@@ -282,16 +285,17 @@ def directivity(
         Field factor, broadcast shape of the inputs, ``|g| <= 1``.
     """
     if pattern == "isotropic":
-        return np.broadcast_to(
+        ones: NDArray[np.float64] = np.broadcast_to(
             isotropic_directivity(angle_rad),
             np.broadcast_shapes(np.shape(angle_rad), np.shape(beamwidth_rad)),
         ).copy()
+        return ones
     if pattern == "gaussian":
         return gaussian_directivity(angle_rad, beamwidth_rad)
     if pattern == "sinc":
         return sinc_directivity(angle_rad, beamwidth_rad, sidelobe_db, envelope=envelope)
     if pattern == "cosec2":
-        elevation = np.asarray(angle_rad, dtype=float) + np.asarray(tilt_rad, dtype=float)
+        elevation = np.asarray(angle_rad, dtype=np.float64) + np.asarray(tilt_rad, dtype=np.float64)
         return cosec2_directivity(
             elevation,
             beamwidth_rad,
@@ -341,7 +345,7 @@ def elevation_directivity(
     ndarray
         Field factor, ``|g| <= 1``.
     """
-    offset = np.asarray(elevation_rad, dtype=float) - np.asarray(tilt_rad, dtype=float)
+    offset = np.asarray(elevation_rad, dtype=np.float64) - np.asarray(tilt_rad, dtype=np.float64)
     return directivity(
         offset,
         beamwidth_rad,

@@ -15,7 +15,7 @@ package:
   Gauss-Legendre quadrature on panels growing geometrically with range.
 * γ_f/c, fog or low cloud: ITU-R P.840 (``specific_attenuation_coefficients``, Rayleigh
   double-Debye) times the liquid water content, inside a fog layer from the sea to the fog
-  top; the length of the curved path below the top is exact (:func:`fog_path_length_m`).
+  top; the length of the curved path below the top is exact (:func:`layer_path_length_m`).
 * γ_r, rain: ITU-R P.838-3, ``γ_R = k R^α``, over the part of the path inside the rain
   cylinder and below the rain top (:func:`rain_path_length_m`); geometry-dependent, so it is
   computed on-line from one specific attenuation per scene, not tabulated.
@@ -60,8 +60,8 @@ P676_HEIGHTS_MAX_FREQ_HZ = 350.0e9
 POLARIZATION_TILT_DEG = {"H": 0.0, "horizontal": 0.0, "V": 90.0, "vertical": 90.0, "circular": 45.0}
 
 
-_GHZ = constants.giga
-_KM = constants.kilo
+_GHZ: float = constants.giga
+_KM: float = constants.kilo
 # Composite Gauss-Legendre: panel edges at R·[0, 10^-4 ... 1] (geometric), nodes per panel.
 _N_PANELS = 15
 _N_NODES = 8
@@ -74,17 +74,21 @@ _GL_X, _GL_W = np.polynomial.legendre.leggauss(_N_NODES)
 
 def _plain(x: Any) -> NDArray[np.float64]:
     """An itur result (astropy Quantity or ndarray) as a float ndarray of its value."""
-    return np.asarray(getattr(x, "value", x), dtype=float)
+    return np.asarray(getattr(x, "value", x), dtype=np.float64)
 
 
 def _ghz(freq_hz: ArrayLike) -> NDArray[np.float64]:
-    return np.asarray(freq_hz, dtype=float) / _GHZ
+    return np.asarray(freq_hz, dtype=np.float64) / _GHZ
 
 
-def _dry_pressure_hpa(pressure_hpa, water_vapour_density_g_m3, temperature_k):
+def _dry_pressure_hpa(
+    pressure_hpa: ArrayLike, water_vapour_density_g_m3: ArrayLike, temperature_k: ArrayLike
+) -> NDArray[np.float64]:
     # P.676-12 Annex 1 takes the DRY air pressure p and e separately (total = p + e).
-    e = np.asarray(water_vapour_density_g_m3) * np.asarray(temperature_k) / _VAPOUR_PRESSURE_FACTOR
-    return np.asarray(pressure_hpa, dtype=float) - e
+    e: NDArray[np.float64] = (
+        np.asarray(water_vapour_density_g_m3) * np.asarray(temperature_k) / _VAPOUR_PRESSURE_FACTOR
+    )
+    return np.asarray(pressure_hpa, dtype=np.float64) - e
 
 
 def gaseous_specific_attenuation_db_per_km(
@@ -117,8 +121,8 @@ def gaseous_specific_attenuation_db_per_km(
     """
     f = _ghz(freq_hz)
     p = _dry_pressure_hpa(pressure_hpa, water_vapour_density_g_m3, temperature_k)
-    rho = np.asarray(water_vapour_density_g_m3, dtype=float)
-    t = np.asarray(temperature_k, dtype=float)
+    rho = np.asarray(water_vapour_density_g_m3, dtype=np.float64)
+    t = np.asarray(temperature_k, dtype=np.float64)
     # itur sums its spectral lines over the whole input array: call it point by point
     # (this runs once per scene, never per dwell).
     go = np.vectorize(lambda f_, p_, r_, t_: float(_plain(itu676.gamma0_exact(f_, p_, r_, t_))))
@@ -154,7 +158,7 @@ def gaseous_equivalent_heights_m(
     """
     p = _dry_pressure_hpa(pressure_hpa, water_vapour_density_g_m3, temperature_k)
     f = np.clip(
-        np.asarray(_ghz(freq_hz), dtype=float),
+        np.asarray(_ghz(freq_hz), dtype=np.float64),
         P676_HEIGHTS_MIN_FREQ_HZ / _GHZ,
         P676_HEIGHTS_MAX_FREQ_HZ / _GHZ,
     )
@@ -162,8 +166,8 @@ def gaseous_equivalent_heights_m(
     ho_hw = itu676.slant_inclined_path_equivalent_height(
         f,
         p,
-        np.asarray(water_vapour_density_g_m3, dtype=float),
-        np.asarray(temperature_k, dtype=float),
+        np.asarray(water_vapour_density_g_m3, dtype=np.float64),
+        np.asarray(temperature_k, dtype=np.float64),
     )
     h = _plain(ho_hw)
     return h[0] * _KM, h[1] * _KM
@@ -196,9 +200,9 @@ def path_height_m(
     ndarray
         Height [m]; can go negative for a downward ray that would enter the sea.
     """
-    s = np.asarray(slant_range_m, dtype=float)
-    el = np.asarray(elevation_rad, dtype=float)
-    r0 = earth_radius_m + np.asarray(antenna_height_m, dtype=float)
+    s = np.asarray(slant_range_m, dtype=np.float64)
+    el = np.asarray(elevation_rad, dtype=np.float64)
+    r0 = earth_radius_m + np.asarray(antenna_height_m, dtype=np.float64)
     r2 = s * s + 2.0 * r0 * s * np.sin(el) + r0 * r0
     return np.sqrt(np.maximum(r2, 0.0)) - earth_radius_m
 
@@ -231,9 +235,9 @@ def ray_elevation_rad(
     ndarray
         Elevation [rad] in [-π/2, π/2] (clipped when the heights and range are inconsistent).
     """
-    r = np.asarray(slant_range_m, dtype=float)
-    r0 = earth_radius_m + np.asarray(antenna_height_m, dtype=float)
-    rt = earth_radius_m + np.asarray(target_height_m, dtype=float)
+    r = np.asarray(slant_range_m, dtype=np.float64)
+    r0 = earth_radius_m + np.asarray(antenna_height_m, dtype=np.float64)
+    rt = earth_radius_m + np.asarray(target_height_m, dtype=np.float64)
     # (rt - r0)(rt + r0) avoids the cancellation of rt² - r0² for heights << a_e.
     num = (rt - r0) * (rt + r0) - r * r
     den = 2.0 * np.where(r > 0.0, r, 1.0) * r0
@@ -256,7 +260,7 @@ def path_quadrature(slant_range_m: ArrayLike) -> tuple[NDArray[np.float64], NDAr
     nodes_m, weights_m : ndarray, shape ``np.shape(R) + (120,)``
         ``∫_0^R f(s) ds ≈ sum(weights * f(nodes), axis=-1)`` [m].
     """
-    r = np.asarray(slant_range_m, dtype=float)[..., None, None]
+    r = np.asarray(slant_range_m, dtype=np.float64)[..., None, None]
     lo, hi = _PANEL_EDGES[:-1, None], _PANEL_EDGES[1:, None]
     half = 0.5 * (hi - lo)
     nodes = r * (lo + half * (_GL_X + 1.0))
@@ -300,17 +304,18 @@ def gaseous_loss_db(
         ``γ_o h_o (e^{-h_a/h_o} - e^{-(h_a+R)/h_o}) + (same for w)``; for a short horizontal
         path ``≈ (γ_o + γ_w) R``.
     """
-    r = np.asarray(slant_range_m, dtype=float)
-    el = np.asarray(elevation_rad, dtype=float)
-    r, el, ha = np.broadcast_arrays(r, el, np.asarray(antenna_height_m, dtype=float))
+    r = np.asarray(slant_range_m, dtype=np.float64)
+    el = np.asarray(elevation_rad, dtype=np.float64)
+    r, el, ha = np.broadcast_arrays(r, el, np.asarray(antenna_height_m, dtype=np.float64))
     nodes, weights = path_quadrature(r)
     h = np.maximum(path_height_m(nodes, el[..., None], ha[..., None]), 0.0)
-    go = np.asarray(gamma_o_db_per_km, dtype=float)[..., None]
-    gw = np.asarray(gamma_w_db_per_km, dtype=float)[..., None]
-    ho = np.asarray(h_o_m, dtype=float)[..., None]
-    hw = np.asarray(h_w_m, dtype=float)[..., None]
+    go = np.asarray(gamma_o_db_per_km, dtype=np.float64)[..., None]
+    gw = np.asarray(gamma_w_db_per_km, dtype=np.float64)[..., None]
+    ho = np.asarray(h_o_m, dtype=np.float64)[..., None]
+    hw = np.asarray(h_w_m, dtype=np.float64)[..., None]
     gamma = go * np.exp(-h / ho) + gw * np.exp(-h / hw)
-    return np.sum(weights * gamma, axis=-1) / _KM
+    loss_db: NDArray[np.float64] = np.sum(weights * gamma, axis=-1) / _KM
+    return loss_db
 
 
 def layer_path_length_m(
@@ -343,10 +348,10 @@ def layer_path_length_m(
     ndarray
         Length [m] in [0, R].
     """
-    r = np.asarray(slant_range_m, dtype=float)
-    el = np.asarray(elevation_rad, dtype=float)
-    top = np.asarray(top_m, dtype=float)
-    r0 = earth_radius_m + np.asarray(antenna_height_m, dtype=float)
+    r = np.asarray(slant_range_m, dtype=np.float64)
+    el = np.asarray(elevation_rad, dtype=np.float64)
+    top = np.asarray(top_m, dtype=np.float64)
+    r0 = earth_radius_m + np.asarray(antenna_height_m, dtype=np.float64)
     rt = earth_radius_m + np.maximum(top, 0.0)
     b = r0 * np.sin(el)
     disc = rt * rt - (r0 * np.cos(el)) ** 2
@@ -379,11 +384,12 @@ def fog_specific_attenuation_db_per_km(
     ndarray
         γ_f/c [dB/km], 0 for M = 0.
     """
-    t_c = np.asarray(temperature_k, dtype=float) - constants.zero_Celsius
+    t_c = np.asarray(temperature_k, dtype=np.float64) - constants.zero_Celsius
     kl = np.vectorize(
         lambda f_, t_: float(_plain(itu840.specific_attenuation_coefficients(f_, t_)))
     )
-    return kl(_ghz(freq_hz), t_c) * np.asarray(liquid_water_g_m3, dtype=float)
+    coefficient: NDArray[np.float64] = kl(_ghz(freq_hz), t_c)  # np.vectorize is untyped
+    return coefficient * np.asarray(liquid_water_g_m3, dtype=np.float64)
 
 
 # --------------------------------------------------------------------------- rain
@@ -419,9 +425,9 @@ def rain_specific_attenuation_db_per_km(
     if polarization not in POLARIZATION_TILT_DEG:
         raise ValueError(f"polarization must be one of {sorted(POLARIZATION_TILT_DEG)}")
     tau = POLARIZATION_TILT_DEG[polarization]
-    f = np.maximum(np.asarray(freq_hz, dtype=float), P838_MIN_FREQ_HZ) / _GHZ
-    rate = np.asarray(rain_rate_mm_h, dtype=float)
-    el_deg = np.rad2deg(np.asarray(elevation_rad, dtype=float))
+    f = np.maximum(np.asarray(freq_hz, dtype=np.float64), P838_MIN_FREQ_HZ) / _GHZ
+    rate = np.asarray(rain_rate_mm_h, dtype=np.float64)
+    el_deg = np.rad2deg(np.asarray(elevation_rad, dtype=np.float64))
     g = np.vectorize(
         lambda r_, f_, e_: float(_plain(itu838.rain_specific_attenuation(r_, f_, e_, tau)))
     )
@@ -463,16 +469,16 @@ def rain_path_length_m(
         Length [m] in [0, |segment|]: 0 when the segment misses the cylinder, the full 3-D
         length when both ends are inside.  A zero-length segment gives 0.
     """
-    a_en = np.asarray(radar_en_m, dtype=float)
-    b_en = np.asarray(target_en_m, dtype=float)
-    a_up = np.asarray(radar_up_m, dtype=float)
-    b_up = np.asarray(target_up_m, dtype=float)
-    c_en = np.asarray(centre_en_m, dtype=float)
-    radius = np.asarray(radius_m, dtype=float)
-    top = np.asarray(rain_top_m, dtype=float)
+    a_en = np.asarray(radar_en_m, dtype=np.float64)
+    b_en = np.asarray(target_en_m, dtype=np.float64)
+    a_up = np.asarray(radar_up_m, dtype=np.float64)
+    b_up = np.asarray(target_up_m, dtype=np.float64)
+    c_en = np.asarray(centre_en_m, dtype=np.float64)
+    radius = np.asarray(radius_m, dtype=np.float64)
+    top = np.asarray(rain_top_m, dtype=np.float64)
     d_en = b_en - a_en
     d_up = b_up - a_up
-    length = np.sqrt(np.sum(d_en * d_en, axis=-1) + d_up * d_up)
+    length: NDArray[np.float64] = np.sqrt(np.sum(d_en * d_en, axis=-1) + d_up * d_up)
 
     # Horizontal: |a + t d - c|² <= r²  <=>  A t² + 2 B t + C <= 0.
     rel = a_en - c_en
@@ -506,7 +512,7 @@ def rain_path_length_m(
 
     lo = np.maximum(np.maximum(t_in, lo_h), 0.0)
     hi = np.minimum(np.minimum(t_out, hi_h), 1.0)
-    frac = np.where(hits & inside_h, np.maximum(hi - lo, 0.0), 0.0)
+    frac: NDArray[np.float64] = np.where(hits & inside_h, np.maximum(hi - lo, 0.0), 0.0)
     return frac * length
 
 
@@ -528,7 +534,7 @@ def rain_loss_db(
         Loss [dB], ≥ 0, proportional to the path length; 0 without rain.
     """
     return (
-        np.asarray(specific_attenuation_db_per_km, dtype=float)
-        * np.asarray(path_length_in_rain_m, dtype=float)
+        np.asarray(specific_attenuation_db_per_km, dtype=np.float64)
+        * np.asarray(path_length_in_rain_m, dtype=np.float64)
         / _KM
     )

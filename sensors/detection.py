@@ -97,6 +97,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import constants, special, stats
 
+# array types of the private helpers' signatures
+_Floats = NDArray[np.float64]
+_Ints = NDArray[np.int64]
+
 # ----------------------------------------------------------------------------- constants
 #: Number of decision channels per range cell N_ch of [71] (seed 6.2: 2 for any radar).
 N_CHANNELS = 2
@@ -200,8 +204,8 @@ def range_cells(prf_hz: ArrayLike, pulse_width_s: ArrayLike) -> NDArray[np.float
         If f_r or τ' is not positive, or N_rc ≤ 0 (f_r τ' ≥ 1/2: no range cell left;
         SPEC §4 item 14).
     """
-    f_r = np.asarray(prf_hz, dtype=float)
-    tau = np.asarray(pulse_width_s, dtype=float)
+    f_r = np.asarray(prf_hz, dtype=np.float64)
+    tau = np.asarray(pulse_width_s, dtype=np.float64)
     _require_positive("prf_hz", f_r)
     _require_positive("pulse_width_s", tau)
     n_rc = 1.0 / (f_r * tau) - RANGE_CELLS_LOST
@@ -234,8 +238,8 @@ def sweep_time(beamwidth_rad: ArrayLike, scan_period_s: ArrayLike) -> NDArray[np
     ValueError
         If θ_b ∉ (0, 2π] or t_scan ≤ 0.
     """
-    theta = np.asarray(beamwidth_rad, dtype=float)
-    t_scan = np.asarray(scan_period_s, dtype=float)
+    theta = np.asarray(beamwidth_rad, dtype=np.float64)
+    t_scan = np.asarray(scan_period_s, dtype=np.float64)
     _require_positive("beamwidth_rad", theta)
     if np.any(theta > 2.0 * np.pi):
         raise ValueError(f"beamwidth_rad must be <= 2 pi, got {np.max(theta):g}")
@@ -262,7 +266,7 @@ def pulses_per_beam(
     ndarray
         N_n [-] (not rounded; may be below 1 for a fast scan, see :func:`effective_pulses`).
     """
-    f_r = np.asarray(prf_hz, dtype=float)
+    f_r = np.asarray(prf_hz, dtype=np.float64)
     _require_positive("prf_hz", f_r)
     return sweep_time(beamwidth_rad, scan_period_s) * f_r
 
@@ -300,10 +304,11 @@ def reported_range_cells(
     n_rc = range_cells(prf_hz, pulse_width_s)
     if instrumented_range_m is None:
         return n_rc
-    r_inst = np.asarray(instrumented_range_m, dtype=float)
+    r_inst = np.asarray(instrumented_range_m, dtype=np.float64)
     _require_positive("instrumented_range_m", r_inst)
-    c_r = constants.c * np.asarray(pulse_width_s, dtype=float) / 2.0
-    return np.minimum(n_rc, r_inst / c_r)
+    c_r = constants.c * np.asarray(pulse_width_s, dtype=np.float64) / 2.0
+    n_rep: NDArray[np.float64] = np.minimum(n_rc, r_inst / c_r)
+    return n_rep
 
 
 def pfa_from_false_alarm_time(
@@ -365,8 +370,8 @@ def pfa_from_false_alarm_time(
     if t_fa_definition not in T_FA_DEFINITIONS:
         raise ValueError(f"pfa_from_false_alarm_time: t_fa_definition must be one of "
                          f"{T_FA_DEFINITIONS}, got {t_fa_definition!r}")
-    t_fa = np.asarray(t_fa_s, dtype=float)
-    n_ch = np.asarray(n_channels, dtype=float)
+    t_fa = np.asarray(t_fa_s, dtype=np.float64)
+    n_ch = np.asarray(n_channels, dtype=np.float64)
     _require_positive("t_fa_s", t_fa)
     _require_positive("n_channels", n_ch)
     t_swp = sweep_time(beamwidth_rad, scan_period_s)
@@ -469,16 +474,16 @@ def effective_pulses(
     ndarray
         N_e [-], ≥ 1, broadcast over all arguments.
     """
-    n_n = np.asarray(n_pulses, dtype=float)
+    n_n = np.asarray(n_pulses, dtype=np.float64)
     dominated = np.asarray(clutter_dominated, dtype=bool)
-    sigma = np.asarray(clutter_velocity_spread_mps, dtype=float)
-    lam = np.asarray(wavelength_m, dtype=float)
-    f_r = np.asarray(prf_hz, dtype=float)
-    theta = np.asarray(beamwidth_rad, dtype=float)
-    omega = np.asarray(rotation_rate_rad_s, dtype=float)
-    n_fc = np.asarray(pulses_per_frequency, dtype=float)
-    n_pc = np.asarray(mti_order, dtype=float)
-    n_c = np.asarray(n_coherent, dtype=float)
+    sigma = np.asarray(clutter_velocity_spread_mps, dtype=np.float64)
+    lam = np.asarray(wavelength_m, dtype=np.float64)
+    f_r = np.asarray(prf_hz, dtype=np.float64)
+    theta = np.asarray(beamwidth_rad, dtype=np.float64)
+    omega = np.asarray(rotation_rate_rad_s, dtype=np.float64)
+    n_fc = np.asarray(pulses_per_frequency, dtype=np.float64)
+    n_pc = np.asarray(mti_order, dtype=np.float64)
+    n_c = np.asarray(n_coherent, dtype=np.float64)
     for name, arr in (
         ("wavelength_m", lam),
         ("prf_hz", f_r),
@@ -668,7 +673,7 @@ def equivalent_pulses(
         raise ValueError(
             f"signal_variation must be one of {SIGNAL_VARIATIONS}, got {signal_variation!r}"
         )
-    n = np.asarray(n_pulses, dtype=float)
+    n = np.asarray(n_pulses, dtype=np.float64)
     h = TABLE_I[(signal_variation, integrator)] * n
     if (signal_variation, integrator) == ("constant", "double_loop"):
         h = h * np.exp(-DOUBLE_LOOP_DECAY / n)
@@ -691,10 +696,10 @@ def fluctuation_k(swerling: ArrayLike, n_pulses: ArrayLike) -> NDArray[np.float6
         K [-]: inf (steady), 1, N_e, 2, 2 N_e for Swerling 0-4.
     """
     sw = np.asarray(swerling)
-    n = np.asarray(n_pulses, dtype=float)
+    n = np.asarray(n_pulses, dtype=np.float64)
     return np.select(
         [sw == 0, sw == 1, sw == 2, sw == 3], [np.inf, 1.0, n, 2.0], default=2.0 * n
-    ).astype(float)
+    ).astype(np.float64)
 
 
 # ----------------------------------------------------------------------------- validation
@@ -713,14 +718,17 @@ def _require_exact_receiver(integrator: str, detector: str) -> None:
         )
 
 
-def _broadcast_inputs(snr_db, pfa, n_pulses, swerling, method, pd=None):
+def _broadcast_inputs(
+    snr_db: ArrayLike, pfa: ArrayLike, n_pulses: ArrayLike, swerling: ArrayLike, method: str,
+    pd: ArrayLike | None = None,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]:
     if method not in ("exact", "seed"):
         raise ValueError(f"method must be 'exact' or 'seed', got {method!r}")
     first = snr_db if pd is None else pd
     a, p, n, s = np.broadcast_arrays(
-        np.asarray(first, dtype=float),
-        np.asarray(pfa, dtype=float),
-        np.asarray(n_pulses, dtype=float),
+        np.asarray(first, dtype=np.float64),
+        np.asarray(pfa, dtype=np.float64),
+        np.asarray(n_pulses, dtype=np.float64),
         np.asarray(swerling),
     )
     if np.any(np.isnan(a)):
@@ -743,9 +751,10 @@ def _broadcast_inputs(snr_db, pfa, n_pulses, swerling, method, pd=None):
 
 
 # ----------------------------------------------------------------------------- exact
-def _log_poisson(a: np.ndarray, x: np.ndarray) -> np.ndarray:
+def _log_poisson(a: NDArray[np.float64], x: NDArray[np.float64]) -> NDArray[np.float64]:
     """ln(x^a e^{-x} / Γ(a+1)), x > 0."""
-    return a * np.log(x) - x - special.gammaln(a + 1.0)
+    log_gamma: NDArray[np.float64] = special.gammaln(a + 1.0)  # scipy is untyped
+    return a * np.log(x) - x - log_gamma
 
 
 def _series(a: np.ndarray, x: np.ndarray, weighted: bool) -> np.ndarray:
@@ -810,7 +819,7 @@ def _log_d(a: np.ndarray, x: np.ndarray) -> np.ndarray:
     return out
 
 
-def _pd_exact_closed(s, pfa, n, sw):
+def _pd_exact_closed(s: _Floats, pfa: _Floats, n: _Floats, sw: _Ints) -> _Floats:
     """Exact P_d, closed forms (1-D arrays, s > 0; n real for Swerling 0-3, integer for 4)."""
     t = special.gammainccinv(n, pfa)
     out = np.empty(s.shape)
@@ -844,14 +853,14 @@ def _pd_exact_closed(s, pfa, n, sw):
     return np.clip(out, pfa, 1.0)
 
 
-def _steady_pd(energy, t, n):
+def _steady_pd(energy: _Floats, t: _Floats, n: _Floats) -> _Floats:
     """P(Gamma-noise sum of order n plus steady energy > t): ncx2.sf(2t; 2n, 2 energy)."""
     nc = 2.0 * energy
     sure = np.sqrt(nc) - np.sqrt(2.0 * t) > _SURE_SIGMAS
     return np.where(sure, 1.0, stats.ncx2.sf(2.0 * t, 2.0 * n, np.where(sure, 1.0, nc)))
 
 
-def _pd_swerling4_real_n(s, t, n):
+def _pd_swerling4_real_n(s: _Floats, t: _Floats, n: _Floats) -> _Floats:
     """Swerling 4 at real N: E[ncx2.sf(2T; 2N, 2X)], X ~ Gamma(2N, S/2), Gauss-Hermite."""
     v, w = special.roots_hermitenorm(SW4_QUADRATURE_NODES)
     w = w / np.sqrt(2.0 * np.pi)
@@ -865,7 +874,7 @@ def _pd_swerling4_real_n(s, t, n):
     return out
 
 
-def _pd_swerling4(s, t, n):
+def _pd_swerling4(s: _Floats, t: _Floats, n: _Floats) -> _Floats:
     """Σ_m Bin(m; N, r) Q(N+m, T/β) over the binomial's bulk (±12σ + 40 terms)."""
     half = 0.5 * s
     x = t / (1.0 + half)
@@ -879,7 +888,7 @@ def _pd_swerling4(s, t, n):
     width = int(np.max(m_hi - m_lo)) + 1
     out = np.empty(s.shape)
     step = max(1, _SW4_CHUNK // width)
-    offsets = np.arange(width, dtype=float)
+    offsets = np.arange(width, dtype=np.float64)
     for i in range(0, s.size, step):  # chunks bound the memory, not a loop over targets
         sl = slice(i, i + step)
         mm = m_lo[sl, None] + offsets[None, :]
@@ -901,11 +910,11 @@ def _pd_swerling4(s, t, n):
     return out
 
 
-def _pd_exact(snr_db, pfa, n, sw):
+def _pd_exact(snr_db: _Floats, pfa: _Floats, n: _Floats, sw: _Ints) -> _Floats:
     shape = snr_db.shape
     s = np.power(10.0, snr_db.ravel() / 10.0)
     p, nn, ss = pfa.ravel(), n.ravel(), sw.ravel()
-    out = p.copy()  # S/I = 0 (-inf dB): P_d = P_fa
+    out: NDArray[np.float64] = p.copy()  # S/I = 0 (-inf dB): P_d = P_fa
     pos = s > 0
     real_sw4 = pos & (ss == 4) & (nn != np.floor(nn))
     closed = pos & ~real_sw4
@@ -918,7 +927,7 @@ def _pd_exact(snr_db, pfa, n, sw):
     return out.reshape(shape)
 
 
-def _required_exact(pd, pfa, n, sw):
+def _required_exact(pd: _Floats, pfa: _Floats, n: _Floats, sw: _Ints) -> _Floats:
     shape = pd.shape
     pd, pfa, n, sw = pd.ravel(), pfa.ravel(), n.ravel(), sw.ravel()
     out = np.full(pd.shape, -np.inf)
@@ -938,7 +947,9 @@ def _required_exact(pd, pfa, n, sw):
 
 
 # ----------------------------------------------------------------------------- seed
-def _seed_parameters(n, integrator, detector, signal_variation):
+def _seed_parameters(
+    n: NDArray[np.float64], integrator: str, detector: str, signal_variation: str
+) -> tuple[NDArray[np.float64], float]:
     if detector not in TABLE_II:
         raise ValueError(f"detector must be one of {tuple(TABLE_II)}, got {detector!r}")
     return equivalent_pulses(n, integrator, signal_variation), TABLE_II[detector]
@@ -958,10 +969,11 @@ def g_fa(pfa: ArrayLike) -> NDArray[np.float64]:
         g_fa [-].  Outside 1e-12 ≤ P_fa ≤ 1e-4 (the fit's range) the exact normal quantile
         Φ⁻¹(1 - P_fa) is used, shifted to join the fit continuously at the nearest edge.
     """
-    p = np.asarray(pfa, dtype=float)
+    p = np.asarray(pfa, dtype=np.float64)
     p_c = np.clip(p, *SEED_PFA_RANGE)
     blake = G_FA_SLOPE * np.sqrt(-np.log10(p_c)) - G_FA_OFFSET
-    return blake + (special.ndtri(p_c) - special.ndtri(p))
+    normal_shift: NDArray[np.float64] = special.ndtri(p_c) - special.ndtri(p)  # scipy is untyped
+    return blake + normal_shift
 
 
 def g_d(z: ArrayLike) -> NDArray[np.float64]:
@@ -979,13 +991,15 @@ def g_d(z: ArrayLike) -> NDArray[np.float64]:
         g_d [-].  Outside 0.1 ≤ P_d ≤ 0.9 the exact quantile z is used, shifted to join the
         fit continuously at the nearest edge, so g_d → ±∞ as P_d → 1 or 0.
     """
-    z = np.asarray(z, dtype=float)
-    z_c = np.clip(z, special.ndtri(SEED_PD_RANGE[0]), special.ndtri(SEED_PD_RANGE[1]))
-    t = G_D_T_SCALE * (2.0 * special.ndtr(z_c) - 1.0)
+    z = np.asarray(z, dtype=np.float64)
+    z_c: _Floats = np.clip(z, special.ndtri(SEED_PD_RANGE[0]), special.ndtri(SEED_PD_RANGE[1]))
+    t: NDArray[np.float64] = G_D_T_SCALE * (2.0 * special.ndtr(z_c) - 1.0)  # scipy is untyped
     return G_D_SLOPE * t / np.sqrt(1.0 - t * t) + (z - z_c)
 
 
-def _seed_required_snr(z, gf, inv_k, h_n, zeta):
+def _seed_required_snr(
+    z: _Floats, gf: _Floats, inv_k: _Floats, h_n: _Floats, zeta: float
+) -> NDArray[np.float64]:
     """D_0 [78] times L_f [83] at P_d = Φ(z): the seed's required per-pulse S/I (linear).
 
     ``gf`` is g_fa [80] and ``inv_k`` 1/K of Table III (0 for the steady target), both
@@ -1002,7 +1016,9 @@ def _seed_required_snr(z, gf, inv_k, h_n, zeta):
     return np.where(positive | (inv_k == 0), d0 * np.exp(log_lf), 0.0)
 
 
-def _pd_seed(snr_db, pfa, n, sw, h_n, zeta):
+def _pd_seed(
+    snr_db: _Floats, pfa: _Floats, n: _Floats, sw: _Ints, h_n: _Floats, zeta: float
+) -> NDArray[np.float64]:
     shape = snr_db.shape
     s = np.power(10.0, snr_db.ravel() / 10.0)
     p, hh = pfa.ravel(), np.broadcast_to(h_n, shape).ravel()
@@ -1023,7 +1039,8 @@ def _pd_seed(snr_db, pfa, n, sw, h_n, zeta):
     den = np.log(np.where(ok, f_hi, 2.0)) - np.log(np.where(ok, f_lo, 1.0))
     frac = np.where(ok, np.clip(num / den, 0.0, 1.0), 0.0)
     z = lo + frac * (hi - lo)
-    return np.clip(np.maximum(special.ndtr(z), p), 0.0, 1.0).reshape(shape)
+    pd: NDArray[np.float64] = np.clip(np.maximum(special.ndtr(z), p), 0.0, 1.0)  # scipy is untyped
+    return pd.reshape(shape)
 
 
 __all__ = [

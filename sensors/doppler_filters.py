@@ -103,7 +103,8 @@ def stability_residue(stability_limit_db: float) -> float:
         raise ValueError(
             f"stability_limit_db must be in (0, {MAX_STABILITY_LIMIT_DB}] dB, got {limit}"
         )
-    return 10.0 ** (-limit / 10.0)
+    residue: float = 10.0 ** (-limit / 10.0)  # float ** float is typed Any
+    return residue
 
 
 # ----------------------------------------------------------------------------- covariances
@@ -120,11 +121,11 @@ def weight_autocorrelation(weights: ArrayLike) -> NDArray[np.complexfloating]:
     ndarray, shape (..., N), complex
         ``r[..., 0]`` is the filter energy ``Σ |w|²``; negative lags are ``conj(r[m])``.
     """
-    w = np.asarray(weights, dtype=complex)
+    w = np.asarray(weights, dtype=np.complex128)
     if w.ndim == 0 or w.shape[-1] == 0:
         raise ValueError("weights must have at least one tap along the last axis")
     n = w.shape[-1]
-    r = np.empty(w.shape, dtype=complex)
+    r = np.empty(w.shape, dtype=np.complex128)
     for m in range(n):
         r[..., m] = np.sum(w[..., : n - m] * np.conj(w[..., m:]), axis=-1)
     return r
@@ -149,7 +150,7 @@ def quadratic_form_toeplitz(weights: ArrayLike, lag_covariance: ArrayLike) -> ND
         (of order 1e-16 of the filter energy), which the callers clip at 0.
     """
     r = weight_autocorrelation(weights)
-    c = np.asarray(lag_covariance, dtype=complex)
+    c = np.asarray(lag_covariance, dtype=np.complex128)
     n = r.shape[-1]
     if c.shape[-1] != n:
         raise ValueError(f"lag_covariance has {c.shape[-1]} lags, the filter has {n} taps")
@@ -178,13 +179,16 @@ def signal_lag_covariance(
     -------
     ndarray, shape (broadcast(doppler_norm, bandwidth_norm) + (n_lags,)), complex
     """
-    f, b = np.broadcast_arrays(np.asarray(doppler_norm, float), np.asarray(bandwidth_norm, float))
+    f, b = np.broadcast_arrays(
+        np.asarray(doppler_norm, np.float64), np.asarray(bandwidth_norm, np.float64)
+    )
     if np.any(b < 0):
         raise ValueError("bandwidth_norm must be >= 0")
     m = np.arange(n_lags)
     # the phase is reduced modulo 1 before the product so that large |f| keeps full precision
     phase = np.mod(f[..., None] * m, 1.0)
-    return np.exp(-2j * np.pi * phase) * np.sinc(b[..., None] * m)
+    rotation: NDArray[np.complex128] = np.exp(-2j * np.pi * phase)
+    return rotation * np.sinc(b[..., None] * m)
 
 
 def clutter_lag_covariance(
@@ -212,16 +216,19 @@ def clutter_lag_covariance(
     -------
     ndarray, shape (broadcast(spread_norm, mean_norm) + (n_lags,)), complex
     """
-    s, mu = np.broadcast_arrays(np.asarray(spread_norm, float), np.asarray(mean_norm, float))
+    s, mu = np.broadcast_arrays(
+        np.asarray(spread_norm, np.float64), np.asarray(mean_norm, np.float64)
+    )
     if np.any(s < 0):
         raise ValueError("spread_norm must be >= 0")
     m = np.arange(n_lags)
     # beyond WHITE_SPREAD_NORM every lag m >= 1 underflows to 0 anyway; clipping avoids
     # inf * 0 at m = 0 and overflow of the square for huge or infinite spreads
     s = np.minimum(s, WHITE_SPREAD_NORM)
-    magnitude = np.exp(-2.0 * (np.pi * s[..., None] * m) ** 2)
+    magnitude: NDArray[np.float64] = np.exp(-2.0 * (np.pi * s[..., None] * m) ** 2)
     phase = np.mod(mu[..., None] * m, 1.0)
-    return magnitude * np.exp(-2j * np.pi * phase)
+    rotation: NDArray[np.complex128] = np.exp(-2j * np.pi * phase)
+    return magnitude * rotation
 
 
 def filter_response(weights: ArrayLike, doppler_norm: ArrayLike) -> NDArray:
@@ -243,11 +250,14 @@ def filter_response(weights: ArrayLike, doppler_norm: ArrayLike) -> NDArray:
     ndarray, shape (F..., doppler_norm.shape), float, ``>= 0``
         0 at a null of the filter (e.g. the blind speeds ``f_d/f_r ∈ Z`` of an MTI).
     """
-    w = np.asarray(weights, dtype=complex)
-    f = np.asarray(doppler_norm, dtype=float)
+    w = np.asarray(weights, dtype=np.complex128)
+    f = np.asarray(doppler_norm, dtype=np.float64)
     n = np.arange(w.shape[-1])
     steering = np.exp(-2j * np.pi * np.mod(f[..., None] * n, 1.0))
-    return np.abs(np.tensordot(np.conj(w), steering, axes=([-1], [-1]))) ** 2
+    response: NDArray[np.float64] = (
+        np.abs(np.tensordot(np.conj(w), steering, axes=([-1], [-1]))) ** 2
+    )
+    return response
 
 
 def signal_output_power(
@@ -270,11 +280,14 @@ def signal_output_power(
     ndarray, shape (F..., broadcast(doppler_norm, bandwidth_norm)), float, ``>= 0``
     """
     w = np.asarray(weights)
-    f, b = np.broadcast_arrays(np.asarray(doppler_norm, float), np.asarray(bandwidth_norm, float))
+    f, b = np.broadcast_arrays(
+        np.asarray(doppler_norm, np.float64), np.asarray(bandwidth_norm, np.float64)
+    )
     if np.all(b == 0):
         return filter_response(w, f)
     cov = signal_lag_covariance(w.shape[-1], f, b)
-    return np.maximum(quadratic_form_toeplitz(w, cov), 0.0)
+    power: NDArray[np.float64] = np.maximum(quadratic_form_toeplitz(w, cov), 0.0)
+    return power
 
 
 def clutter_output_power(
@@ -309,8 +322,10 @@ def clutter_output_power(
     -------
     ndarray, shape (F..., broadcast(spread_norm, mean_norm)), float, ``>= 0``
     """
-    w = np.asarray(weights, dtype=complex)
-    s, mu = np.broadcast_arrays(np.asarray(spread_norm, float), np.asarray(mean_norm, float))
+    w = np.asarray(weights, dtype=np.complex128)
+    s, mu = np.broadcast_arrays(
+        np.asarray(spread_norm, np.float64), np.asarray(mean_norm, np.float64)
+    )
     if np.any(s < 0):
         raise ValueError("spread_norm must be >= 0")
     n = w.shape[-1]
@@ -399,7 +414,8 @@ def improvement_factor(
     signal, clutter, _, _ = _signal_and_clutter(
         w, spread_norm, doppler_norm, bandwidth_norm, clutter_mean_norm, stability_limit_db
     )
-    return signal / clutter
+    ratio: NDArray = signal / clutter
+    return ratio
 
 
 def bank_improvement_factor(
@@ -457,7 +473,8 @@ def _pick_filter(
         idx = np.broadcast_to(idx, full)[None]
         s = np.take_along_axis(np.broadcast_to(signal, (n_filters,) + full), idx, axis=0)
         c = np.take_along_axis(np.broadcast_to(clutter, (n_filters,) + full), idx, axis=0)
-        return (s / c)[0]
+        picked: NDArray = (s / c)[0]
+        return picked
     if pick == "best":
         best = np.zeros(full)
         for i in range(n_filters):
@@ -506,12 +523,12 @@ def staggered_improvement_factor(
     ndarray, float
         ``(I_F(f_lo) + I_F(f_hi)) / 2`` [1], linear; lies between the two bounds.
     """
-    prfs = np.asarray(stagger_prf_hz, dtype=float).ravel()
+    prfs = np.asarray(stagger_prf_hz, dtype=np.float64).ravel()
     if prf_hz <= 0 or prfs.size == 0 or np.any(prfs <= 0):
         raise ValueError("prf_hz and every stagger PRF must be > 0")
-    spread = np.asarray(spread_norm, float)
-    doppler = np.asarray(doppler_norm, float)
-    bounds = []
+    spread = np.asarray(spread_norm, np.float64)
+    doppler = np.asarray(doppler_norm, np.float64)
+    bounds: list[NDArray] = []
     for f_k in (prfs.min(), prfs.max()):
         scale = prf_hz / f_k
         bounds.append(
@@ -523,7 +540,8 @@ def staggered_improvement_factor(
                 stability_limit_db=stability_limit_db,
             )
         )
-    return 0.5 * (bounds[0] + bounds[1])
+    mean: NDArray = 0.5 * (bounds[0] + bounds[1])
+    return mean
 
 
 # ----------------------------------------------------------------------------- weights
@@ -547,7 +565,8 @@ def canceller_weights(n_pulses: int) -> NDArray[np.float64]:
         raise ValueError(f"an MTI canceller processes at least 2 pulses, got {n_pulses}")
     n = int(n_pulses) - 1
     k = np.arange(n + 1)
-    return (-1.0) ** k * comb(n, k, exact=False)
+    coefficients: NDArray[np.float64] = (-1.0) ** k * comb(n, k, exact=False)  # scipy is untyped
+    return coefficients
 
 
 def window_weights(
@@ -580,22 +599,25 @@ def window_weights(
     n_taps = int(n_taps)
     if n_taps < 1:
         raise ValueError("a window needs at least one tap")
+    window: NDArray[np.float64]  # scipy.signal is untyped
     if name == "rectangular":
-        return np.ones(n_taps)
-    if name == "hann":
-        return _windows.hann(n_taps, sym=True)
-    if name == "hamming":
-        return _windows.hamming(n_taps, sym=True)
-    if name == "taylor":
+        window = np.ones(n_taps)
+    elif name == "hann":
+        window = _windows.hann(n_taps, sym=True)
+    elif name == "hamming":
+        window = _windows.hamming(n_taps, sym=True)
+    elif name == "taylor":
         sll = DEFAULT_TAYLOR_SIDELOBE_DB if sidelobe_db is None else float(sidelobe_db)
         if sll <= 0:
             raise ValueError("Taylor sidelobe_db must be > 0 dB (a level below the mainlobe)")
-        return _windows.taylor(n_taps, nbar=int(nbar), sll=sll, norm=True, sym=True)
-    if name == "chebyshev":
+        window = _windows.taylor(n_taps, nbar=int(nbar), sll=sll, norm=True, sym=True)
+    elif name == "chebyshev":
         if sidelobe_db is None or sidelobe_db <= 0:
             raise ValueError("the Chebyshev window needs sidelobe_db > 0 dB")
-        return _windows.chebwin(n_taps, at=float(sidelobe_db), sym=True)
-    raise ValueError(f"unknown window {name!r}; choose one of {WINDOWS}")
+        window = _windows.chebwin(n_taps, at=float(sidelobe_db), sym=True)
+    else:
+        raise ValueError(f"unknown window {name!r}; choose one of {WINDOWS}")
+    return window
 
 
 def filter_centres_norm(n_filters: int) -> NDArray[np.float64]:
@@ -647,7 +669,8 @@ def bank_weights(
     a = window_weights(window, n_taps, sidelobe_db=sidelobe_db, nbar=nbar)
     f = filter_centres_norm(n_filters)
     n = np.arange(int(n_taps))
-    return a[None, :] * np.exp(-2j * np.pi * np.mod(f[:, None] * n[None, :], 1.0))
+    rotation: NDArray[np.complex128] = np.exp(-2j * np.pi * np.mod(f[:, None] * n[None, :], 1.0))
+    return a[None, :] * rotation
 
 
 def cascade_weights(mti_weights: ArrayLike, bank: ArrayLike) -> NDArray:
@@ -703,8 +726,8 @@ def doppler_filter_index(fd_hz: ArrayLike, prf_hz: ArrayLike, n_filters: int) ->
     -------
     ndarray of int, in ``[0, n_filters)``
     """
-    fd = np.asarray(fd_hz, dtype=float)
-    prf = np.asarray(prf_hz, dtype=float)
+    fd = np.asarray(fd_hz, dtype=np.float64)
+    prf = np.asarray(prf_hz, dtype=np.float64)
     n = int(n_filters)
     if n < 1:
         raise ValueError("n_filters must be >= 1")
@@ -747,8 +770,8 @@ def distribution_loss_db(
     ndarray
         ``L_d`` [dB], ``>= 0``.
     """
-    i_db = np.asarray(improvement_db, dtype=float)
-    d_db = np.asarray(median_mean_difference_db, dtype=float)
+    i_db = np.asarray(improvement_db, dtype=np.float64)
+    d_db = np.asarray(median_mean_difference_db, dtype=np.float64)
     if np.any(d_db < 0):
         raise ValueError("median_mean_difference_db is mean minus median and must be >= 0 dB")
     l0_db = np.maximum(
@@ -776,7 +799,9 @@ def processing_gain(improvement: ArrayLike, distribution_loss: ArrayLike = 1.0) 
     ndarray
         ``G_p`` [1], linear.
     """
-    return np.asarray(improvement, dtype=float) / np.asarray(distribution_loss, dtype=float)
+    return np.asarray(improvement, dtype=np.float64) / np.asarray(
+        distribution_loss, dtype=np.float64
+    )
 
 
 def processing_gain_db(improvement_db: ArrayLike, distribution_loss_db: ArrayLike = 0.0) -> NDArray:
@@ -794,4 +819,6 @@ def processing_gain_db(improvement_db: ArrayLike, distribution_loss_db: ArrayLik
     ndarray
         ``G_p`` [dB].
     """
-    return np.asarray(improvement_db, dtype=float) - np.asarray(distribution_loss_db, dtype=float)
+    return np.asarray(improvement_db, dtype=np.float64) - np.asarray(
+        distribution_loss_db, dtype=np.float64
+    )

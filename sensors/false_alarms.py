@@ -93,6 +93,10 @@ from shipradar.sensors.detection import LN2_SEED, N_CHANNELS, reported_range_cel
 from shipradar.sensors.measurement import expected_errors
 from shipradar.sensors.sea_clutter import STANDARD_K_FACTOR, slant_range_m
 
+# array types of the private helpers' signatures
+_Floats = NDArray[np.float64]
+_Ints = NDArray[np.int64]
+
 #: [91]: the normal approximation is used for η ≥ 9.
 NORMAL_MIN_ETA = 9.0
 TWO_PI = 2.0 * np.pi
@@ -125,9 +129,9 @@ def resolution_cells(
     ValueError
         If θ_b or C_R is not positive, or R_inst is negative.
     """
-    r = np.asarray(instrumented_range_m, dtype=float)
-    theta = np.asarray(beamwidth_rad, dtype=float)
-    c_r = np.asarray(range_cell_m, dtype=float)
+    r = np.asarray(instrumented_range_m, dtype=np.float64)
+    theta = np.asarray(beamwidth_rad, dtype=np.float64)
+    c_r = np.asarray(range_cell_m, dtype=np.float64)
     if np.any(~(r >= 0)) or np.any(~(theta > 0)) or np.any(~(c_r > 0)):
         raise ValueError(
             "resolution_cells: instrumented_range_m must be >= 0, beamwidth_rad and "
@@ -181,9 +185,9 @@ def noise_false_alarms_per_scan(
         If P_fa ∉ [0, 1], θ_b or N_ch is not positive, or as
         :func:`shipradar.sensors.detection.reported_range_cells`.
     """
-    p = np.asarray(pfa, dtype=float)
-    theta = np.asarray(beamwidth_rad, dtype=float)
-    n_ch = np.asarray(n_channels, dtype=float)
+    p = np.asarray(pfa, dtype=np.float64)
+    theta = np.asarray(beamwidth_rad, dtype=np.float64)
+    n_ch = np.asarray(n_channels, dtype=np.float64)
     if np.any(~((p >= 0) & (p <= 1))) or np.any(~(theta > 0)) or np.any(~(n_ch > 0)):
         raise ValueError("noise_false_alarms_per_scan: need 0 <= pfa <= 1, beamwidth_rad > 0 "
                          "and n_channels > 0")
@@ -204,7 +208,7 @@ def bernoulli_limit(n_channels: ArrayLike = N_CHANNELS) -> NDArray[np.float64]:
     ndarray
         The limit [-] (0.1725 for N_ch = 2).
     """
-    return LN2_SEED / (2.0 * np.asarray(n_channels, dtype=float))
+    return LN2_SEED / (2.0 * np.asarray(n_channels, dtype=np.float64))
 
 
 def false_alarm_count(
@@ -238,8 +242,8 @@ def false_alarm_count(
     ValueError
         If η is negative or not finite, or N_ch ≤ 0.
     """
-    eta_a = np.asarray(eta, dtype=float)
-    n_ch = np.asarray(n_channels, dtype=float)
+    eta_a = np.asarray(eta, dtype=np.float64)
+    n_ch = np.asarray(n_channels, dtype=np.float64)
     if np.any(~((eta_a >= 0) & np.isfinite(eta_a))):
         raise ValueError("false_alarm_count: eta must be finite and >= 0")
     if np.any(~(n_ch > 0)):
@@ -264,9 +268,9 @@ def false_alarm_count(
     count[bern] = u[bern] < eta_b[bern]
     normal = (eta_b >= NORMAL_MIN_ETA) & ~bern
     if np.any(normal):
-        e = eta_b[normal]
+        e_n = eta_b[normal]
         # u = 0 gives -inf, floored to 0 below (probability 2^-53)
-        x = e + np.sqrt(e) * special.ndtri(u[normal])
+        x = e_n + np.sqrt(e_n) * special.ndtri(u[normal])
         count[normal] = np.rint(np.maximum(x, 0.0)).astype(np.int64)
     pois = ~bern & ~normal
     if np.any(pois):
@@ -288,10 +292,10 @@ def poisson_cdf_table(eta: ArrayLike) -> NDArray[np.float64]:
         ``special.pdtr(k, η)``; K = ⌈η_max + 12 sqrt(η_max)⌉ + 20, beyond which the CDF is 1
         to double precision (its last column is set to 1 so that every U < 1 finds a k).
     """
-    e = np.asarray(eta, dtype=float).ravel()
+    e = np.asarray(eta, dtype=np.float64).ravel()
     top = float(e.max()) if e.size else 0.0
-    k = np.arange(int(np.ceil(top + 12.0 * np.sqrt(top))) + 21, dtype=float)
-    table = special.pdtr(k[None, :], e[:, None])
+    k = np.arange(int(np.ceil(top + 12.0 * np.sqrt(top))) + 21, dtype=np.float64)
+    table: NDArray[np.float64] = special.pdtr(k[None, :], e[:, None])  # scipy is untyped
     table[:, -1] = 1.0
     return table
 
@@ -320,10 +324,13 @@ def poisson_quantile(
     ndarray of int64
         Counts ≥ 0 (0 at U = 0).
     """
-    u = np.asarray(u, dtype=float).ravel()
+    u = np.asarray(u, dtype=np.float64).ravel()
     if cdf is None:
+        if eta is None:
+            raise ValueError("poisson_quantile needs the means eta or their CDF table cdf")
         cdf = poisson_cdf_table(eta)
-    return np.count_nonzero(cdf < u[:, None], axis=1).astype(np.int64)
+    counts: NDArray[np.int64] = np.count_nonzero(cdf < u[:, None], axis=1).astype(np.int64)
+    return counts
 
 
 def uniform_positions(
@@ -367,22 +374,23 @@ def uniform_positions(
                                                            az_max_rad)):
         # one interval (a whole scan's noise false alarms): the same draws and arithmetic
         # as the general path below, without broadcasting and repeating
-        r0, r1, a0, a1 = (float(v) for v in (r_min_m, r_max_m, az_min_rad, az_max_rad))
-        if not (0 <= r0 <= r1 and a0 <= a1 <= a0 + TWO_PI):
+        r_lo, r_hi, az_lo, az_hi = (float(np.asarray(v, dtype=np.float64))
+                                    for v in (r_min_m, r_max_m, az_min_rad, az_max_rad))
+        if not (0 <= r_lo <= r_hi and az_lo <= az_hi <= az_lo + TWO_PI):
             raise ValueError(
                 "uniform_positions: need 0 <= r_min_m <= r_max_m and "
                 "az_min_rad <= az_max_rad <= az_min_rad + 2 pi"
             )
         total = int(counts)
-        rng_r = r0 + (r1 - r0) * rng.random(total)
-        az = np.mod(a0 + (a1 - a0) * rng.random(total), TWO_PI)
+        rng_r = r_lo + (r_hi - r_lo) * rng.random(total)
+        az = np.mod(az_lo + (az_hi - az_lo) * rng.random(total), TWO_PI)
         return rng_r, np.where(az >= TWO_PI, 0.0, az)
     c, r0, r1, a0, a1 = np.broadcast_arrays(
         counts,
-        np.asarray(r_min_m, dtype=float),
-        np.asarray(r_max_m, dtype=float),
-        np.asarray(az_min_rad, dtype=float),
-        np.asarray(az_max_rad, dtype=float),
+        np.asarray(r_min_m, dtype=np.float64),
+        np.asarray(r_max_m, dtype=np.float64),
+        np.asarray(az_min_rad, dtype=np.float64),
+        np.asarray(az_max_rad, dtype=np.float64),
     )
     if np.any(~((r0 >= 0) & (r1 >= r0))) or np.any(~((a1 >= a0) & (a1 - a0 <= TWO_PI))):
         raise ValueError(
@@ -408,11 +416,11 @@ NOISE_LIKE_FACTOR = 2.0
 #: The P_fac models of [94]-[95]: the seed's (mean σ0 for the median) and the
 #: median-consistent one (threshold on the mean, median from [30]).
 ClutterFaModel = Literal["seed", "weibull_median"]
-CLUTTER_FA_MODELS: tuple[str, ...] = ("seed", "weibull_median")
-DEFAULT_CLUTTER_FA_MODEL = "seed"
+CLUTTER_FA_MODELS: tuple[ClutterFaModel, ...] = ("seed", "weibull_median")
+DEFAULT_CLUTTER_FA_MODEL: ClutterFaModel = "seed"
 
 
-def _model_checked(model: str) -> str:
+def _model_checked(model: str) -> ClutterFaModel:
     if model not in CLUTTER_FA_MODELS:
         raise ValueError(f"clutter false-alarm model must be one of {CLUTTER_FA_MODELS}, "
                          f"not {model!r}")
@@ -433,7 +441,7 @@ def log_weibull_median_ratio(a: ArrayLike) -> NDArray[np.float64]:
         ln of the median-to-mean power ratio [-] (< 0; ln ln 2 at a = 1), finite for
         finite a: no overflow where (ln 2)^a/Γ(1+a) itself underflows.
     """
-    a = np.asarray(a, dtype=float)
+    a = np.asarray(a, dtype=np.float64)
     if np.any(~(a > 0.0)):
         raise ValueError("Weibull parameter a must be > 0")
     with np.errstate(invalid="ignore"):
@@ -464,7 +472,7 @@ def weibull_median_ratio(a: ArrayLike) -> NDArray[np.float64]:
 
 
 def _pfa_checked(pfa: ArrayLike) -> NDArray[np.float64]:
-    p = np.asarray(pfa, dtype=float)
+    p = np.asarray(pfa, dtype=np.float64)
     if np.any(~((p > 0.0) & (p <= 1.0))):
         raise ValueError("P_fa must be in (0, 1]")
     return p
@@ -489,7 +497,7 @@ def clutter_threshold_db(pfa: ArrayLike, a_min: ArrayLike = 1.0) -> NDArray[np.f
     p = _pfa_checked(pfa)
     lnp = -np.log(p)
     with np.errstate(divide="ignore"):
-        return np.asarray(a_min, dtype=float) * (10.0 * np.log10(lnp) + LN2_DB)
+        return np.asarray(a_min, dtype=np.float64) * (10.0 * np.log10(lnp) + LN2_DB)
 
 
 def clutter_threshold_ratio(
@@ -517,12 +525,14 @@ def clutter_threshold_ratio(
         Y/σ0 [-] ≥ 0 (0 at P_fa = 1).
     """
     p = _pfa_checked(pfa)
-    a_min = np.asarray(a_min, dtype=float)
+    a_min = np.asarray(a_min, dtype=np.float64)
     if _model_checked(model) == "seed":
-        return (-np.log(p) / np.log(2.0)) ** a_min
+        seed_ratio: NDArray[np.float64] = (-np.log(p) / np.log(2.0)) ** a_min
+        return seed_ratio
     if np.any(~(a_min > 0.0)):
         raise ValueError("a_min must be > 0")
-    return (-np.log(p)) ** a_min / special.gamma(1.0 + a_min)
+    ratio: _Floats = (-np.log(p)) ** a_min / special.gamma(1.0 + a_min)  # scipy is untyped
+    return ratio
 
 
 def weibull_exceedance(threshold_ratio: ArrayLike, a: ArrayLike) -> NDArray[np.float64]:
@@ -540,12 +550,13 @@ def weibull_exceedance(threshold_ratio: ArrayLike, a: ArrayLike) -> NDArray[np.f
     ndarray
         P_Weibull(Y, a) in [0, 1]: 1 at Y = 0, → 0 as Y → ∞; underflows to 0 quietly.
     """
-    y = np.asarray(threshold_ratio, dtype=float)
-    a = np.asarray(a, dtype=float)
+    y = np.asarray(threshold_ratio, dtype=np.float64)
+    a = np.asarray(a, dtype=np.float64)
     if np.any(~(y >= 0.0)) or np.any(~(a > 0.0)):
         raise ValueError("weibull_exceedance: need Y/σ0 >= 0 and a > 0")
     with np.errstate(under="ignore"):
-        return np.exp(-np.log(2.0) * y ** (1.0 / a))
+        exceedance: NDArray[np.float64] = np.exp(-np.log(2.0) * y ** (1.0 / a))
+    return exceedance
 
 
 def weibull_median_exceedance(
@@ -580,8 +591,8 @@ def weibull_median_exceedance(
         (Y = 0).  No cut-off at a ≤ a_min here (:func:`clutter_fa_probability` applies it).
     """
     p = _pfa_checked(pfa)
-    a = np.asarray(a, dtype=float)
-    a_min = np.asarray(a_min, dtype=float)
+    a = np.asarray(a, dtype=np.float64)
+    a_min = np.asarray(a_min, dtype=np.float64)
     if np.any(~(a > 0.0)) or np.any(~(a_min > 0.0)):
         raise ValueError("weibull_median_exceedance: need a > 0 and a_min > 0")
     with np.errstate(divide="ignore", over="ignore", under="ignore", invalid="ignore"):
@@ -638,11 +649,11 @@ def clutter_fa_probability(
     ndarray
         P_fac in [0, 1/K_clutter].
     """
-    k = np.asarray(k_clutter, dtype=float)
+    k = np.asarray(k_clutter, dtype=np.float64)
     if np.any(~(k >= 1.0)):
         raise ValueError("K_clutter must be >= 1")
-    a = np.asarray(a, dtype=float)
-    a_min = np.asarray(a_min, dtype=float)
+    a = np.asarray(a, dtype=np.float64)
+    a_min = np.asarray(a_min, dtype=np.float64)
     if np.any(~(a_min > 0.0)):
         raise ValueError("a_min must be > 0")
     a_eff = np.maximum(a, a_min)
@@ -654,8 +665,8 @@ def clutter_fa_probability(
     if clutter_power_w is not None or noise_power_w is not None:
         if clutter_power_w is None or noise_power_w is None:
             raise ValueError("give both clutter_power_w and noise_power_w, or neither")
-        off = off | (np.asarray(clutter_power_w, dtype=float)
-                     < NOISE_LIKE_FACTOR * np.asarray(noise_power_w, dtype=float))
+        off = off | (np.asarray(clutter_power_w, dtype=np.float64)
+                     < NOISE_LIKE_FACTOR * np.asarray(noise_power_w, dtype=np.float64))
     return np.where(off, 0.0, p)
 
 
@@ -686,9 +697,9 @@ def default_p_fac_max(
     if _model_checked(model) == "seed":
         p = weibull_exceedance(clutter_threshold_ratio(pfa, a_min), HP_DEFAULT_A)
     else:
-        a_m = np.minimum(np.asarray(a_min, dtype=float), HP_DEFAULT_A)
+        a_m = np.minimum(np.asarray(a_min, dtype=np.float64), HP_DEFAULT_A)
         p = weibull_median_exceedance(HP_DEFAULT_A, pfa, a_m)
-    return np.where(np.asarray(a_min, dtype=float) < HP_DEFAULT_A, p, _pfa_checked(pfa))
+    return np.where(np.asarray(a_min, dtype=np.float64) < HP_DEFAULT_A, p, _pfa_checked(pfa))
 
 
 def hp_clutter_fa_probability(
@@ -723,16 +734,16 @@ def hp_clutter_fa_probability(
     ndarray
         P_fac in [0, P_facmax/K_clutter], non-increasing in R.
     """
-    k = np.asarray(k_clutter, dtype=float)
-    pmax = np.asarray(p_fac_max, dtype=float)
+    k = np.asarray(k_clutter, dtype=np.float64)
+    pmax = np.asarray(p_fac_max, dtype=np.float64)
     if np.any(~(k >= 1.0)) or np.any(~((pmax >= 0.0) & (pmax <= 1.0))):
         raise ValueError("need K_clutter >= 1 and 0 <= P_facmax <= 1")
-    r, r0, r1 = np.broadcast_arrays(*(np.asarray(v, dtype=float)
+    r, r0, r1 = np.broadcast_arrays(*(np.asarray(v, dtype=np.float64)
                                       for v in (ground_range_m, reference_range_m, end_range_m)))
     span = r1 - r0
     ramp = span > 0.0
     t = np.clip((r - r0) / np.where(ramp, span, 1.0), 0.0, 1.0)
-    shape = np.where(ramp, 0.5 * (1.0 + np.cos(np.pi * t)), (r < r1).astype(float))
+    shape = np.where(ramp, 0.5 * (1.0 + np.cos(np.pi * t)), (r < r1).astype(np.float64))
     return pmax * shape / k
 
 
@@ -760,12 +771,12 @@ def sector_cells(
     ndarray
         Cells [-] (not rounded); summed over 2π and R_inst it is :func:`resolution_cells`.
     """
-    c_r = np.asarray(range_cell_m, dtype=float)
-    th = np.asarray(beamwidth_rad, dtype=float)
+    c_r = np.asarray(range_cell_m, dtype=np.float64)
+    th = np.asarray(beamwidth_rad, dtype=np.float64)
     if np.any(~(c_r > 0.0)) or np.any(~(th > 0.0)):
         raise ValueError("sector_cells: C_R and θ_b must be > 0")
-    return np.asarray(range_extent_m, dtype=float) / c_r * (
-        np.asarray(azimuth_extent_rad, dtype=float) / th)
+    return np.asarray(range_extent_m, dtype=np.float64) / c_r * (
+        np.asarray(azimuth_extent_rad, dtype=np.float64) / th)
 
 
 def spike_excess(
@@ -797,15 +808,15 @@ def spike_excess(
     ndarray
         x/σ0 [-] ≥ Y/σ0.
     """
-    y, a = np.broadcast_arrays(np.asarray(threshold_ratio, dtype=float),
-                               np.asarray(a, dtype=float))
+    y, a = np.broadcast_arrays(np.asarray(threshold_ratio, dtype=np.float64),
+                               np.asarray(a, dtype=np.float64))
     if np.any(~(y >= 0.0)) or np.any(~(a > 0.0)):
         raise ValueError("spike_excess: need Y/σ0 >= 0 and a > 0")
     e = rng.standard_exponential(y.shape)
     return _spike_from_terms(*_spike_terms(y, a, _model_checked(model)), a, e)
 
 
-def _spike_terms(y, a, model: ClutterFaModel):
+def _spike_terms(y: _Floats, a: _Floats, model: ClutterFaModel) -> tuple[_Floats, _Floats | None]:
     """The threshold's terms of :func:`spike_excess`: (Y/σ_m)^(1/a) and ln(σ_m/σ0) (None
     for the ``seed`` model, σ_m = σ0), computed in logs for ``weibull_median``."""
     if model == "seed":
@@ -815,13 +826,15 @@ def _spike_terms(y, a, model: ClutterFaModel):
         return np.exp((np.log(y) - ln_m) / a), ln_m
 
 
-def _spike_from_terms(base, ln_m, a, e):
+def _spike_from_terms(base: _Floats, ln_m: _Floats | None, a: _Floats, e: _Floats) -> _Floats:
     """x/σ0 = σ_m/σ0 ((Y/σ_m)^(1/a) + E/ln 2)^a from :func:`_spike_terms` and the
     exponentials E (:func:`spike_excess`)."""
     if ln_m is None:
-        return (base + e / np.log(2.0)) ** a
+        seed_excess: NDArray[np.float64] = (base + e / np.log(2.0)) ** a
+        return seed_excess
     with np.errstate(divide="ignore", over="ignore", under="ignore"):
-        return np.exp(ln_m + a * np.log(base + e / np.log(2.0)))
+        excess: NDArray[np.float64] = np.exp(ln_m + a * np.log(base + e / np.log(2.0)))
+    return excess
 
 
 #: Count regimes of [91]-[93] of a clutter false-alarm sector (ClutterFalseAlarms._draw).
@@ -868,13 +881,15 @@ class ClutterFalseAlarms:
         The [94]-[95] reading of the map (the spike's tail, :func:`spike_excess`).
     """
 
-    def __init__(self, r_min_m, r_max_m, az_min_rad, az_max_rad, p_fac, cells, weibull_a, *,
+    def __init__(self, r_min_m: ArrayLike, r_max_m: ArrayLike, az_min_rad: ArrayLike,
+                 az_max_rad: ArrayLike, p_fac: ArrayLike, cells: ArrayLike,
+                 weibull_a: ArrayLike, *,
                  threshold_ratio: float, n_channels: int, n_pulses: float, range_cell_m: float,
                  beamwidth_rad: float, antenna_height_m: float,
                  k_factor: float = STANDARD_K_FACTOR,
                  h_range: float = 4.0, h_azimuth: float = 4.0,
                  clutter_fa_model: ClutterFaModel = DEFAULT_CLUTTER_FA_MODEL) -> None:
-        arrs = np.broadcast_arrays(*(np.asarray(v, dtype=float).ravel() for v in (
+        arrs = np.broadcast_arrays(*(np.asarray(v, dtype=np.float64).ravel() for v in (
             r_min_m, r_max_m, az_min_rad, az_max_rad, p_fac, cells, weibull_a)))
         p = arrs[4]
         if np.any(~((p >= 0.0) & (p <= 1.0))):
@@ -901,15 +916,14 @@ class ClutterFalseAlarms:
         pois = ~bern & ~normal
         self._regime = np.where(bern, _REGIME_BERNOULLI,
                                 np.where(normal, _REGIME_NORMAL, _REGIME_POISSON))
-        self._pois_cdf = poisson_cdf_table(self.eta[pois]) if pois.any() else None
+        self._pois_cdf = poisson_cdf_table(self.eta[pois])  # no rows if no Poisson sector
         self._pois_row = np.cumsum(pois) - 1  # the CDF row of each Poisson sector
         # a sector draws one alarm or more when U < _hit_below or U > _hit_above: U < η
         # (Bernoulli), U > P(0) = e^-η (Poisson), always (normal); see _draw
         self._hit_below = np.where(bern, self.eta, np.where(normal, 2.0, -1.0))
         self._hit_above = np.full(self.eta.shape, 2.0)
-        if self._pois_cdf is not None:
-            self._hit_above[pois] = self._pois_cdf[:, 0]
-        self._scratch_arrays: tuple[NDArray, NDArray, NDArray] | None = None
+        self._hit_above[pois] = self._pois_cdf[:, 0]
+        self._scratch_arrays: tuple[_Floats, NDArray[np.bool_], NDArray[np.bool_]] | None = None
         # uniform_positions' spans, formed once: r0 + (r1 - r0) U is the same number whether
         # the difference is taken before or after selecting the sector
         self._r_span = self.r_max_m - self.r_min_m
@@ -929,7 +943,7 @@ class ClutterFalseAlarms:
         return _spike_from_terms(base[sector], None if ln_m is None else ln_m[sector],
                                  self.weibull_a[sector], e)
 
-    def _scratch(self, revolutions: int):
+    def _scratch(self, revolutions: int) -> tuple[_Floats, NDArray[np.bool_], NDArray[np.bool_]]:
         """The uniforms and two masks of :meth:`_draw`, one per sector and revolution, kept
         between calls (a block's are tens of MB: allocated once, not at every block)."""
         shape = (revolutions, self.eta.size)
@@ -939,7 +953,7 @@ class ClutterFalseAlarms:
         return self._scratch_arrays
 
     @functools.cached_property
-    def _spike_terms(self):
+    def _spike_terms(self) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
         """:func:`_spike_terms` of every active sector."""
         return _spike_terms(np.full(self.eta.shape, self.threshold_ratio), self.weibull_a,
                             self.clutter_fa_model)
@@ -953,10 +967,12 @@ class ClutterFalseAlarms:
         """One revolution's counts per active sector and the positions (ground range [m],
         azimuth [rad]), sector after sector."""
         counts, _, _, r, az = self._draw(rng)
+        assert counts is not None  # _draw's counts_per_sector defaults to True
         return counts[0], r, az
 
     def _draw(self, rng: np.random.Generator, revolutions: int = 1,
-              counts_per_sector: bool = True):
+              counts_per_sector: bool = True
+              ) -> tuple[_Ints | None, _Ints, _Ints, _Floats, _Floats]:
         """:meth:`draw` of ``revolutions`` revolutions at once, with the active-sector index
         and the revolution index of every false alarm (revolution after revolution, sector
         after sector: one revolution draws the same numbers as :meth:`draw`); the counts per
@@ -1045,7 +1061,7 @@ class ClutterFalseAlarms:
         """
         if self.eta.size == 0:
             return None
-        t_scan, t_end, beam = (np.atleast_1d(np.asarray(v, dtype=float)) for v in (
+        t_scan, t_end, beam = (np.atleast_1d(np.asarray(v, dtype=np.float64)) for v in (
             t_scan, t_end, beam_start_rad))
         _, sector, revolution, ground, az = self._draw(rng, t_scan.size,
                                                        counts_per_sector=False)

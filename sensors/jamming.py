@@ -46,7 +46,8 @@ def bandwidth_ratio(
         Ratio in (0, 1].
     """
     return np.minimum(
-        np.asarray(radar_bandwidth_hz, dtype=float) / np.asarray(jammer_bandwidth_hz, dtype=float),
+        np.asarray(radar_bandwidth_hz, dtype=np.float64)
+        / np.asarray(jammer_bandwidth_hz, dtype=np.float64),
         1.0,
     )
 
@@ -111,26 +112,26 @@ def jammer_power_w(
         P_j [W], ≥ 0, ∝ R_j⁻².
     """
     pattern = np.maximum(
-        np.asarray(g_az, dtype=float) ** 2 * np.asarray(g_el, dtype=float) ** 2,
-        np.asarray(sidelobe_floor, dtype=float),
+        np.asarray(g_az, dtype=np.float64) ** 2 * np.asarray(g_el, dtype=np.float64) ** 2,
+        np.asarray(sidelobe_floor, dtype=np.float64),
     )
-    lam = np.asarray(wavelength_m, dtype=float)
-    r = np.maximum(np.asarray(range_m, dtype=float), min_range_m)
+    lam = np.asarray(wavelength_m, dtype=np.float64)
+    r = np.maximum(np.asarray(range_m, dtype=np.float64), min_range_m)
     return (
-        np.asarray(p_jt_w, dtype=float)
-        * np.asarray(g_j, dtype=float)
-        * np.asarray(gain, dtype=float)
+        np.asarray(p_jt_w, dtype=np.float64)
+        * np.asarray(g_j, dtype=np.float64)
+        * np.asarray(gain, dtype=np.float64)
         * pattern
         * bandwidth_ratio(radar_bandwidth_hz, jammer_bandwidth_hz)
         * lam
         * lam
-        * np.asarray(f_j, dtype=float) ** 2
+        * np.asarray(f_j, dtype=np.float64) ** 2
         / (
             (4.0 * np.pi) ** 2
             * r
             * r
-            * np.asarray(l_r, dtype=float)
-            * np.asarray(l_atm, dtype=float)
+            * np.asarray(l_r, dtype=np.float64)
+            * np.asarray(l_atm, dtype=np.float64)
         )
     )
 
@@ -154,9 +155,9 @@ def signal_to_jamming(
     ndarray
         S/J (power ratio), ``inf`` where P_j = 0.
     """
-    lj = power_ratio(L_J_DB) if l_j is None else np.asarray(l_j, dtype=float)
-    pr = np.asarray(p_r_w, dtype=float)
-    pj = np.asarray(p_j_w, dtype=float) * lj
+    lj = power_ratio(L_J_DB) if l_j is None else np.asarray(l_j, dtype=np.float64)
+    pr = np.asarray(p_r_w, dtype=np.float64)
+    pj = np.asarray(p_j_w, dtype=np.float64) * lj
     pr, pj = np.broadcast_arrays(pr, pj)
     out = np.full(pr.shape, np.inf)
     np.divide(pr, pj, out=out, where=pj > 0.0)

@@ -50,8 +50,8 @@ def output_snr(snr: ArrayLike, n_pulses: ArrayLike) -> NDArray[np.float64]:
     ndarray
         (S/I)_out [-], ≥ :data:`MIN_OUTPUT_SNR`; +inf stays +inf (zero error).
     """
-    s = np.asarray(snr, dtype=float)
-    n = np.asarray(n_pulses, dtype=float)
+    s = np.asarray(snr, dtype=np.float64)
+    n = np.asarray(n_pulses, dtype=np.float64)
     if np.any(np.isnan(s)) or np.any(~(n >= 1)):
         raise ValueError("output_snr: snr must not be NaN and n_pulses must be >= 1")
     return np.maximum(np.maximum(s, 0.0) * n, MIN_OUTPUT_SNR)
@@ -89,8 +89,12 @@ def expected_errors(
         ε_θ [rad], at most H_θ θ_b.
     """
     root = np.sqrt(output_snr(snr, n_pulses))
-    eps_r = np.asarray(h_range, dtype=float) * np.asarray(range_cell_m, dtype=float) / root
-    eps_t = np.asarray(h_azimuth, dtype=float) * np.asarray(beamwidth_rad, dtype=float) / root
+    eps_r = (
+        np.asarray(h_range, dtype=np.float64) * np.asarray(range_cell_m, dtype=np.float64) / root
+    )
+    eps_t = (
+        np.asarray(h_azimuth, dtype=np.float64) * np.asarray(beamwidth_rad, dtype=np.float64) / root
+    )
     return eps_r, eps_t
 
 
@@ -113,8 +117,8 @@ def noisy_range(
     ndarray
         Measured range [m], ≥ 0 (|R + e|).
     """
-    r = np.asarray(range_m, dtype=float)
-    sigma = np.asarray(eps_range_m, dtype=float) / SIGMAS_PER_ERROR
+    r = np.asarray(range_m, dtype=np.float64)
+    sigma = np.asarray(eps_range_m, dtype=np.float64) / SIGMAS_PER_ERROR
     shape = np.broadcast_shapes(r.shape, sigma.shape)
     return np.abs(r + sigma * rng.standard_normal(shape))
 
@@ -138,15 +142,15 @@ def noisy_azimuth(
     ndarray
         Measured azimuth [rad] in [0, 2π).
     """
-    a = np.asarray(azimuth_rad, dtype=float)
-    sigma = np.asarray(eps_azimuth_rad, dtype=float) / SIGMAS_PER_ERROR
+    a = np.asarray(azimuth_rad, dtype=np.float64)
+    sigma = np.asarray(eps_azimuth_rad, dtype=np.float64) / SIGMAS_PER_ERROR
     shape = np.broadcast_shapes(a.shape, sigma.shape)
     return wrap_azimuth(a + sigma * rng.standard_normal(shape))
 
 
 def wrap_azimuth(azimuth_rad: ArrayLike) -> NDArray[np.float64]:
     """Azimuth wrapped to [0, 2π) [rad] (np.mod can round a tiny negative angle up to 2π)."""
-    w = np.mod(np.asarray(azimuth_rad, dtype=float), TWO_PI)
+    w = np.mod(np.asarray(azimuth_rad, dtype=np.float64), TWO_PI)
     return np.where(w >= TWO_PI, 0.0, w)
 
 
@@ -191,7 +195,10 @@ def measure(
         snr, n_pulses, range_cell_m, beamwidth_rad, h_range=h_range, h_azimuth=h_azimuth
     )
     r, a, eps_r, eps_t = np.broadcast_arrays(
-        np.asarray(range_m, dtype=float), np.asarray(azimuth_rad, dtype=float), eps_r, eps_t
+        np.asarray(range_m, dtype=np.float64),
+        np.asarray(azimuth_rad, dtype=np.float64),
+        eps_r,
+        eps_t,
     )
     return {
         "range_m": noisy_range(r, eps_r, rng),

@@ -71,7 +71,7 @@ def power_ratio(value_db: ArrayLike) -> NDArray[np.float64]:
     value_db : array_like
         Ratio [dB].
     """
-    return 10.0 ** (np.asarray(value_db, dtype=float) / 10.0)
+    return 10.0 ** (np.asarray(value_db, dtype=np.float64) / 10.0)
 
 
 def processing_loss(
@@ -104,7 +104,7 @@ def receive_loss(l_tr: ArrayLike) -> NDArray[np.float64]:
     ndarray
         L_r (power ratio ≥ 1).
     """
-    return np.sqrt(np.asarray(l_tr, dtype=float))
+    return np.sqrt(np.asarray(l_tr, dtype=np.float64))
 
 
 def system_noise_temperature_k(
@@ -133,11 +133,11 @@ def system_noise_temperature_k(
     ndarray
         T_s [K]; equals T_a for a lossless line and a noiseless receiver.
     """
-    lr = np.asarray(l_r, dtype=float)
+    lr = np.asarray(l_r, dtype=np.float64)
     return (
-        np.asarray(antenna_temperature_k, dtype=float)
-        + np.asarray(t_line_k, dtype=float) * (lr - 1.0)
-        + lr * T0_K * (np.asarray(noise_figure, dtype=float) - 1.0)
+        np.asarray(antenna_temperature_k, dtype=np.float64)
+        + np.asarray(t_line_k, dtype=np.float64) * (lr - 1.0)
+        + lr * T0_K * (np.asarray(noise_figure, dtype=np.float64) - 1.0)
     )
 
 
@@ -161,9 +161,9 @@ def antenna_temperature_k(
     ndarray
         T_a [K] (36 K + 0.876 T'_a for L_a = 1; tends to 290 K as L_a grows).
     """
-    return (BLAKE_SKY_FRACTION * np.asarray(sky_temperature_k, dtype=float) - BLAKE_OFFSET_K) / (
-        np.asarray(l_a, dtype=float)
-    ) + T0_K
+    return (
+        BLAKE_SKY_FRACTION * np.asarray(sky_temperature_k, dtype=np.float64) - BLAKE_OFFSET_K
+    ) / (np.asarray(l_a, dtype=np.float64)) + T0_K
 
 
 def galactic_noise_temperature_k(freq_hz: ArrayLike) -> NDArray[np.float64]:
@@ -182,7 +182,7 @@ def galactic_noise_temperature_k(freq_hz: ArrayLike) -> NDArray[np.float64]:
     ndarray
         T_gal [K].
     """
-    f_mhz = np.asarray(freq_hz, dtype=float) / constants.mega
+    f_mhz = np.asarray(freq_hz, dtype=np.float64) / constants.mega
     fam_db = GALACTIC_FAM_1MHZ_DB - GALACTIC_FAM_SLOPE_DB * np.log10(f_mhz)
     return T0_K * power_ratio(fam_db)
 
@@ -233,7 +233,7 @@ def sky_temperature_k(
     -----
     Per scene, not per dwell: the nested quadrature holds 120 × 120 points per elevation.
     """
-    el = np.maximum(np.asarray(elevation_rad, dtype=float), 0.0)
+    el = np.maximum(np.asarray(elevation_rad, dtype=np.float64), 0.0)
     go, gw = atmosphere.gaseous_specific_attenuation_db_per_km(
         freq_hz,
         temperature_k=surface_temperature_k,
@@ -249,9 +249,14 @@ def sky_temperature_k(
     # Absorption coefficient [Np/m of power] from dB/km.
     np_per_m_per_db_per_km = np.log(10.0) / 10.0 / constants.kilo
 
-    def kappa(s, e):
-        h = np.maximum(atmosphere.path_height_m(s, e, antenna_height_m), 0.0)
-        return (go * np.exp(-h / ho) + gw * np.exp(-h / hw)) * np_per_m_per_db_per_km, h
+    def kappa(
+        s: NDArray[np.float64], e: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        h: NDArray[np.float64] = np.maximum(atmosphere.path_height_m(s, e, antenna_height_m), 0.0)
+        k: NDArray[np.float64] = (
+            go * np.exp(-h / ho) + gw * np.exp(-h / hw)
+        ) * np_per_m_per_db_per_km
+        return k, h
 
     top = atmosphere.layer_path_length_m(1.0e9, el, ATMOSPHERE_TOP_M, antenna_height_m)
     s, w = atmosphere.path_quadrature(top)  # (..., n)
@@ -260,9 +265,9 @@ def sky_temperature_k(
     s2, w2 = atmosphere.path_quadrature(s)  # (..., n, n)
     k_inner, _ = kappa(s2, el[..., None, None])
     tau_s = np.sum(w2 * k_inner, axis=-1)
-    tau_total = np.sum(w * k_s, axis=-1)
+    tau_total: NDArray[np.float64] = np.sum(w * k_s, axis=-1)
     t_air = surface_temperature_k - lapse_rate_k_per_m * np.minimum(h_s, TROPOPAUSE_HEIGHT_M)
-    emission = np.sum(w * t_air * k_s * np.exp(-tau_s), axis=-1)
+    emission: NDArray[np.float64] = np.sum(w * t_air * k_s * np.exp(-tau_s), axis=-1)
     t_ext = T_COSMIC_K + (galactic_noise_temperature_k(freq_hz) if include_galactic else 0.0)
     return emission + t_ext * np.exp(-tau_total)
 
@@ -275,7 +280,7 @@ def noise_bandwidth_hz(compressed_pulse_width_s: ArrayLike) -> NDArray[np.float6
     compressed_pulse_width_s : array_like
         τ', compressed pulse width [s], > 0.
     """
-    return 1.0 / np.asarray(compressed_pulse_width_s, dtype=float)
+    return 1.0 / np.asarray(compressed_pulse_width_s, dtype=np.float64)
 
 
 def noise_power_w(system_temperature_k: ArrayLike, bandwidth_hz: ArrayLike) -> NDArray[np.float64]:
@@ -293,11 +298,12 @@ def noise_power_w(system_temperature_k: ArrayLike, bandwidth_hz: ArrayLike) -> N
     ndarray
         N0' [W] (k T0 B = -114 dBm for 290 K and 1 MHz).
     """
-    return (
+    n0: NDArray[np.float64] = (  # scipy.constants is untyped
         constants.k
-        * np.asarray(system_temperature_k, dtype=float)
-        * np.asarray(bandwidth_hz, dtype=float)
+        * np.asarray(system_temperature_k, dtype=np.float64)
+        * np.asarray(bandwidth_hz, dtype=np.float64)
     )
+    return n0
 
 
 def radar_constant(
@@ -327,15 +333,19 @@ def radar_constant(
     ndarray
         K_r [W m²].
     """
-    lam = np.asarray(wavelength_m, dtype=float)
-    g = np.asarray(gain, dtype=float)
+    lam = np.asarray(wavelength_m, dtype=np.float64)
+    g = np.asarray(gain, dtype=np.float64)
     return (
-        np.asarray(p_t_w, dtype=float)
+        np.asarray(p_t_w, dtype=np.float64)
         * g
         * g
         * lam
         * lam
-        / ((4.0 * np.pi) ** 3 * np.asarray(l_tr, dtype=float) * np.asarray(l_atm, dtype=float) ** 2)
+        / (
+            (4.0 * np.pi) ** 3
+            * np.asarray(l_tr, dtype=np.float64)
+            * np.asarray(l_atm, dtype=np.float64) ** 2
+        )
     )
 
 
@@ -369,9 +379,12 @@ def received_power(
     ndarray
         P_r [W], finite, ∝ R⁻⁴ above the floor.
     """
-    r = np.maximum(np.asarray(range_m, dtype=float), min_range_m)
-    f2 = np.asarray(f, dtype=float) ** 2
-    return np.asarray(k_r, dtype=float) * np.asarray(sigma_m2, dtype=float) * f2 * f2 / r**4
+    r = np.maximum(np.asarray(range_m, dtype=np.float64), min_range_m)
+    f2 = np.asarray(f, dtype=np.float64) ** 2
+    power: NDArray[np.float64] = (
+        np.asarray(k_r, dtype=np.float64) * np.asarray(sigma_m2, dtype=np.float64) * f2 * f2 / r**4
+    )
+    return power
 
 
 def signal_to_noise(
@@ -393,5 +406,5 @@ def signal_to_noise(
     ndarray
         S/N (power ratio).
     """
-    lx = power_ratio(L_X_DB) if l_x is None else np.asarray(l_x, dtype=float)
-    return np.asarray(p_r_w, dtype=float) / (np.asarray(n0_w, dtype=float) * lx)
+    lx = power_ratio(L_X_DB) if l_x is None else np.asarray(l_x, dtype=np.float64)
+    return np.asarray(p_r_w, dtype=np.float64) / (np.asarray(n0_w, dtype=np.float64) * lx)

@@ -24,9 +24,12 @@ from typing import Any
 
 import numpy as np
 import scipy.constants as sc
+from numpy.typing import ArrayLike, NDArray
 from scipy.special import i0e
 
-ArrayLike = Any
+# array types of the private helpers' signatures
+_Complexes = NDArray[np.complex128]
+_Floats = NDArray[np.float64]
 
 # --------------------------------------------------------------------------- reference values
 #: Mean earth radius [m] (IUGG mean radius R1).
@@ -71,7 +74,7 @@ def normalize_polarization(polarization: str) -> str:
 # =========================================================================== profiles [7]
 def standard_profile(
     height_m: ArrayLike, m0: float = SURFACE_M_UNITS, gradient: float = STANDARD_M_GRADIENT
-) -> np.ndarray:
+) -> NDArray[np.float64]:
     """Modified refractivity of a linear (standard) atmosphere.
 
     ``M(h) = m0 + gradient * h``; with the default gradient, the 4/3-earth atmosphere.
@@ -99,7 +102,7 @@ def evaporation_duct_profile(
     duct_height_m: ArrayLike,
     m0: float = SURFACE_M_UNITS,
     z0: float = ROUGHNESS_LENGTH_M,
-) -> np.ndarray:
+) -> NDArray[np.float64]:
     """Log-linear evaporation-duct profile, seed [7] (Paulus 1985; Jeske 1973).
 
     ``M(h) = m0 + 0.125 * (h - delta * ln((h + z0) / z0))``.
@@ -128,7 +131,7 @@ def evaporation_duct_profile(
         M [M units], broadcast over ``height_m`` and ``duct_height_m``.
     """
     h = _heights(height_m)
-    delta = np.asarray(duct_height_m, dtype=float)
+    delta = np.asarray(duct_height_m, dtype=np.float64)
     if np.any(delta < 0):
         raise ValueError("duct height must be >= 0")
     if z0 <= 0:
@@ -138,7 +141,7 @@ def evaporation_duct_profile(
 
 def piecewise_profile(
     heights_m: ArrayLike, m_units: ArrayLike
-) -> Callable[[ArrayLike], np.ndarray]:
+) -> Callable[[ArrayLike], NDArray[np.float64]]:
     """A user-defined piecewise-linear M profile (surface-based or elevated ducts).
 
     Parameters
@@ -155,8 +158,8 @@ def piecewise_profile(
         point, linear extrapolation with the slope of the last segment (so a profile that ends
         on a standard 0.118 M/m segment continues it).  Heights below 0 raise ``ValueError``.
     """
-    z = np.asarray(heights_m, dtype=float)
-    m = np.asarray(m_units, dtype=float)
+    z = np.asarray(heights_m, dtype=np.float64)
+    m = np.asarray(m_units, dtype=np.float64)
     if z.ndim != 1 or z.shape != m.shape or z.size < 2:
         raise ValueError("heights_m and m_units must be 1-D of the same length >= 2")
     if z[0] != 0.0 or not np.all(np.diff(z) > 0):
@@ -165,7 +168,7 @@ def piecewise_profile(
         raise ValueError("m_units must be finite")
     top_slope = (m[-1] - m[-2]) / (z[-1] - z[-2])
 
-    def profile(height_m: ArrayLike) -> np.ndarray:
+    def profile(height_m: ArrayLike) -> NDArray[np.float64]:
         h = _heights(height_m)
         inside = np.interp(h, z, m)
         return np.where(h > z[-1], m[-1] + top_slope * (h - z[-1]), inside)
@@ -205,7 +208,7 @@ def normalize_profile_spec(spec: Mapping[str, Any]) -> dict[str, Any]:
     return out
 
 
-def profile_from_spec(spec: Mapping[str, Any]) -> Callable[[ArrayLike], np.ndarray]:
+def profile_from_spec(spec: Mapping[str, Any]) -> Callable[[ArrayLike], NDArray[np.float64]]:
     """Build the callable M profile [M units] of a description (:func:`normalize_profile_spec`)."""
     s = normalize_profile_spec(spec)
     if s["kind"] == "standard":
@@ -215,8 +218,8 @@ def profile_from_spec(spec: Mapping[str, Any]) -> Callable[[ArrayLike], np.ndarr
     return piecewise_profile(s["heights_m"], s["m_units"])
 
 
-def _heights(height_m: ArrayLike) -> np.ndarray:
-    h = np.asarray(height_m, dtype=float)
+def _heights(height_m: ArrayLike) -> NDArray[np.float64]:
+    h = np.asarray(height_m, dtype=np.float64)
     if np.any(h < 0):
         raise ValueError("heights must be >= 0 (above the sea surface)")
     return h
@@ -240,12 +243,12 @@ _MIN_WIND_MPS = 0.5
 MAX_EVAPORATION_DUCT_HEIGHT_M = 40.0
 
 
-def _saturation_vapour_pressure_hpa(t_c: np.ndarray) -> np.ndarray:
+def _saturation_vapour_pressure_hpa(t_c: NDArray[np.float64]) -> NDArray[np.float64]:
     """Buck (1981) saturation vapour pressure over water [hPa] at temperature [degC]."""
     return 6.1121 * np.exp(17.502 * t_c / (240.97 + t_c))
 
 
-def _psi_m(zeta: np.ndarray) -> np.ndarray:
+def _psi_m(zeta: NDArray[np.float64]) -> NDArray[np.float64]:
     """Momentum stability correction: Paulson (1970) unstable, Beljaars-Holtslag (1991) stable."""
     x = np.sqrt(np.sqrt(1.0 - 16.0 * np.minimum(zeta, 0.0)))
     unstable = 2 * np.log((1 + x) / 2) + np.log((1 + x * x) / 2) - 2 * np.arctan(x) + np.pi / 2
@@ -254,7 +257,7 @@ def _psi_m(zeta: np.ndarray) -> np.ndarray:
     return np.where(zeta < 0, unstable, stable)
 
 
-def _psi_h(zeta: np.ndarray) -> np.ndarray:
+def _psi_h(zeta: NDArray[np.float64]) -> NDArray[np.float64]:
     """Scalar stability correction: Paulson (1970) unstable, Beljaars-Holtslag (1991) stable."""
     y = np.sqrt(1.0 - 16.0 * np.minimum(zeta, 0.0))
     unstable = 2 * np.log((1 + y) / 2)
@@ -266,7 +269,7 @@ def _psi_h(zeta: np.ndarray) -> np.ndarray:
     return np.where(zeta < 0, unstable, stable)
 
 
-def _phi_h(zeta: np.ndarray) -> np.ndarray:
+def _phi_h(zeta: NDArray[np.float64]) -> NDArray[np.float64]:
     """Dimensionless scalar gradient, phi_h = 1 - zeta dpsi_h/dzeta (same functions as _psi_h)."""
     unstable = 1.0 / np.sqrt(1.0 - 16.0 * np.minimum(zeta, 0.0))
     zs = np.maximum(zeta, 0.0)
@@ -307,7 +310,7 @@ def evaporation_duct_height(
     *,
     measurement_height_m: float = 10.0,
     iterations: int = 30,
-) -> np.ndarray:
+) -> NDArray[np.float64]:
     """Evaporation duct height from bulk meteorology (Monin-Obukhov similarity).
 
     The seed uses the unpublished WKD model (SPEC section 4 item 19).  This is a bulk
@@ -344,7 +347,7 @@ def evaporation_duct_height(
         air, where the similarity profiles (and BYC's model) are not trusted.
     """
     ta, ts, rh, u, p = np.broadcast_arrays(
-        *[np.asarray(v, dtype=float) for v in
+        *[np.asarray(v, dtype=np.float64) for v in
           (air_temperature_c, sea_temperature_c, relative_humidity, wind_speed_mps, pressure_hpa)]
     )
     if np.any((rh < 0) | (rh > 1)):
@@ -388,12 +391,12 @@ def evaporation_duct_height(
     dp_dz = -p * g / (_R_DRY * tv_air)
     de_dq = 0.622 * p / (0.622 + 0.378 * q_air) ** 2
 
-    def dm_dz(z: np.ndarray) -> np.ndarray:
+    def dm_dz(z: NDArray[np.float64]) -> NDArray[np.float64]:
         ph = _phi_h(z / obukhov)
         dtheta_dz = theta_star * ph / (_VON_KARMAN * z)
         dq_dz = q_star * ph / (_VON_KARMAN * z)
         de_dz = de_dq * dq_dz + e_air / p * dp_dz
-        dn_dz = dn_dt * (dtheta_dz - gamma_d) + dn_dp * dp_dz + dn_de * de_dz
+        dn_dz: NDArray[np.float64] = dn_dt * (dtheta_dz - gamma_d) + dn_dp * dp_dz + dn_de * de_dz
         return dn_dz + 1e6 / EARTH_RADIUS_M
 
     lo = np.full_like(ta, np.log(1e-3))
@@ -415,7 +418,7 @@ def sea_water_permittivity(
     freq_hz: ArrayLike,
     temperature_c: ArrayLike = SEA_TEMPERATURE_C,
     salinity_psu: ArrayLike = SEA_SALINITY_PSU,
-) -> np.ndarray:
+) -> NDArray[np.complex128]:
     """Complex relative permittivity of sea water, Klein & Swift (1977) Debye model.
 
     Klein, L. A. & Swift, C. T. (1977), IEEE Trans. Antennas Propag. 25(1), 104-111: single
@@ -439,11 +442,11 @@ def sea_water_permittivity(
         ``eps' - j eps''`` (engineering sign, eps'' >= 0 includes the conduction term
         sigma / (omega eps0)).
     """
-    f = np.asarray(freq_hz, dtype=float)
+    f = np.asarray(freq_hz, dtype=np.float64)
     if np.any(f <= 0):
         raise ValueError("frequency must be > 0")
-    t = np.asarray(temperature_c, dtype=float)
-    s = np.asarray(salinity_psu, dtype=float)
+    t = np.asarray(temperature_c, dtype=np.float64)
+    s = np.asarray(salinity_psu, dtype=np.float64)
     eps_static = (87.134 - 1.949e-1 * t - 1.276e-2 * t**2 + 2.491e-4 * t**3) * (
         1.0 + 1.613e-5 * s * t - 3.656e-3 * s + 3.210e-5 * s**2 - 4.232e-7 * s**3
     )
@@ -452,11 +455,14 @@ def sea_water_permittivity(
     )
     sigma = sea_water_conductivity(t, s)
     omega = 2 * np.pi * f
-    debye = _EPS_INF_SEA + (eps_static - _EPS_INF_SEA) / (1 + 1j * omega * tau)
-    return debye - 1j * sigma / (omega * sc.epsilon_0)
+    # numpy's stubs type float array / complex array as an untyped ndarray
+    relaxation: NDArray[np.complex128] = (eps_static - _EPS_INF_SEA) / (1 + 1j * omega * tau)
+    debye = _EPS_INF_SEA + relaxation
+    conduction: _Complexes = 1j * sigma / (omega * sc.epsilon_0)  # scipy.constants is untyped
+    return debye - conduction
 
 
-def sea_water_conductivity(temperature_c: ArrayLike, salinity_psu: ArrayLike) -> np.ndarray:
+def sea_water_conductivity(temperature_c: ArrayLike, salinity_psu: ArrayLike) -> _Floats:
     """Ionic conductivity of sea water [S/m], Stogryn (1971) as used by Klein & Swift (1977).
 
     Parameters
@@ -471,8 +477,8 @@ def sea_water_conductivity(temperature_c: ArrayLike, salinity_psu: ArrayLike) ->
     ndarray
         Conductivity [S/m]; 4.29 S/m at 15 degC, 35 psu (standard sea water).
     """
-    t = np.asarray(temperature_c, dtype=float)
-    s = np.asarray(salinity_psu, dtype=float)
+    t = np.asarray(temperature_c, dtype=np.float64)
+    s = np.asarray(salinity_psu, dtype=np.float64)
     delta = 25.0 - t
     beta = (
         2.0333e-2 + 1.266e-4 * delta + 2.464e-6 * delta**2
@@ -484,7 +490,7 @@ def sea_water_conductivity(temperature_c: ArrayLike, salinity_psu: ArrayLike) ->
 
 def fresnel_reflection(
     grazing_rad: ArrayLike, permittivity: ArrayLike, polarization: str
-) -> np.ndarray:
+) -> NDArray[np.complex128]:
     """Fresnel reflection coefficient of a smooth plane surface (Blake 1986 eq. 6.8-6.9).
 
     ``Gamma_H = (sin psi - sqrt(eps - cos^2 psi)) / (sin psi + sqrt(eps - cos^2 psi))``,
@@ -507,23 +513,23 @@ def fresnel_reflection(
         Brewster minimum near sin psi = 1/sqrt(|eps|).
     """
     pol = normalize_polarization(polarization)
-    psi = np.asarray(grazing_rad, dtype=float)
-    eps = np.asarray(permittivity, dtype=complex)
+    psi = np.asarray(grazing_rad, dtype=np.float64)
+    eps = np.asarray(permittivity, dtype=np.complex128)
     if np.any((psi < 0) | (psi > np.pi / 2 + 1e-12)):
         raise ValueError("grazing angle must be in [0, pi/2]")
     sin_psi = np.sin(psi)
     if np.all(np.isinf(eps.real)):
-        ones = np.ones(np.broadcast(psi, eps).shape, dtype=complex)
+        ones = np.ones(np.broadcast(psi, eps).shape, dtype=np.complex128)
         return -ones if pol == "H" else np.where(sin_psi > 0, ones, -ones)
-    root = np.sqrt(eps - np.cos(psi) ** 2)
+    root: NDArray[np.complex128] = np.sqrt(eps - np.cos(psi) ** 2)
     if pol == "H":
         return (sin_psi - root) / (sin_psi + root)
     return (eps * sin_psi - root) / (eps * sin_psi + root)
 
 
-def rms_wave_height(wave_height_m: ArrayLike) -> np.ndarray:
+def rms_wave_height(wave_height_m: ArrayLike) -> NDArray[np.float64]:
     """RMS sea-surface height [m] from the significant wave height [m] (H_1/3 = 4 sigma_h)."""
-    w = np.asarray(wave_height_m, dtype=float)
+    w = np.asarray(wave_height_m, dtype=np.float64)
     if np.any(w < 0):
         raise ValueError("wave height must be >= 0")
     return w / SIGNIFICANT_TO_RMS_WAVE_HEIGHT
@@ -534,7 +540,7 @@ def roughness_factor(
     wave_height_m: ArrayLike,
     freq_hz: ArrayLike,
     model: str = "miller-brown",
-) -> np.ndarray:
+) -> NDArray[np.float64]:
     """Specular scattering (roughness) factor of a Gaussian sea.
 
     With ``g = 2 pi sigma_h sin(psi) / lambda`` (Rayleigh roughness parameter):
@@ -559,20 +565,23 @@ def roughness_factor(
         rho in (0, 1]; 1 for a calm sea or zero grazing.  Miller-Brown decays as
         ``1 / (2 g sqrt(pi))`` for very rough seas, Ament exponentially.
     """
-    psi = np.asarray(grazing_rad, dtype=float)
-    lam = sc.c / np.asarray(freq_hz, dtype=float)
+    psi = np.asarray(grazing_rad, dtype=np.float64)
+    lam = sc.c / np.asarray(freq_hz, dtype=np.float64)
     g = 2 * np.pi * rms_wave_height(wave_height_m) * np.sin(psi) / lam
     x = 2 * g**2
     name = model.lower()
+    rho: NDArray[np.float64]
     if name == "ament":
-        return np.exp(-x)
-    if name in ("miller-brown", "miller_brown", "millerbrown"):
-        return i0e(x)
-    raise ValueError(f"unknown roughness model {model!r}")
+        rho = np.exp(-x)
+    elif name in ("miller-brown", "miller_brown", "millerbrown"):
+        rho = i0e(x)  # scipy is untyped
+    else:
+        raise ValueError(f"unknown roughness model {model!r}")
+    return rho
 
 
 # =========================================================================== two-ray [4]
-def _reflection_geometry(d, h1, h2, a_e):
+def _reflection_geometry(d: _Floats, h1: _Floats, h2: _Floats, a_e: float) -> _Floats:
     """Specular point on a sphere of radius a_e (Kerr 1951 / Blake 1986 eq. 6.33-6.35).
 
     Returns d1 (ground distance antenna -> specular point) [m].  Requires line of sight.
@@ -583,27 +592,35 @@ def _reflection_geometry(d, h1, h2, a_e):
     arg = np.clip(np.divide(2 * a_e * (h1 - h2) * d, p3, out=np.zeros_like(p3), where=p3 > 0),
                   -1.0, 1.0)
     phi = np.arccos(arg)
-    return np.clip(d / 2 + p * np.cos((phi + np.pi) / 3), 0.0, d)
+    d1: NDArray[np.float64] = np.clip(d / 2 + p * np.cos((phi + np.pi) / 3), 0.0, d)
+    return d1
 
 
-def _chord(h_a, h_b, a_e, angle):
+def _chord(h_a: _Floats | float, h_b: _Floats | float, a_e: float, angle: _Floats) -> _Floats:
     """Straight-line distance between points at heights h_a, h_b separated by central angle."""
     return np.sqrt((h_a - h_b) ** 2 + 4 * (a_e + h_a) * (a_e + h_b) * np.sin(angle / 2) ** 2)
 
 
-def _elevation(h_from, h_to, a_e, angle, dist):
+def _elevation(
+    h_from: _Floats, h_to: _Floats, a_e: float, angle: _Floats, dist: _Floats
+) -> _Floats:
     """Elevation angle [rad] at the point of height h_from of the chord to h_to."""
     num = (a_e + h_to) * np.cos(angle) - (a_e + h_from)
     return np.arcsin(np.clip(num / np.maximum(dist, 1e-9), -1.0, 1.0))
 
 
-def horizon_range(h1: ArrayLike, h2: ArrayLike, k_factor: float = STANDARD_K_FACTOR) -> np.ndarray:
+def horizon_range(h1: ArrayLike, h2: ArrayLike, k_factor: float = STANDARD_K_FACTOR) -> _Floats:
     """Radio-horizon range sqrt(2 a_e h1) + sqrt(2 a_e h2) [m] for heights h1, h2 [m]."""
     a_e = k_factor * EARTH_RADIUS_M
-    return np.sqrt(2 * a_e * np.asarray(h1, float)) + np.sqrt(2 * a_e * np.asarray(h2, float))
+    return (np.sqrt(2 * a_e * np.asarray(h1, np.float64))
+            + np.sqrt(2 * a_e * np.asarray(h2, np.float64)))
 
 
-def _two_ray_terms(d, h1, h2, freq, pol, wave, pattern, tilt, k_factor, eps, roughness_model):
+def _two_ray_terms(
+    d: _Floats, h1: _Floats, h2: _Floats, freq: float, pol: str, wave: float,
+    pattern: Callable[[NDArray[np.float64]], NDArray[np.float64]], tilt: float, k_factor: float,
+    eps: NDArray[np.complex128] | complex, roughness_model: str,
+) -> tuple[NDArray[np.float64], NDArray[np.complex128], NDArray[np.float64]]:
     """Direct and reflected complex terms of the interference-region multipath factor."""
     a_e = k_factor * EARTH_RADIUS_M
     lam = sc.c / freq
@@ -646,7 +663,7 @@ def smooth_earth_diffraction_factor(
     *,
     k_factor: float = STANDARD_K_FACTOR,
     permittivity: complex | None = None,
-) -> np.ndarray:
+) -> NDArray[np.float64]:
     """Propagation factor beyond the horizon of a smooth sphere, first term of the residue series.
 
     ITU-R P.526-15 sec. 3.1.1.2: ``20 log F = F(X) + G(Y1) + G(Y2)`` with the normalized
@@ -679,7 +696,7 @@ def smooth_earth_diffraction_factor(
     eps = sea_water_permittivity(freq_hz) if permittivity is None else complex(permittivity)
     f_mhz = freq_hz / 1e6
     a_km = k_factor * EARTH_RADIUS_M / 1e3
-    d_km = np.maximum(np.asarray(range_m, dtype=float) / 1e3, 1e-9)
+    d_km = np.maximum(np.asarray(range_m, dtype=np.float64) / 1e3, 1e-9)
     eps_r = eps.real
     x60 = -eps.imag  # 60 lambda sigma = 18000 sigma / f_MHz in P.526 notation
     if np.isinf(eps_r) or np.isinf(x60):
@@ -697,15 +714,18 @@ def smooth_earth_diffraction_factor(
         x >= 1.6, 11 + 10 * np.log10(x) - 17.6 * x, -20 * np.log10(x) - 5.6488 * x**1.425
     )
 
-    def g_y(h_m):
-        b = beta * 9.575e-3 * beta * f_mhz ** (2 / 3) * a_km ** (-1 / 3) * np.asarray(h_m, float)
+    def g_y(h_m: ArrayLike) -> NDArray[np.float64]:
+        b = (beta * 9.575e-3 * beta * f_mhz ** (2 / 3) * a_km ** (-1 / 3)
+             * np.asarray(h_m, np.float64))
         excess = np.maximum(b - 1.1, 1e-12)
         high = 17.6 * np.sqrt(excess) - 5 * np.log10(excess) - 8
         low = 20 * np.log10(np.maximum(b + 0.1 * b**3, 1e-300))
-        return np.maximum(np.where(b > 2, high, low), floor_db)
+        g_db: NDArray[np.float64] = np.maximum(np.where(b > 2, high, low), floor_db)
+        return g_db
 
-    loss_db = f_x + g_y(antenna_height_m) + g_y(target_height_m)
-    return 10 ** (loss_db / 20)
+    loss_db: NDArray[np.float64] = f_x + g_y(antenna_height_m) + g_y(target_height_m)
+    factor: NDArray[np.float64] = 10 ** (loss_db / 20)
+    return factor
 
 
 def interference_region_limit(
@@ -714,7 +734,7 @@ def interference_region_limit(
     freq_hz: float,
     k_factor: float = STANDARD_K_FACTOR,
     fock_angles: float | None = None,
-) -> np.ndarray:
+) -> NDArray[np.float64]:
     """Largest range [m] of the two-ray interference region for the given heights [m].
 
     The range at which the grazing angle at the specular point falls to
@@ -739,8 +759,8 @@ def interference_region_limit(
     ndarray
         Range [m], below the radio horizon :func:`horizon_range`.
     """
-    h1, h2 = np.broadcast_arrays(np.asarray(antenna_height_m, float),
-                                 np.asarray(target_height_m, float))
+    h1, h2 = np.broadcast_arrays(np.asarray(antenna_height_m, np.float64),
+                                 np.asarray(target_height_m, np.float64))
     a_e = k_factor * EARTH_RADIUS_M
     k = 2 * np.pi * freq_hz / sc.c
     scale = INTERFERENCE_LIMIT_FOCK_ANGLES if fock_angles is None else fock_angles
@@ -767,12 +787,12 @@ def two_ray_factor(
     polarization: str,
     *,
     wave_height_m: float = 0.0,
-    elevation_pattern: Callable[[np.ndarray], np.ndarray] | None = None,
+    elevation_pattern: Callable[[NDArray[np.float64]], NDArray[np.float64]] | None = None,
     k_factor: float = STANDARD_K_FACTOR,
     tilt_rad: float = 0.0,
     permittivity: complex | None = None,
     roughness_model: str = "miller-brown",
-) -> np.ndarray:
+) -> NDArray[np.float64]:
     """Standard multipath propagation factor over a spherical sea (seed [4], 3.1.2 last para).
 
     Interference region (Blake 1986 sec. 6.5-6.7; SPEC section 4 item 22)::
@@ -827,7 +847,7 @@ def two_ray_factor(
     pol = normalize_polarization(polarization)
     pattern = _isotropic if elevation_pattern is None else elevation_pattern
     d, h1, h2 = np.broadcast_arrays(
-        *[np.asarray(v, dtype=float) for v in (range_m, antenna_height_m, target_height_m)]
+        *[np.asarray(v, dtype=np.float64) for v in (range_m, antenna_height_m, target_height_m)]
     )
     if np.any(d < 0) or np.any(h1 < 0) or np.any(h2 < 0):
         raise ValueError("range and heights must be >= 0")
@@ -836,7 +856,7 @@ def two_ray_factor(
     a_e = k_factor * EARTH_RADIUS_M
     d_h = horizon_range(h1, h2, k_factor)
 
-    def two_ray(dd):
+    def two_ray(dd: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         gd, refl, psi = _two_ray_terms(dd, h1, h2, freq, pol, wave_height_m, pattern, tilt_rad,
                                        k_factor, eps, roughness_model)
         return np.abs(gd + refl), psi
@@ -846,10 +866,10 @@ def two_ray_factor(
 
     g_horizon = np.abs(pattern(-np.arccos(a_e / (a_e + h1)) - tilt_rad))
     diffraction = smooth_earth_diffraction_factor(
-        np.maximum(d, d_h), h1, h2, freq, pol, k_factor=k_factor, permittivity=eps
+        np.maximum(d, d_h), h1, h2, freq, pol, k_factor=k_factor, permittivity=complex(eps)
     ) * g_horizon
     f_diff_horizon = smooth_earth_diffraction_factor(
-        d_h, h1, h2, freq, pol, k_factor=k_factor, permittivity=eps
+        d_h, h1, h2, freq, pol, k_factor=k_factor, permittivity=complex(eps)
     ) * g_horizon
 
     f_inter, _ = two_ray(np.minimum(d, d_lim))
@@ -862,5 +882,5 @@ def two_ray_factor(
     return np.where(d <= d_lim, f_inter, np.where(d < d_h, intermediate, diffraction))
 
 
-def _isotropic(elev_rad: np.ndarray) -> np.ndarray:
-    return np.ones_like(np.asarray(elev_rad, dtype=float))
+def _isotropic(elev_rad: NDArray[np.float64]) -> NDArray[np.float64]:
+    return np.ones_like(np.asarray(elev_rad, dtype=np.float64))

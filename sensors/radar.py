@@ -5,8 +5,11 @@ do not change during a run, shared by the on-line dwell model and the table buil
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
 from scipy import constants
 
 from shipradar.sensors import antenna, detection, noise
@@ -45,12 +48,12 @@ class RadarConstants:
     l_b: float
     l_r: float
 
-    def elevation_pattern(self, radar: Radar):
+    def elevation_pattern(self, radar: Radar) -> Callable[[ArrayLike], NDArray[np.float64]]:
         """The radar's elevation directivity g_el(elevation [rad]) (field) [8]-[14]."""
         pe = radar.pattern_el
         phi_b, tilt = self.phi_b, self.tilt
 
-        def g(elevation_rad):
+        def g(elevation_rad: ArrayLike) -> NDArray[np.float64]:
             return antenna.elevation_directivity(elevation_rad, phi_b, pe.type,
                                                  sidelobe_db=pe.sidelobe_db, tilt_rad=tilt)
 

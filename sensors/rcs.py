@@ -53,8 +53,8 @@ def aspect_angles(
     is then taken as north, which only rotates θ' about the nose, and σ of [15] depends on
     θ' and φ' only through the distance from the nose.
     """
-    los = np.asarray(los_enu, dtype=float)
-    vel = np.asarray(velocity_enu, dtype=float)
+    los = np.asarray(los_enu, dtype=np.float64)
+    vel = np.asarray(velocity_enu, dtype=np.float64)
     los, vel = np.broadcast_arrays(los, vel)
     los_norm = np.linalg.norm(los, axis=-1)
     speed = np.linalg.norm(vel, axis=-1)
@@ -92,8 +92,11 @@ def off_nose_angle(theta_rad: ArrayLike, phi_rad: ArrayLike) -> NDArray[np.float
     ndarray
         Angle off the nose in [0, π] [rad].
     """
-    c = np.cos(np.asarray(theta_rad, dtype=float)) * np.cos(np.asarray(phi_rad, dtype=float))
-    return np.arccos(np.clip(c, -1.0, 1.0))
+    c = np.cos(np.asarray(theta_rad, dtype=np.float64)) * np.cos(
+        np.asarray(phi_rad, dtype=np.float64)
+    )
+    angle: NDArray[np.float64] = np.arccos(np.clip(c, -1.0, 1.0))
+    return angle
 
 
 def missile_rcs(
@@ -135,9 +138,13 @@ def missile_rcs(
     ψ larger than π (only reachable through the sqrt combination of a large θ' and φ')
     follows the same rule.
     """
-    psi = np.hypot(np.asarray(theta_rad, dtype=float), np.asarray(phi_rad, dtype=float))
-    ratio = 4.0 * np.asarray(length_m, dtype=float) / (np.pi * np.asarray(diameter_m, dtype=float))
-    return np.asarray(sigma_nose_m2, dtype=float) * (
+    psi = np.hypot(np.asarray(theta_rad, dtype=np.float64), np.asarray(phi_rad, dtype=np.float64))
+    ratio = (
+        4.0
+        * np.asarray(length_m, dtype=np.float64)
+        / (np.pi * np.asarray(diameter_m, dtype=np.float64))
+    )
+    return np.asarray(sigma_nose_m2, dtype=np.float64) * (
         np.abs(np.cos(psi)) + ratio * np.abs(np.sin(psi))
     )
 
@@ -168,12 +175,12 @@ def tabulated_rcs(
     The aspect is folded to [0, π] (``|wrap(a)|``), so σ(-a) = σ(a) and σ(a + 2π) = σ(a).
     Between the table's ends and 0 or π, σ is held at the nearest end value.
     """
-    axis = np.asarray(aspect_axis_rad, dtype=float)
-    sig = np.asarray(sigma_axis_m2, dtype=float)
+    axis = np.asarray(aspect_axis_rad, dtype=np.float64)
+    sig = np.asarray(sigma_axis_m2, dtype=np.float64)
     if axis.ndim != 1 or axis.shape != sig.shape or axis.size < 2:
         raise ValueError("aspect and sigma tables must be 1-D, of equal length >= 2")
     if np.any(np.diff(axis) <= 0.0) or axis[0] < 0.0 or axis[-1] > np.pi:
         raise ValueError("table aspects must increase strictly within [0, π]")
-    a = np.asarray(aspect_rad, dtype=float)
+    a = np.asarray(aspect_rad, dtype=np.float64)
     folded = np.abs(np.pi - np.mod(np.pi - a, 2.0 * np.pi))
     return np.interp(folded, axis, sig)

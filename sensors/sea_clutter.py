@@ -74,12 +74,14 @@ from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.constants import c as SPEED_OF_LIGHT_MPS
+from scipy import constants
 from scipy.special import gammaln
 
 Polarization = Literal["H", "V"]
 
 # --------------------------------------------------------------------------- reference values
+#: Speed of light in vacuum c [m/s].
+SPEED_OF_LIGHT_MPS: float = constants.c
 #: Mean earth radius [m] (IUGG); the effective radius is k times it.
 EARTH_RADIUS_M = 6_371_000.0
 #: Standard-atmosphere effective earth radius factor k.
@@ -160,7 +162,7 @@ ROTATION_SPREAD_DIVISOR = 5.35
 
 # --------------------------------------------------------------------------- helpers
 def _f(x: ArrayLike) -> NDArray[np.float64]:
-    return np.asarray(x, dtype=float)
+    return np.asarray(x, dtype=np.float64)
 
 
 def to_db(x: ArrayLike) -> NDArray[np.float64]:
@@ -170,7 +172,8 @@ def to_db(x: ArrayLike) -> NDArray[np.float64]:
     pos = x > 0.0
     np.log10(x, out=out, where=pos)
     out = np.where(pos, 10.0 * out, DB_FLOOR)
-    return np.maximum(out, DB_FLOOR)
+    level_db: NDArray[np.float64] = np.maximum(out, DB_FLOOR)
+    return level_db
 
 
 def from_db(x_db: ArrayLike) -> NDArray[np.float64]:
@@ -210,17 +213,6 @@ def average_wave_height_m(wind_speed_mps: ArrayLike) -> NDArray[np.float64]:
     return (w / GIT_WIND_WAVE_COEFF) ** (1.0 / GIT_WIND_WAVE_EXPONENT)
 
 
-def significant_wave_height_m(wind_speed_mps: ArrayLike) -> NDArray[np.float64]:
-    """Significant wave height of a fully developed sea, w_h = 1.6 h_av [m] (see module doc).
-
-    Parameters
-    ----------
-    wind_speed_mps : array_like
-        Wind speed [m/s], ≥ 0.
-    """
-    return SIGNIFICANT_OVER_AVERAGE_WAVE_HEIGHT * average_wave_height_m(wind_speed_mps)
-
-
 def douglas_sea_state(wave_height_m: ArrayLike) -> NDArray[np.float64]:
     """Douglas sea state (0-9) of a significant wave height (WMO code table 3700).
 
@@ -240,10 +232,12 @@ def douglas_sea_state(wave_height_m: ArrayLike) -> NDArray[np.float64]:
     h = _f(wave_height_m)
     if np.any(h < 0.0):
         raise ValueError("wave height must be >= 0")
-    return np.searchsorted(np.array(DOUGLAS_UPPER_WAVE_HEIGHT_M), h, side="left").astype(float)
+    return np.searchsorted(np.array(DOUGLAS_UPPER_WAVE_HEIGHT_M), h, side="left").astype(np.float64)
 
 
-def _average_wave_height(wave_height_m: ArrayLike | None, wind_speed_mps: ArrayLike):
+def _average_wave_height(
+    wave_height_m: ArrayLike | None, wind_speed_mps: ArrayLike
+) -> NDArray[np.float64]:
     """h_av from a significant wave height (NaN or None: from the wind)."""
     from_wind = average_wave_height_m(wind_speed_mps)
     if wave_height_m is None:
@@ -256,7 +250,9 @@ def _average_wave_height(wave_height_m: ArrayLike | None, wind_speed_mps: ArrayL
     )
 
 
-def _significant_wave_height(wave_height_m: ArrayLike | None, wind_speed_mps: ArrayLike):
+def _significant_wave_height(
+    wave_height_m: ArrayLike | None, wind_speed_mps: ArrayLike
+) -> NDArray[np.float64]:
     return SIGNIFICANT_OVER_AVERAGE_WAVE_HEIGHT * _average_wave_height(
         wave_height_m, wind_speed_mps
     )
@@ -820,7 +816,10 @@ def median_mean_difference_db(a: ArrayLike) -> NDArray[np.float64]:
     a = _f(a)
     if np.any(a <= 0.0):
         raise ValueError("Weibull parameter a must be > 0")
-    return -10.0 * a * np.log10(np.log(2.0)) + 10.0 * gammaln(1.0 + a) / np.log(10.0)
+    d_mm: NDArray[np.float64] = (  # scipy is untyped
+        -10.0 * a * np.log10(np.log(2.0)) + 10.0 * gammaln(1.0 + a) / np.log(10.0)
+    )
+    return d_mm
 
 
 def median_reflectivity_db(mean_db: ArrayLike, a: ArrayLike) -> NDArray[np.float64]:
@@ -1059,7 +1058,8 @@ def mean_clutter_doppler_hz(
     )
     if motion_compensated:
         return np.zeros(f1.shape)
-    return f1 + 2.0 * WAVE_DRIFT_SPEED_MPS / lam * np.cos(phi)
+    mean: NDArray[np.float64] = f1 + 2.0 * WAVE_DRIFT_SPEED_MPS / lam * np.cos(phi)
+    return mean
 
 
 def wind_spread_hz(

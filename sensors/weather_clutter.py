@@ -45,10 +45,12 @@ from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.constants import c as SPEED_OF_LIGHT_MPS
+from scipy import constants
 
 Precipitation = Literal["rain", "dry_snow", "wet_snow"]
 
+#: Speed of light in vacuum c [m/s].
+SPEED_OF_LIGHT_MPS: float = constants.c
 #: [42]: K below 6 GHz and above 35 GHz [s⁴/m] (ϑ0 in m²/m³ with f in Hz and p_r in mm/h).
 K_LOW = 7.0e-48
 K_HIGH = 13.0e-48
@@ -68,7 +70,7 @@ RAIN_TURBULENCE_SPREAD_MPS = 1.0
 
 
 def _f(x: ArrayLike) -> NDArray[np.float64]:
-    return np.asarray(x, dtype=float)
+    return np.asarray(x, dtype=np.float64)
 
 
 def rain_equivalent_rate_mm_h(
@@ -380,7 +382,7 @@ def range_folded_power_w(
 
 def shear_spread_mps(
     range_m: ArrayLike, beamwidth_rad: ArrayLike, shear_per_s: ArrayLike = WIND_SHEAR_PER_S
-):
+) -> NDArray[np.float64]:
     """Radial-velocity spread from wind shear σ_shear = 0.42 k R φ, seed [45] [m/s].
 
     The seed writes θ_b and calls the result Hz; it is a velocity (it is multiplied by 2/λ in
@@ -483,4 +485,4 @@ def rain_cylinder_fraction(
         return np.ones(e.shape)
     de = e - (centre_east_m or 0.0)
     dn = n - (centre_north_m or 0.0)
-    return (de * de + dn * dn <= radius_m * radius_m).astype(float)
+    return (de * de + dn * dn <= radius_m * radius_m).astype(np.float64)
