@@ -25,6 +25,7 @@ from pydantic import (
     field_validator,
     model_validator,
 )
+from pydantic_core import ErrorDetails
 
 #: Largest scenario file we agree to read [bytes].
 MAX_SCENARIO_BYTES = 4 * 1024 * 1024
@@ -70,6 +71,20 @@ class Waypoint(_Model):
         if geo and (self.lat_deg is None or self.lon_deg is None):
             raise ValueError("lat_deg and lon_deg must be given together")
         return self
+
+    @property
+    def east_north_m(self) -> tuple[float, float] | None:
+        """(east, north) [m] of a waypoint given in the local frame, else None."""
+        if self.east_m is None or self.north_m is None:
+            return None
+        return self.east_m, self.north_m
+
+    @property
+    def lat_lon_deg(self) -> tuple[float, float] | None:
+        """(latitude, longitude) [deg] of a waypoint given in geodetic form, else None."""
+        if self.lat_deg is None or self.lon_deg is None:
+            return None
+        return self.lat_deg, self.lon_deg
 
 
 def _check_waypoint_times(waypoints: list[Waypoint]) -> list[Waypoint]:
@@ -192,23 +207,28 @@ class Smoothing(_Model):
 def _leg_length_m(a: Waypoint, b: Waypoint) -> float | None:
     """Horizontal distance between two waypoints of the same form [m] (haversine on the mean
     sphere for latitude/longitude, within 0.5 % of the ellipsoid); None for mixed forms."""
-    if a.east_m is not None and b.east_m is not None:
-        return math.hypot(b.east_m - a.east_m, b.north_m - a.north_m)
-    if a.lat_deg is not None and b.lat_deg is not None:
-        p1, p2 = math.radians(a.lat_deg), math.radians(b.lat_deg)
-        dl = math.radians(b.lon_deg - a.lon_deg)
+    ea, eb = a.east_north_m, b.east_north_m
+    if ea is not None and eb is not None:
+        return math.hypot(eb[0] - ea[0], eb[1] - ea[1])
+    ga, gb = a.lat_lon_deg, b.lat_lon_deg
+    if ga is not None and gb is not None:
+        p1, p2 = math.radians(ga[0]), math.radians(gb[0])
+        dl = math.radians(gb[1] - ga[1])
         h = math.sin(0.5 * (p2 - p1)) ** 2 + math.cos(p1) * math.cos(p2) * math.sin(0.5 * dl) ** 2
         return 2.0 * 6_371_008.8 * math.asin(min(1.0, math.sqrt(h)))
     return None
 
 
 def _leg_course(a: Waypoint, b: Waypoint) -> float | None:
-    """Course from a to b [rad, clockwise from north] (initial bearing for lat/lon)."""
-    if a.east_m is not None and b.east_m is not None:
-        return math.atan2(b.east_m - a.east_m, b.north_m - a.north_m)
-    if a.lat_deg is not None and b.lat_deg is not None:
-        p1, p2 = math.radians(a.lat_deg), math.radians(b.lat_deg)
-        dl = math.radians(b.lon_deg - a.lon_deg)
+    """Course from a to b [rad, clockwise from north] (initial bearing for lat/lon); None for
+    mixed forms."""
+    ea, eb = a.east_north_m, b.east_north_m
+    if ea is not None and eb is not None:
+        return math.atan2(eb[0] - ea[0], eb[1] - ea[1])
+    ga, gb = a.lat_lon_deg, b.lat_lon_deg
+    if ga is not None and gb is not None:
+        p1, p2 = math.radians(ga[0]), math.radians(gb[0])
+        dl = math.radians(gb[1] - ga[1])
         return math.atan2(math.sin(dl) * math.cos(p2),
                           math.cos(p1) * math.sin(p2) - math.sin(p1) * math.cos(p2) * math.cos(dl))
     return None
@@ -229,14 +249,13 @@ def corner_needs(waypoints: list[Waypoint], turn_g: float) -> list[tuple[float, 
     out = [(0.0, 0.0)] * len(w)
     for j in range(1, len(w) - 1):
         l1, l2 = _leg_length_m(w[j - 1], w[j]), _leg_length_m(w[j], w[j + 1])
-        if l1 is None or l2 is None:
+        c1, c2 = _leg_course(w[j - 1], w[j]), _leg_course(w[j], w[j + 1])
+        if l1 is None or l2 is None or c1 is None or c2 is None:  # legs of mixed forms
             continue
         s1 = l1 / (w[j].time_s - w[j - 1].time_s)
         s2 = l2 / (w[j + 1].time_s - w[j].time_s)
         before = after = 0.0
         if s1 > 0 and s2 > 0:
-            c1 = _leg_course(w[j - 1], w[j])
-            c2 = _leg_course(w[j], w[j + 1])
             dpsi = abs(math.remainder(c2 - c1, 2 * math.pi))
             d = s1 * s1 / g * math.tan(0.5 * dpsi)
             before, after = d, d
@@ -1013,7 +1032,7 @@ _BOUND_WORDS = {
 }
 
 
-def _message(err: dict) -> str:
+def _message(err: ErrorDetails) -> str:
     typ = err["type"]
     ctx = err.get("ctx") or {}
     inp = err.get("input")
