@@ -15,6 +15,17 @@ import signal
 import sys
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+    from types import FrameType
+
+    from shipradar.sim.adapters.asterix.udp import AsterixBus
+    from shipradar.sim.stream.bus import Bus
+
+    _Subcommands = argparse._SubParsersAction[argparse.ArgumentParser]
+    _SignalHandler = Callable[[int, FrameType | None], Any] | int | signal.Handlers | None
 
 EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
 
@@ -157,7 +168,7 @@ class _StopOnSignal:
     def __init__(self, bus):
         self.bus = bus
         self.signum: int | None = None
-        self._old: dict[int, object] = {}
+        self._old: dict[int, _SignalHandler] = {}
 
     def _handler(self, signum, frame) -> None:
         self.signum = signum
@@ -237,7 +248,10 @@ def cmd_run(args) -> int:
         # past a file-size limit write() then fails with EFBIG, which the recorder reports
         # and recovers from, instead of the signal killing the process mid-record
         signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
-    publisher = recorder = bus = core_bus = None
+    publisher = recorder = None
+    core_bus: Bus | None = None  # ZeroMQ and the recording
+    asterix_bus: AsterixBus | None = None
+    bus: Bus | AsterixBus | None = None  # what the simulation emits to
     summary = None
     try:
         if args.publish:
@@ -251,8 +265,9 @@ def cmd_run(args) -> int:
         if args.asterix:
             from shipradar.sim.adapters.asterix.udp import AsterixBus, UdpSender
 
-            bus = AsterixBus(bus, UdpSender(args.asterix, allow_remote=args.allow_remote),
-                             args.asterix_max_datagram)
+            bus = asterix_bus = AsterixBus(
+                bus, UdpSender(args.asterix, allow_remote=args.allow_remote),
+                args.asterix_max_datagram)
         sim = Simulation(s, bus=bus, seed=args.seed, duration_s=args.duration,
                          realtime=args.realtime, tables=tables,
                          progress=sys.stderr.isatty() and not args.quiet,
@@ -288,8 +303,8 @@ def cmd_run(args) -> int:
     if "error" in summary:
         print(json.dumps(summary))
         return EXIT_FAILURE
-    if args.asterix:
-        summary["asterix"] = bus.stats["asterix"]  # datagrams sent, records, markers
+    if asterix_bus is not None:
+        summary["asterix"] = asterix_bus.stats["asterix"]  # datagrams sent, records, markers
     pub = (summary.get("bus") or {}).get("publisher") or {}
     if pub.get("dropped"):
         print(f"warning: {pub['dropped']} message(s) dropped for slow subscribers "
@@ -547,30 +562,35 @@ def _budget_argument(p: argparse.ArgumentParser) -> None:
                    "$SHIPRADAR_MAX_BUILD_S or 600)")
 
 
-def build_parser() -> argparse.ArgumentParser:
-    from shipradar import __version__
-    from shipradar.sim.stream.recording import COMPRESSIONS
-    from shipradar.sim.stream.security import add_curve_arguments
-
-    p = argparse.ArgumentParser(prog="shipradar", description=__doc__.splitlines()[0])
-    p.add_argument("--version", action="version", version=f"shipradar {__version__}")
-    sub = p.add_subparsers(dest="command", required=True)
-
+def _add_examples(sub: _Subcommands) -> None:
+    """The ``examples`` sub-command's parser."""
     ex = sub.add_parser("examples", help="list the shipped example scenarios")
     ex.set_defaults(func=cmd_examples)
 
+
+def _add_validate(sub: _Subcommands) -> None:
+    """The ``validate`` sub-command's parser."""
     v = sub.add_parser("validate", help="check a scenario file")
     _scenario_arguments(v)
     v.add_argument("--explain", action="store_true",
                    help="list the parts of the model the scene exercises and those it skips")
     v.set_defaults(func=cmd_validate)
 
+
+def _add_tables(sub: _Subcommands) -> None:
+    """The ``tables`` sub-command's parser."""
     t = sub.add_parser("tables", help="off-line level: precompute a scenario's tables")
     tsub = t.add_subparsers(dest="tables_command", required=True)
     tb = tsub.add_parser("build", help="build the tables a scenario needs (cached)")
     _scenario_arguments(tb)
     _budget_argument(tb)
     tb.set_defaults(func=cmd_tables_build)
+
+
+def _add_run(sub: _Subcommands) -> None:
+    """The ``run`` sub-command's parser."""
+    from shipradar.sim.stream.recording import COMPRESSIONS
+    from shipradar.sim.stream.security import add_curve_arguments
 
     r = sub.add_parser("run", help="run a scenario headless")
     _scenario_arguments(r)
@@ -603,6 +623,11 @@ def build_parser() -> argparse.ArgumentParser:
     _asterix_arguments(r)
     r.set_defaults(func=cmd_run)
 
+
+def _add_replay(sub: _Subcommands) -> None:
+    """The ``replay`` sub-command's parser."""
+    from shipradar.sim.stream.security import add_curve_arguments
+
     rp = sub.add_parser("replay", help="republish a recording")
     rp.add_argument("recording")
     rp.add_argument("--publish", default=None, help="ZeroMQ endpoint")
@@ -624,6 +649,9 @@ def build_parser() -> argparse.ArgumentParser:
     _asterix_arguments(rp)
     rp.set_defaults(func=cmd_replay)
 
+
+def _add_export(sub: _Subcommands) -> None:
+    """The ``export`` sub-command's parser."""
     xp = sub.add_parser("export", help="convert a recording: raw ASTERIX, pcap, CSV, Parquet")
     xp.add_argument("recording")
     xp.add_argument("--format", required=True, choices=("asterix", "pcap", "csv", "parquet"),
@@ -638,6 +666,11 @@ def build_parser() -> argparse.ArgumentParser:
                     metavar="BYTES", help="largest ASTERIX data block [bytes] (default 1400)")
     xp.set_defaults(func=cmd_export)
 
+
+def _add_tail(sub: _Subcommands) -> None:
+    """The ``tail`` sub-command's parser."""
+    from shipradar.sim.stream.security import add_curve_arguments
+
     tl = sub.add_parser("tail", help="print a stream as JSON lines")
     tl.add_argument("endpoint")
     tl.add_argument("--topic", action="append", help="topic to keep (repeatable)")
@@ -646,6 +679,11 @@ def build_parser() -> argparse.ArgumentParser:
                     help="stop after S seconds without a message")
     add_curve_arguments(tl, "client")
     tl.set_defaults(func=cmd_tail)
+
+
+def _add_recording(sub: _Subcommands) -> None:
+    """The ``recording`` sub-command's parser."""
+    from shipradar.sim.stream.recording import COMPRESSIONS
 
     rc = sub.add_parser("recording", help="check or salvage a recording (verify, repair)")
     rcsub = rc.add_subparsers(dest="recording_command", required=True)
@@ -662,6 +700,9 @@ def build_parser() -> argparse.ArgumentParser:
                     help="compression of OUT")
     rr.set_defaults(func=cmd_recording_repair)
 
+
+def _add_keys(sub: _Subcommands) -> None:
+    """The ``keys`` sub-command's parser."""
     ky = sub.add_parser("keys", help="CurveZMQ keys for authenticated, encrypted streams")
     kysub = ky.add_subparsers(dest="keys_command", required=True)
     kg = kysub.add_parser("generate", help="a publisher key pair, subscriber key pairs and "
@@ -670,6 +711,11 @@ def build_parser() -> argparse.ArgumentParser:
     kg.add_argument("--name", action="append", metavar="NAME",
                     help="subscriber key pair to create (repeatable; default 'client')")
     kg.set_defaults(func=cmd_keys_generate)
+
+
+def _add_view(sub: _Subcommands) -> None:
+    """The ``view`` sub-command's parser."""
+    from shipradar.sim.stream.security import add_curve_arguments
 
     vw = sub.add_parser("view", help="live PPI in the browser, of a stream or a recording")
     vw.add_argument("source", help="ZeroMQ endpoint of a run/replay (tcp://HOST:PORT) or a "
@@ -691,6 +737,9 @@ def build_parser() -> argparse.ArgumentParser:
     add_curve_arguments(vw, "client")
     vw.set_defaults(func=cmd_view)
 
+
+def _add_plot(sub: _Subcommands) -> None:
+    """The ``plot`` sub-command's parser."""
     pl = sub.add_parser("plot", help="render figures of a scenario's tables as PNG")
     pl.add_argument("scenario")
     pl.add_argument("what", choices=("propagation", "coverage", "clutter", "improvement", "all",
@@ -702,21 +751,47 @@ def build_parser() -> argparse.ArgumentParser:
     pl.add_argument("--height", type=float, default=10.0, help="target height for F vs range [m]")
     pl.set_defaults(func=cmd_plot)
 
+
+def _add_montecarlo(sub: _Subcommands) -> None:
+    """The ``montecarlo`` sub-command's parser."""
     mc = sub.add_parser("montecarlo", add_help=False,
                         help="replications on a Dask cluster (see: shipradar montecarlo -h)")
     mc.add_argument("rest", nargs=argparse.REMAINDER)
     mc.set_defaults(func=cmd_montecarlo)
 
+
+def _add_report(sub: _Subcommands) -> None:
+    """The ``report`` sub-command's parser."""
     rep = sub.add_parser("report", add_help=False,
                          help="study report: PNG figures and an index page (shipradar report -h)")
     rep.add_argument("rest", nargs=argparse.REMAINDER)
     rep.set_defaults(func=cmd_report)
 
+
+def _add_fidelity(sub: _Subcommands) -> None:
+    """The ``fidelity`` sub-command's parser."""
     fi = sub.add_parser("fidelity", add_help=False,
                         help="measure the speed/accuracy trade on a scene and recommend a "
                              "fidelity block (shipradar fidelity -h)")
     fi.add_argument("rest", nargs=argparse.REMAINDER)
     fi.set_defaults(func=cmd_fidelity)
+
+
+#: The sub-commands, in the order ``shipradar -h`` lists them.
+_SUBCOMMANDS = (_add_examples, _add_validate, _add_tables, _add_run, _add_replay, _add_export,
+                _add_tail, _add_recording, _add_keys, _add_view, _add_plot, _add_montecarlo,
+                _add_report, _add_fidelity)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The ``shipradar`` parser: one sub-parser per command (``_add_<command>``)."""
+    from shipradar import __version__
+
+    p = argparse.ArgumentParser(prog="shipradar", description=__doc__.splitlines()[0])
+    p.add_argument("--version", action="version", version=f"shipradar {__version__}")
+    sub = p.add_subparsers(dest="command", required=True)
+    for add in _SUBCOMMANDS:
+        add(sub)
     return p
 
 
