@@ -296,7 +296,7 @@ def _clutter_specs(scenario: Scenario, platform: Platform, radar: Radar) -> list
     n_range, n_az = clutter_grid_size(radar)
     duct = 0.0
     if env.duct is not None:
-        duct = _duct_height(scenario)
+        duct = duct_height_m(scenario)
     common = {
         "freq_hz": radar.frequency_hz,
         "antenna_height_m": radar.antenna_height_m,
@@ -344,7 +344,7 @@ def _clutter_specs(scenario: Scenario, platform: Platform, radar: Radar) -> list
     return specs
 
 
-def _duct_height(scenario: Scenario) -> float:
+def duct_height_m(scenario: Scenario) -> float:
     """Height [m] of the surface duct, as the sea-clutter ducting extension [22]-[29] reads it.
 
     Given, or from the bulk model of :mod:`shipradar.sensors.propagation`; for an M-profile, the
@@ -427,7 +427,7 @@ def refractivity_profile(scenario: Scenario) -> dict[str, Any]:
     if duct is not None and duct.type == "profile":
         return {"kind": "piecewise", "heights_m": list(duct.heights_m),
                 "m_units": list(duct.m_units)}
-    h = _duct_height(scenario)
+    h = duct_height_m(scenario)
     if h > 0.0:
         return {"kind": "evaporation", "duct_height_m": h}
     return {"kind": "standard"}

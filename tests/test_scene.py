@@ -122,10 +122,10 @@ def test_key_follows_the_inputs_not_the_order():
 
 def test_duct_height_given_or_from_bulk_model():
     data = example("single_missile")
-    assert scene_mod._duct_height(parse_scenario(data)) == 10.0
+    assert scene_mod.duct_height_m(parse_scenario(data)) == 10.0
     bulk = _with(data, duct={"type": "bulk", "air_temperature_c": 20.0,
                              "sea_temperature_c": 22.0, "relative_humidity": 0.7})
-    h = scene_mod._duct_height(parse_scenario(bulk))
+    h = scene_mod.duct_height_m(parse_scenario(bulk))
     # unstable air, 7 m/s wind, 70 % humidity: a typical open-ocean duct of several metres
     assert 3.0 < h < 30.0
     assert scene_mod.refractivity_profile(parse_scenario(bulk)) == {
@@ -147,8 +147,8 @@ def test_profile_duct_reaches_the_pe_table_and_the_clutter_horizon():
     surface = parse_scenario(_with(data, duct=SURFACE_DUCT))
     assert scene_mod.refractivity_profile(surface) == {
         "kind": "piecewise", **{k: SURFACE_DUCT[k] for k in ("heights_m", "m_units")}}
-    assert scene_mod._duct_height(surface) == 150.0
-    assert scene_mod._duct_height(parse_scenario(_with(data, duct=ELEVATED_DUCT))) == 0.0
+    assert scene_mod.duct_height_m(surface) == 150.0
+    assert scene_mod.duct_height_m(parse_scenario(_with(data, duct=ELEVATED_DUCT))) == 0.0
 
 
 @pytest.mark.parametrize(("duct", "line"), [

@@ -51,11 +51,11 @@ def _radars(scenario: Scenario, radar_id: str | None):
 def _clutter(scenario: Scenario, out: Path, radar_id: str | None) -> list[Path]:
     from shipradar.sensors import sea_clutter as sc
     from shipradar.sim.studies.figures.clutter import plot_clutter_ppi, plot_ducting_reflectivity
-    from shipradar.tables.scene import _duct_height
+    from shipradar.tables.scene import duct_height_m
 
     written = [plot_ducting_reflectivity(out / "fig6_seed_ducting_reflectivity.png")]
     env = scenario.environment
-    duct = _duct_height(scenario)
+    duct = duct_height_m(scenario)
     for radar in _radars(scenario, radar_id):
         if not (sc.GIT_EXTRAPOLATION_MIN_FREQ_HZ <= radar.frequency_hz <= sc.GIT_MAX_FREQ_HZ):
             continue
@@ -103,9 +103,9 @@ def _improvement(scenario: Scenario, out: Path, radar_id: str | None) -> list[Pa
 def _propagation(scenario: Scenario, out: Path, radar_id: str | None,
                  height_m: float) -> list[Path]:
     from shipradar.sim.studies.figures.propagation import plot_factor_vs_range
-    from shipradar.tables.scene import _duct_height
+    from shipradar.tables.scene import duct_height_m
 
-    duct = _duct_height(scenario)
+    duct = duct_height_m(scenario)
     ducts = (0.0,) if duct < 1.0 else (0.0, duct)
     written = []
     for radar in _radars(scenario, radar_id):
