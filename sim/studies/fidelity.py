@@ -182,7 +182,7 @@ def explain(scenario: Scenario) -> list[Part]:
             w.altitude_m for w in next(m for m in movers if m.id == i).waypoints) > top)
         partly = sorted(i for i, h in heights.items() if h > top and i not in above)
         inside = [i for i in heights if i not in above]
-        from shipradar.tables.scene import _duct_height
+        from shipradar.tables.scene import duct_height_m
 
         duct = env.duct
         if duct is None:
@@ -190,7 +190,7 @@ def explain(scenario: Scenario) -> list[Part]:
         elif duct.type == "profile":
             prof = f"M-profile of {len(duct.heights_m)} points"
         else:
-            prof = f"evaporation duct {_duct_height(scenario):.3g} m" + (
+            prof = f"evaporation duct {duct_height_m(scenario):.3g} m" + (
                 " (bulk model)" if duct.type == "bulk" else "")
         if inside:
             out.append(Part("PE table [5]-[7]", True,
