@@ -85,6 +85,7 @@ from stonesoup.types.update import GaussianStateUpdate
 from stonesoup.updater.kalman import ExtendedKalmanUpdater
 
 from shipradar.sim.adapters.stonesoup_reader import ShipradarDetectionReader
+from shipradar.sim.stream.schema import TRACKS
 
 __all__ = ["ClutterMap", "clutter_density", "main", "radar_clutter_profile", "track",
            "tracks_payload"]
@@ -302,14 +303,14 @@ def tracks_payload(sensor: str, scan: int, time_s: float, tracks, predictor, whe
     sv = np.array([np.asarray(p.state_vector, dtype=float).ravel() for p in preds]
                   ).reshape(-1, 4)
     cov = np.array([np.diag(np.asarray(p.covar, dtype=float)) for p in preds]).reshape(-1, 4)
-    return {
-        "sensor": sensor, "scan": int(scan), "time_s": float(time_s),
-        "track_id": [str(trk.id) for trk in rows],
-        "east_m": sv[:, 0].copy(), "north_m": sv[:, 2].copy(),
-        "v_east_mps": sv[:, 1].copy(), "v_north_mps": sv[:, 3].copy(),
-        "sigma_east_m": np.sqrt(np.maximum(cov[:, 0], 0.0)),
-        "sigma_north_m": np.sqrt(np.maximum(cov[:, 2], 0.0)),
-    }
+    return TRACKS.message(
+        sensor=sensor, scan=int(scan), time_s=float(time_s),
+        track_id=[str(trk.id) for trk in rows],
+        east_m=sv[:, 0].copy(), north_m=sv[:, 2].copy(),
+        v_east_mps=sv[:, 1].copy(), v_north_mps=sv[:, 3].copy(),
+        sigma_east_m=np.sqrt(np.maximum(cov[:, 0], 0.0)),
+        sigma_north_m=np.sqrt(np.maximum(cov[:, 2], 0.0)),
+    )
 
 
 def track(
@@ -522,7 +523,7 @@ def _track(source, *, sensor, q_m2_s3, prob_detect, confirm, delete_after,
 
             time_s = (when - dt.datetime.fromisoformat(reader.meta["start_time"])
                       ).total_seconds()
-            publisher.send(encode(b"tracks", time_s, tracks_payload(
+            publisher.send(encode(TRACKS.topic, time_s, tracks_payload(
                 reader.meta["sensor"], reader.scan, time_s, tracks, predictor, when)))
         if out is not None:
             print(json.dumps(row), file=out, flush=True)

@@ -67,6 +67,7 @@ from stonesoup.types.array import CovarianceMatrix, StateVector
 from stonesoup.types.detection import Detection
 
 from shipradar.sim.stream import protocol
+from shipradar.sim.stream.schema import EOS, META, PLOTS, TRUTH_PLOTS, TRUTH_TARGETS
 
 __all__ = [
     "ShipradarDetectionReader",
@@ -76,8 +77,16 @@ __all__ = [
     "measurement_model",
 ]
 
-_PLOT_COLUMNS = ("plot_id", "time_s", "range_m", "azimuth_rad", "snr_db", "sigma_range_m",
-                 "sigma_azimuth_rad")
+#: The plot columns a detection is made of (checked against the stream's schema).
+_PLOT_COLUMNS = PLOTS.keys_of("plot_id", "time_s", "range_m", "azimuth_rad", "snr_db",
+                              "sigma_range_m", "sigma_azimuth_rad")
+#: The plot columns a stream may lack (added after schema version 1 began; NaN when absent).
+_OPTIONAL_COLUMNS = tuple(k for k in PLOTS.columns("n") if not PLOTS[k].required)
+# the other keys read below, checked against the schema when this module is imported
+META.keys_of("sensor", "scan", "start_time", "target_ids")
+EOS.keys_of("sensor", "scan", "time_s", "position", "velocity_enu_mps", "heading_deg")
+TRUTH_PLOTS.keys_of("sensor", "scan", "kind", "plot_id", "origin", "target")
+TRUTH_TARGETS.keys_of("sensor", "scan", "kind", "time_s")
 
 
 def azimuth_to_bearing(azimuth_rad):
@@ -296,7 +305,7 @@ class ShipradarDetectionReader(DetectionReader):
         cols = {c: np.concatenate([np.asarray(f[c]) for f in frames]) for c in _PLOT_COLUMNS}
         n_plots = cols["plot_id"].size
         # range rate (Doppler bank, folded; NaN for MTI-only radars, absent from old streams)
-        for c in ("range_rate_mps", "sigma_range_rate_mps"):
+        for c in _OPTIONAL_COLUMNS:
             cols[c] = np.concatenate([np.asarray(f.get(c, np.full(np.size(f["plot_id"]),
                                                                    np.nan))) for f in frames]
                                      ) if n_plots else np.zeros(0)

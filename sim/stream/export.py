@@ -9,7 +9,8 @@
   Written with ``dpkt``.
 - ``csv`` / ``parquet``: two tables for pandas, written with ``pyarrow``: the plots, one
   row per plot with its truth origin (``OUT``), and the target states at each end of scan,
-  one row per (sensor, scan, target) (``STEM.targets.EXT`` beside it).
+  one row per (sensor, scan, target) (``STEM.targets.EXT`` beside it); their columns are the
+  schema's (:mod:`shipradar.sim.stream.schema`, :func:`plot_tables`).
 
 Same recording -> same bytes (no wall-clock value is written).
 """
@@ -27,6 +28,14 @@ from shipradar.sim.adapters.asterix.encode import DEFAULT_MAX_BLOCK_BYTES
 from shipradar.sim.adapters.asterix.stream import AsterixStream, datagrams
 from shipradar.sim.stream import protocol
 from shipradar.sim.stream.recording import read_recording
+from shipradar.sim.stream.schema import (
+    META,
+    PLOT_TRUTH_COLUMNS,
+    PLOTS,
+    TRUTH_PLOTS,
+    TRUTH_TARGETS,
+    Field,
+)
 
 __all__ = ["FORMATS", "ExportError", "export", "plot_tables", "targets_path"]
 
@@ -82,9 +91,26 @@ def _write_pcap(out: Path, blocks: list[tuple[float, bytes]], epoch0: float, por
             writer.writepkt(bytes(eth), ts=round((epoch0 + t) * 1e6) / 1e6)
 
 
+# The columns of the two tables, from the schema: every per-plot column of ``plots`` (codes as
+# names) and of ``truth[plots]`` (origin and target as names) and the number of targets merged
+# into each plot; every per-target column of ``truth[targets]``.
+_PLOT_NUMBERS = PLOTS.columns("n")  # plot_id, time_s, range_m, ..., interference, ...
+_PLOT_TRUTH = PLOT_TRUTH_COLUMNS  # origin, target
+_TARGET_COLUMNS = TRUTH_TARGETS.columns("k")  # east_m, ..., active
+# what a code column reads as: the meta list of names it indexes
+_CODE_NAMES = {"interference": "interference_codes", "origin": "origin_codes"}
+# the other keys read below, checked against the schema when this module is imported
+META.keys_of("sensor", *_CODE_NAMES.values(), "target_ids")
+TRUTH_PLOTS.keys_of("sensor", "scan", "kind", "plot_id", "contrib_offsets")
+TRUTH_TARGETS.keys_of("sensor", "scan", "kind", "time_s")
+
+
 def plot_tables(path: str | os.PathLike[str]) -> tuple[dict[str, np.ndarray],
                                                        dict[str, np.ndarray]]:
     """The plots (with their truth) and the target states of a recording, as columns.
+
+    The columns follow the stream's schema (:mod:`shipradar.sim.stream.schema`): a new
+    column of the ``plots`` or ``truth`` topics is a new column here.
 
     Parameters
     ----------
@@ -94,28 +120,28 @@ def plot_tables(path: str | os.PathLike[str]) -> tuple[dict[str, np.ndarray],
     Returns
     -------
     plots : dict[str, numpy.ndarray]
-        One row per plot: ``sensor``, ``scan``, ``plot_id``, ``time_s`` [s], ``range_m``
-        [m], ``azimuth_rad`` [rad], ``snr_db`` [dB], ``sigma_range_m`` [m],
-        ``sigma_azimuth_rad`` [rad], ``interference`` (name), ``origin`` (``target``,
-        ``noise`` or ``sea_clutter``), ``target`` (id of the strongest target, empty for
-        false alarms) and ``n_targets`` (targets merged into the plot).
+        One row per plot: ``sensor``, ``scan``, then every per-plot column of the ``plots``
+        topic (``plot_id``, ``time_s`` [s], ``range_m`` [m], ``azimuth_rad`` [rad],
+        ``snr_db`` [dB], ``sigma_range_m`` [m], ``sigma_azimuth_rad`` [rad],
+        ``interference`` (name), ``range_rate_mps`` and ``sigma_range_rate_mps`` [m/s]; NaN
+        when the recording predates them), ``origin`` (``target``, ``noise`` or
+        ``sea_clutter``), ``target`` (id of the strongest target, empty for false alarms)
+        and ``n_targets`` (targets merged into the plot).
     targets : dict[str, numpy.ndarray]
         One row per (sensor, end of scan, target): ``sensor``, ``scan``, ``time_s`` [s],
-        ``target``, ``east_m``, ``north_m``, ``up_m`` [m], ``v_east_mps``, ``v_north_mps``,
-        ``v_up_mps`` [m/s], ``active``.
+        ``target``, then every per-target column of ``truth[targets]``: ``east_m``,
+        ``north_m``, ``up_m`` [m], ``v_east_mps``, ``v_north_mps``, ``v_up_mps`` [m/s],
+        ``a_east_mps2``, ``a_north_mps2``, ``a_up_mps2`` [m/s²], ``active``.
 
     Raises
     ------
     ValueError
         If a ``truth`` message does not describe the ``plots`` message before it.
     """
-    num = ("time_s", "range_m", "azimuth_rad", "snr_db", "sigma_range_m", "sigma_azimuth_rad")
-    parts: dict[str, list] = {k: [] for k in ("sensor", "scan", "plot_id", *num,
-                                              "interference", "origin", "target",
-                                              "n_targets")}
-    tparts: dict[str, list] = {k: [] for k in (
-        "sensor", "scan", "time_s", "target", "east_m", "north_m", "up_m", "v_east_mps",
-        "v_north_mps", "v_up_mps", "active")}
+    parts: dict[str, list[np.ndarray]] = {k: [] for k in (
+        "sensor", "scan", *_PLOT_NUMBERS, *_PLOT_TRUTH, "n_targets")}
+    tparts: dict[str, list[np.ndarray]] = {k: [] for k in (
+        "sensor", "scan", "time_s", "target", *_TARGET_COLUMNS)}
     meta: dict[str, dict] = {}
     pending: dict[str, dict] = {}
     for topic, _, p in _messages(path):
@@ -132,14 +158,10 @@ def plot_tables(path: str | os.PathLike[str]) -> tuple[dict[str, np.ndarray],
             n = len(pl["plot_id"])
             parts["sensor"].append(np.full(n, p["sensor"], dtype=object))
             parts["scan"].append(np.full(n, pl["scan"], dtype=np.int64))
-            parts["plot_id"].append(np.asarray(pl["plot_id"]))
-            for k in num:
-                parts[k].append(np.asarray(pl[k], dtype=float))
-            parts["interference"].append(
-                np.asarray(m["interference_codes"], dtype=object)[pl["interference"]])
-            parts["origin"].append(np.asarray(m["origin_codes"], dtype=object)[p["origin"]])
-            ids = np.asarray([*m["target_ids"], ""], dtype=object)  # index -1 -> ""
-            parts["target"].append(ids[p["target"]])
+            for k in _PLOT_NUMBERS:
+                parts[k].append(_column(pl, PLOTS[k], n, m))
+            for k in _PLOT_TRUTH:
+                parts[k].append(_column(p, TRUTH_PLOTS[k], n, m))
             parts["n_targets"].append(np.diff(p["contrib_offsets"]).astype(np.int64))
         elif topic == "truth" and p.get("kind") == "targets":
             ids = np.asarray(meta[p["sensor"]]["target_ids"], dtype=object)
@@ -148,17 +170,31 @@ def plot_tables(path: str | os.PathLike[str]) -> tuple[dict[str, np.ndarray],
             tparts["scan"].append(np.full(k, p["scan"], dtype=np.int64))
             tparts["time_s"].append(np.full(k, p["time_s"], dtype=float))
             tparts["target"].append(ids)
-            for c in ("east_m", "north_m", "up_m", "v_east_mps", "v_north_mps", "v_up_mps",
-                      "active"):
-                tparts[c].append(np.asarray(p[c]))
-    empty = {"sensor": object, "interference": object, "origin": object, "target": object,
-             "scan": np.int64, "plot_id": np.int64, "n_targets": np.int64, "active": bool}
+            for c in _TARGET_COLUMNS:
+                tparts[c].append(_column(p, TRUTH_TARGETS[c], k, meta[p["sensor"]]))
+    empty = {"sensor": object, "scan": np.int64, "n_targets": np.int64, "target": object,
+             **{k: object for k in _CODE_NAMES},
+             **{k: PLOTS[k].dtype for k in _PLOT_NUMBERS if k not in _CODE_NAMES},
+             **{k: TRUTH_TARGETS[k].dtype for k in _TARGET_COLUMNS}}
 
-    def cat(d: dict[str, list]) -> dict[str, np.ndarray]:
+    def cat(d: dict[str, list[np.ndarray]]) -> dict[str, np.ndarray]:
         return {k: np.concatenate(v) if v else np.zeros(0, dtype=empty.get(k, float))
                 for k, v in d.items()}
 
     return cat(parts), cat(tparts)
+
+
+def _column(payload: dict[str, Any], field: Field, n: int, meta: dict[str, Any]) -> np.ndarray:
+    """One column of a message for a table: codes as their names, ``target`` as the
+    target's id (``""`` for -1), a column the recording predates (not required) as NaN."""
+    if field.key not in payload and not field.required:
+        return np.full(n, np.nan)
+    value = np.asarray(payload[field.key], dtype=field.dtype)
+    if field.key in _CODE_NAMES:
+        return np.asarray(meta[_CODE_NAMES[field.key]], dtype=object)[value]
+    if field.key == "target":
+        return np.asarray([*meta["target_ids"], ""], dtype=object)[value]  # -1 -> ""
+    return value
 
 
 def _arrow_table(cols: dict[str, np.ndarray]):

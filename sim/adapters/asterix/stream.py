@@ -43,8 +43,16 @@ from shipradar.sim.adapters.asterix.encode import (
     encode_cat048_slices,
     seconds_of_day,
 )
+from shipradar.sim.stream.schema import EOS, META, PLOTS
 
 __all__ = ["AsterixStream", "datagrams", "scenario_problems"]
+
+# The stream keys this adapter reads (here and in encode_cat048), checked against the schema
+# (shipradar.sim.stream.schema) when the module is imported.
+META.keys_of("sensor", "radar", "sac_sic", "start_time", "interference_codes",
+             "scan_period_s", "sectors_per_scan", "noise_power_dbm")
+PLOTS.keys_of("sensor", "time_s", "range_m", "azimuth_rad", "snr_db", "interference")
+EOS.keys_of("sensor", "time_s", "position", "velocity_enu_mps")
 
 # WGS-84, for dead-reckoning the antenna between an end of scan and a north crossing
 _A, _E2 = 6378137.0, 6.69437999014e-3

@@ -17,6 +17,7 @@ from typing import Any
 from shipradar.sim.adapters.asterix.encode import DEFAULT_MAX_BLOCK_BYTES, AsterixError
 from shipradar.sim.adapters.asterix.stream import AsterixStream, datagrams
 from shipradar.sim.stream import protocol
+from shipradar.sim.stream.sink import takes_frames
 
 __all__ = ["AsterixBus", "UdpSender", "parse_udp_url"]
 
@@ -148,10 +149,9 @@ class AsterixBus:
     def encodes_ahead(self) -> bool:
         """True when the engine may hand this bus encoded frames (:meth:`emit_frames`) and
         a revolution's plots ahead (:meth:`plots_ahead`): when the inner bus is a
-        :class:`shipradar.sim.stream.bus.Bus` (which only moves frames) or there is none."""
-        from shipradar.sim.stream.bus import Bus
-
-        return self.inner is None or type(self.inner) is Bus
+        bus that takes frames itself (:func:`shipradar.sim.stream.sink.takes_frames`: a
+        :class:`shipradar.sim.stream.bus.Bus`) or there is none."""
+        return self.inner is None or takes_frames(self.inner)
 
     def plots_ahead(self, sensor: str, bodies: Sequence[bytes], plots: Mapping[str, Any],
                     starts: Sequence[int], stops: Sequence[int]) -> None:

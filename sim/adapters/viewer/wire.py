@@ -26,6 +26,8 @@ from typing import Any
 
 import numpy as np
 
+from shipradar.sim.stream import schema
+
 __all__ = [
     "ITEM_KINDS",
     "MAX_BATCH_BYTES",
@@ -38,7 +40,19 @@ __all__ = [
 ]
 
 #: Topic of the tracks a tracker publishes back (docs/protocol.md, "tracks").
-TOPIC_TRACKS: bytes = b"tracks"
+TOPIC_TRACKS: bytes = schema.TOPIC_TRACKS
+
+# The stream keys a view item is made of (to_view), checked against the schema
+# (shipradar.sim.stream.schema) when the module is imported.
+schema.META.keys_of("sensor", "platform", "scan", "scan_period_s", "radar", "target_ids",
+                    "origin_codes", "noise_false_alarms_per_scan",
+                    "clutter_false_alarms_per_scan")
+schema.PLOTS.keys_of("sensor", "scan", "plot_id", "time_s", "range_m", "azimuth_rad", "snr_db")
+schema.EOS.keys_of("sensor", "scan", "position", "velocity_enu_mps", "heading_deg")
+schema.TRUTH_PLOTS.keys_of("sensor", "scan", "kind", "plot_id", "origin", "target")
+schema.TRUTH_TARGETS.keys_of("sensor", "kind", "east_m", "north_m", "active")
+schema.TRACKS.keys_of("sensor", "track_id", "east_m", "north_m", "v_east_mps", "v_north_mps",
+                      "sigma_east_m", "sigma_north_m")
 #: Kinds of view item.
 ITEM_KINDS = ("meta", "plots", "origin", "eos", "targets", "tracks")
 #: Most plots (or targets, tracks) accepted in one message: larger ones are refused as
