@@ -218,10 +218,19 @@ def siap(tracks: dict[str, list[tuple[float, np.ndarray]]],
     def when(t):
         return EPOCH + dt.timedelta(seconds=t)
 
-    ss_tracks = {Track([State(s, timestamp=when(t)) for t, s in v], id=k)
-                 for k, v in sorted(tracks.items())}
-    ss_truths = {GroundTruthPath([GroundTruthState(s, timestamp=when(t)) for t, s in v],
-                                 id=str(k)) for k, v in sorted(truths.items())}
+    # Stone Soup's TrackToTruth associates over a time range and SIAP then reads both objects
+    # at every scan of it, so a track or truth absent at some scan inside its span (a track
+    # dropped and resumed under its id, a target leaving coverage) is split there: a resumed
+    # track counts as a new track number for SIAP's continuity measures.
+    times = sorted({t for v in (*tracks.values(), *truths.values()) for t, _ in v})
+    order = {t: i for i, t in enumerate(times)}
+    ss_tracks = {Track([State(s, timestamp=when(t)) for t, s in seg], id=f"{k}#{n}")
+                 for k, v in sorted(tracks.items())
+                 for n, seg in enumerate(_segments(v, order))}
+    ss_truths = {GroundTruthPath([GroundTruthState(s, timestamp=when(t)) for t, s in seg],
+                                 id=f"{k}#{n}")
+                 for k, v in sorted(truths.items())
+                 for n, seg in enumerate(_segments(v, order))}
     gen = SIAPMetrics(position_measure=Euclidean(mapping=(0, 2)),
                       velocity_measure=Euclidean(mapping=(1, 3)), generator_name="siap",
                       tracks_key="tracks", truths_key="truths")
@@ -249,6 +258,18 @@ def siap(tracks: dict[str, list[tuple[float, np.ndarray]]],
             at.setdefault(t, {})[key] = float(single.value)
     out["at_times"] = at
     return out
+
+
+def _segments(rows: list[tuple[float, np.ndarray]], order: dict[float, int]):
+    """``rows`` (sorted by time) cut where a scored scan is missing between two of them."""
+    seg: list[tuple[float, np.ndarray]] = []
+    for row in rows:
+        if seg and order[row[0]] != order[seg[-1][0]] + 1:
+            yield seg
+            seg = []
+        seg.append(row)
+    if seg:
+        yield seg
 
 
 @dataclass

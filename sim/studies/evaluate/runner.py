@@ -437,8 +437,8 @@ def run_tracker_object(scenario, tracker, *, seed: int, duration_s: float | None
         The scene.
     tracker : object or callable
         An object with ``on_message(topic, t_sim, payload)`` that returns None, a ``tracks``
-        payload (docs/protocol.md section 4.6, as a dict) or a list of them; or a callable
-        returning such an object (called once per run: a fresh tracker per seed). It sees
+        payload (docs/protocol.md section 4.6, as a dict) or a list of them; or a class or
+        callable returning such an object (called once per run: a fresh tracker per seed). It sees
         the ``meta``, ``plots`` and ``eos`` messages, never ``truth``.
     seed : int
     duration_s : float or None
@@ -449,7 +449,9 @@ def run_tracker_object(scenario, tracker, *, seed: int, duration_s: float | None
     """
     from shipradar.sim.engine.simulation import Simulation
 
-    obj = tracker if hasattr(tracker, "on_message") else tracker()
+    # a class or a factory makes a fresh tracker per run; an instance is used as it is
+    fresh = isinstance(tracker, type) or not hasattr(tracker, "on_message")
+    obj = tracker() if fresh else tracker
     duration = float(scenario.duration_s if duration_s is None else duration_s)
     info: dict[str, Any] = {"seed": seed, "status": "ok", "error": None,
                             "scenario": scenario.name, "duration_s": duration,

@@ -298,3 +298,53 @@ def compare(study_dirs: Sequence[str | Path], out: str | Path | None = None
 
 def settings_of(config: MetricConfig) -> dict[str, Any]:
     return asdict(config)
+
+
+def evaluate_object(scenario, tracker, *, runs: int = 1, seed: int | None = None,
+                    duration_s: float | None = None, tables=None,
+                    config: MetricConfig = DEFAULT_METRICS,
+                    out: str | Path | None = None) -> dict[str, Any]:
+    """A study of an in-process tracker object (``shipradar.evaluate``), runs one after the
+    other in this process.
+
+    Parameters
+    ----------
+    scenario : Scenario
+    tracker : object or callable
+        See :func:`shipradar.sim.studies.evaluate.runner.run_tracker_object`.
+    runs, seed, duration_s, tables, config
+        As for :func:`run_study`.
+    out : path or None
+        Also write the study directory (run recordings for ``--rescore``, tables, report).
+
+    Returns
+    -------
+    dict
+        ``per_run``, ``per_scan``, ``per_target`` (rows), ``summary`` (per-run figures over
+        runs with 95 % intervals), ``failed``.
+    """
+    from shipradar.sim.studies.evaluate.runner import run_tracker_object
+
+    base = scenario.seed if seed is None else int(seed)
+    seeds = study_seeds(base, runs)
+    results = []
+    for sd in seeds:
+        run_dir = None if out is None else Path(out) / "runs" / run_dir_name(sd)
+        data = run_tracker_object(scenario, tracker, seed=sd, duration_s=duration_s,
+                                  tables=tables, run_dir=run_dir)
+        ok = data.info["status"] == "ok"
+        results.append((data.info, score_run(data, config) if ok else None))
+    settings = {"scenario": None, "scenario_name": scenario.name,
+                "tracker": f"python object {type(tracker).__name__}", "runs": runs,
+                "seed": base, "seeds": seeds, "duration_s": duration_s,
+                "metrics": config.as_dict()}
+    if out is not None:
+        (Path(out) / "study.json").write_text(json.dumps(settings, indent=1))
+        summary = write_results(out, results, settings)
+    else:
+        summary = {"failed": [_failed_row(i) for i, s in results if s is None],
+                   "metrics": stats.summarise([s.run for _, s in results if s is not None])}
+    return {"per_run": [s.run for _, s in results if s is not None],
+            "per_scan": [r for _, s in results if s is not None for r in s.per_scan],
+            "per_target": [r for _, s in results if s is not None for r in s.per_target],
+            "summary": summary["metrics"], "failed": summary["failed"]}

@@ -1,0 +1,432 @@
+"""``shipradar evaluate`` (issue 26): metrics against closed forms and Stone Soup called
+directly, the harness with trackers of known behaviour, failures, Dask clusters.
+
+The metric tests build a run's data by hand (no simulation); the harness tests run the demo
+scene for a few seconds with the trackers of ``tests/evaluate_trackers.py`` (ids ``T<j>``,
+the truth the harness counts). Socket tests bind 127.0.0.1 on free ports and stop every
+process they start.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import json
+import math
+import os
+import shlex
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from shipradar.sim.stream.protocol import encode
+from shipradar.sim.studies.evaluate.data import (
+    MalformedTracks,
+    RunData,
+    TracksMessage,
+    check_tracks,
+)
+from shipradar.sim.studies.evaluate.metrics import (
+    EPOCH,
+    MetricConfig,
+    detectable,
+    score_run,
+)
+
+ROOT = Path(__file__).resolve().parents[1]
+DEMO = str(ROOT / "scenarios" / "single_missile.yaml")
+TRACKERS = ROOT / "tests" / "evaluate_trackers.py"
+PY = shlex.quote(sys.executable)
+
+
+# ------------------------------------------------------------------------ synthetic runs
+def _run(n_scans=10, n_targets=2, period=1.0):
+    """Targets flying east at 200 m/s, 10 km north of a radar at the origin (in coverage)."""
+    t = period * np.arange(1, n_scans + 1)
+    pos = np.zeros((n_scans, n_targets, 3))
+    vel = np.zeros((n_scans, n_targets, 3))
+    for j in range(n_targets):
+        pos[:, j, 0] = 200.0 * t + 5000.0 * j
+        pos[:, j, 1] = 10_000.0
+        pos[:, j, 2] = 10.0
+        vel[:, j, 0] = 200.0
+    radar = {"instrumented_range_m": 60_000.0, "scan_period_s": period,
+             "eos_t": t, "eos_pos": np.tile([0.0, 0.0, 20.0], (n_scans, 1))}
+    return RunData(info={"seed": 1, "status": "ok", "duration_s": float(t[-1])},
+                   target_ids=[f"tgt{j}" for j in range(n_targets)], ref_sensor="r",
+                   scan_t=t, truth_pos=pos, truth_vel=vel,
+                   truth_active=np.ones((n_scans, n_targets), bool), radars={"r": radar},
+                   inputs={})
+
+
+def _tracks_from_truth(data, shift_m=0.0, ids=None):
+    out = []
+    for i, t in enumerate(data.scan_t):
+        names = ids(i) if ids else [f"T{j}" for j in range(len(data.target_ids))]
+        p, v = data.truth_pos[i], data.truth_vel[i]
+        out.append(TracksMessage(float(t), "r", i, tuple(names), p[:, 0] + shift_m,
+                                 p[:, 1].copy(), v[:, 0].copy(), v[:, 1].copy()))
+    return out
+
+
+def test_oracle_scores_zero():
+    data = _run()
+    data.tracks = _tracks_from_truth(data)
+    s = score_run(data)
+    assert s.run["gospa"] == 0.0
+    assert s.run["siap_completeness"] == 1.0
+    assert s.run["siap_spuriousness"] == 0.0
+    assert s.run["false_tracks"] == 0 and s.run["identity_swaps"] == 0
+    assert all(r["held_fraction"] == 1.0 for r in s.per_target)
+
+
+@pytest.mark.parametrize(("c", "p"), [(2000.0, 1.0), (500.0, 2.0)])
+def test_silent_tracker_scores_only_missed_closed_form(c, p):
+    data = _run(n_targets=3)
+    s = score_run(data, MetricConfig(c_m=c, p=p))
+    for row in s.per_scan:
+        # GOSPA (alpha = 2): each missed target costs c^p / 2; the distance is the p-th root
+        assert row["missed"] == pytest.approx(3 * c**p / 2, rel=1e-12)
+        assert row["localisation"] == 0.0 and row["false"] == 0.0
+        assert row["gospa"] == pytest.approx((3 * c**p / 2) ** (1 / p), rel=1e-12)
+    assert s.run["siap_completeness"] == 0.0
+
+
+def test_shifted_truth_scores_localisation_d():
+    d = 37.5
+    data = _run(n_targets=1)
+    data.tracks = _tracks_from_truth(data, shift_m=d)
+    s = score_run(data)  # p = 1: the localisation part is the distance itself [m]
+    assert s.run["localisation"] == pytest.approx(d, rel=1e-12)
+    assert s.run["missed"] == 0.0 and s.run["false"] == 0.0
+    assert s.run["siap_position_accuracy_m"] == pytest.approx(d, rel=1e-12)
+    assert s.per_target[0]["mean_error_m"] == pytest.approx(d, rel=1e-12)
+
+
+def test_two_identities_swapped_count_one_swap():
+    data = _run(n_targets=2)
+    data.tracks = _tracks_from_truth(
+        data, ids=lambda i: ["A", "B"] if i < 5 else ["B", "A"])
+    s = score_run(data)
+    assert s.run["identity_swaps"] == 1
+    assert [r["identity_swaps"] for r in s.per_target] == [1, 1]
+    assert s.run["gospa"] == 0.0  # positions are right: only the identities changed
+
+
+def test_breaks_first_track_and_false_tracks():
+    data = _run(n_targets=1, n_scans=12)
+    tracks = _tracks_from_truth(data)
+    held = [i for i in range(12) if i >= 2 and i not in (6, 7)]
+    data.tracks = [tracks[i] for i in held]
+    # plus a false track far away for the whole run
+    data.tracks = [TracksMessage(m.time_s, "r", m.scan, (*m.track_id, "F"),
+                                 np.append(m.east_m, -40_000.0), np.append(m.north_m, 0.0),
+                                 np.append(m.v_east_mps, 0.0), np.append(m.v_north_mps, 0.0))
+                   for m in data.tracks]
+    s = score_run(data, MetricConfig(max_track_age_s=0.5))
+    row = s.per_target[0]
+    assert row["first_track_s"] == 3.0 and row["first_track_delay_s"] == 2.0
+    assert row["first_track_range_m"] == pytest.approx(math.hypot(600.0, 10_000.0), rel=1e-9)
+    assert row["track_breaks"] == 1 and row["scans_held"] == 8
+    assert s.run["false_tracks"] == 1
+    assert s.run["false_tracks_per_hour"] == pytest.approx(3600.0 / 12.0, rel=1e-12)
+
+
+def test_gospa_and_siap_equal_stonesoup_called_directly():
+    """The same sets handed to Stone Soup's classes by hand give the harness's values."""
+    from stonesoup.dataassociator.tracktotrack import TrackToTruth
+    from stonesoup.measures import Euclidean
+    from stonesoup.metricgenerator.manager import MultiManager
+    from stonesoup.metricgenerator.ospametric import GOSPAMetric
+    from stonesoup.metricgenerator.tracktotruthmetrics import SIAPMetrics
+    from stonesoup.types.groundtruth import GroundTruthPath, GroundTruthState
+    from stonesoup.types.state import State
+    from stonesoup.types.track import Track
+
+    rng = np.random.default_rng(3)
+    data = _run(n_targets=3, n_scans=8)
+    data.tracks = _tracks_from_truth(data)
+    for m in data.tracks:  # noisy, with an extra track from scan 3
+        m.east_m[:] += rng.normal(0, 80, m.east_m.size)
+        m.north_m[:] += rng.normal(0, 80, m.north_m.size)
+    data.tracks = [m if m.scan < 3 else TracksMessage(
+        m.time_s, "r", m.scan, (*m.track_id, "X"), np.append(m.east_m, 3e4),
+        np.append(m.north_m, 0.0), np.append(m.v_east_mps, 0.0),
+        np.append(m.v_north_mps, 0.0)) for m in data.tracks]
+    config = MetricConfig(c_m=1500.0, p=2.0, siap_threshold_m=400.0)
+    s = score_run(data, config)
+
+    def when(t):
+        return EPOCH + dt.timedelta(seconds=float(t))
+
+    tracks, truths = {}, {}
+    for m in data.tracks:
+        for k, tid in enumerate(m.track_id):
+            tracks.setdefault(tid, []).append(State(
+                [m.east_m[k], m.v_east_mps[k], m.north_m[k], m.v_north_mps[k]],
+                timestamp=when(m.time_s)))
+    for i, t in enumerate(data.scan_t):
+        for j in range(3):
+            p, v = data.truth_pos[i, j], data.truth_vel[i, j]
+            truths.setdefault(j, []).append(GroundTruthState([p[0], v[0], p[1], v[1]],
+                                                             timestamp=when(t)))
+    gospa = GOSPAMetric(c=1500.0, p=2.0, measure=Euclidean(mapping=(0, 2)))
+    for i, t in enumerate(data.scan_t):
+        meas = [st for v in tracks.values() for st in v if st.timestamp == when(t)]
+        tru = [v[i] for v in truths.values()]
+        ref, _ = gospa.compute_gospa_metric(meas, tru)
+        row = s.per_scan[i]
+        for key, name in (("gospa", "distance"), ("localisation", "localisation"),
+                          ("missed", "missed"), ("false", "false")):
+            assert row[key] == pytest.approx(float(ref.value[name]), rel=1e-12, abs=1e-9)
+    manager = MultiManager(
+        [SIAPMetrics(position_measure=Euclidean(mapping=(0, 2)),
+                     velocity_measure=Euclidean(mapping=(1, 3)), generator_name="s",
+                     tracks_key="tracks", truths_key="truths")],
+        associator=TrackToTruth(association_threshold=400.0, consec_pairs_confirm=1,
+                                consec_misses_end=1, measure=Euclidean(mapping=(0, 2))))
+    manager.add_data({"tracks": {Track(v, id=k) for k, v in tracks.items()},
+                      "truths": {GroundTruthPath(v, id=str(k)) for k, v in truths.items()}})
+    ref = manager.generate_metrics()["s"]
+    for key, name in (("completeness", "SIAP Completeness"), ("ambiguity", "SIAP Ambiguity"),
+                      ("spuriousness", "SIAP Spuriousness"),
+                      ("position_accuracy_m", "SIAP Position Accuracy"),
+                      ("velocity_accuracy_mps", "SIAP Velocity Accuracy"),
+                      ("track_number_change_rate", "SIAP Rate of Track Number Change"),
+                      ("longest_segment", "SIAP Longest Track Segment")):
+        assert s.run[f"siap_{key}"] == pytest.approx(float(ref[name].value), rel=1e-12)
+    assert 0 < s.run["siap_spuriousness"] < 1
+
+
+def test_detectable_horizon_and_range():
+    ant = [(np.array([0.0, 0.0, 25.0]), 60_000.0)]
+    a_e = 4.0 / 3.0 * 6_371_008.8
+    horizon = math.sqrt(2 * a_e * 25.0) + math.sqrt(2 * a_e * 5.0)
+    pos = np.array([[horizon - 10.0, 0, 5.0], [horizon + 10.0, 0, 5.0],
+                    [59_000.0, 0, 10_000.0], [0, 61_000.0, 10_000.0], [1000.0, 0, 5.0]])
+    got = detectable(pos, np.array([True, True, True, True, False]), ant)
+    assert got.tolist() == [True, False, True, False, False]
+
+
+@pytest.mark.parametrize(("payload", "reason"), [
+    ({"sensor": "r", "scan": 0, "time_s": 1.0}, "missing key"),
+    ({"sensor": "r", "scan": 0, "time_s": 1.0, "track_id": ["a"], "east_m": np.zeros(2),
+      "north_m": np.zeros(1), "v_east_mps": np.zeros(1), "v_north_mps": np.zeros(1)},
+     "length mismatch"),
+    ({"sensor": "r", "scan": 0, "time_s": 1.0, "track_id": ["a"], "east_m": [math.nan],
+      "north_m": [0.0], "v_east_mps": [0.0], "v_north_mps": [0.0]}, "non-finite"),
+    ({"sensor": "r", "scan": 0, "time_s": 1.0, "track_id": ["a", "a"], "east_m": [0.0, 1.0],
+      "north_m": [0.0, 1.0], "v_east_mps": [0.0, 1.0], "v_north_mps": [0.0, 1.0]},
+     "duplicate track_id"),
+    ({"sensor": "r", "scan": 0, "time_s": 1.0, "track_id": [1], "east_m": [0.0],
+      "north_m": [0.0], "v_east_mps": [0.0], "v_north_mps": [0.0]}, "bad track_id"),
+])
+def test_malformed_tracks_named(payload, reason):
+    with pytest.raises(MalformedTracks) as info:
+        check_tracks(encode(b"tracks", 1.0, payload))
+    assert info.value.reason == reason
+    with pytest.raises(MalformedTracks) as info:
+        check_tracks([b"tracks", b"\xc1"])
+    assert info.value.reason == "undecodable"
+
+
+# ------------------------------------------------------------------- harness, processes
+def _spec(tmp_path, mode, *extra, seed=7, duration=6.0, **kw):
+    from shipradar.sim.studies.evaluate.runner import RunSpec
+
+    cmd = f"{PY} {shlex.quote(str(TRACKERS))} {mode} {{plots}} {{tracks}} " + " ".join(extra)
+    return RunSpec(DEMO, seed, str(tmp_path / f"{mode}-{seed}"), cmd, duration_s=duration,
+                   **kw)
+
+
+def _run_and_score(spec):
+    from shipradar.sim.studies.evaluate.data import load_run
+    from shipradar.sim.studies.evaluate.runner import run_tracker_command
+
+    info = run_tracker_command(spec)
+    return info, (score_run(load_run(spec.run_dir)) if info["status"] == "ok" else None)
+
+
+def test_harness_oracle_and_shift(tmp_path):
+    info, s = _run_and_score(_spec(tmp_path, "oracle"))
+    assert info["status"] == "ok", info
+    assert info["stopped_by_harness"]
+    assert s.run["scans"] == 6 and s.run["tracks_messages"] == 6
+    assert s.run["gospa"] == 0.0 and s.run["siap_completeness"] == 1.0
+    assert s.run["siap_spuriousness"] == 0.0
+    assert 0 < s.run["latency_median_s"] <= s.run["latency_p95_s"] < 5
+    _, s2 = _run_and_score(_spec(tmp_path, "oracle", "--shift-m", "25", seed=8))
+    assert s2.run["localisation"] == pytest.approx(25.0, rel=1e-9)
+
+
+def test_harness_silent_scores_missed_only(tmp_path):
+    info, s = _run_and_score(_spec(tmp_path, "silent"))
+    assert info["status"] == "ok" and s.run["tracks_messages"] == 0
+    assert s.run["missed"] == pytest.approx(2000.0 / 2, rel=1e-12)  # one missile, c/2
+    assert s.run["localisation"] == 0.0 and s.run["false"] == 0.0
+
+
+def test_harness_crashing_tracker_fails_its_run(tmp_path):
+    info, _ = _run_and_score(_spec(tmp_path, "crash", "--after", "2", duration=30.0))
+    assert info["status"] == "failed" and info["exit_code"] == 3
+    assert "exited with code 3" in info["error"]
+    assert "crashing on purpose" in info["stderr_tail"]
+    assert not info["stopped_by_harness"]
+
+
+def test_harness_tracker_that_never_subscribes_times_out(tmp_path):
+    info, _ = _run_and_score(_spec(tmp_path, "never", wait_timeout_s=1.5))
+    assert info["status"] == "failed"
+    assert "did not subscribe" in info["error"] and "1.5 s" in info["error"]
+    assert info["stopped_by_harness"]
+
+
+def test_harness_malformed_tracks_counted_not_trusted(tmp_path):
+    info, s = _run_and_score(_spec(tmp_path, "malformed"))
+    assert info["status"] == "ok"
+    assert s.run["malformed_by_reason"] == {"missing key": 6, "undecodable": 6}
+    assert s.run["gospa"] == 0.0 and s.run["tracks_messages"] == 6
+
+
+# ------------------------------------------------------------------ studies on Dask, CLI
+def test_study_cli_rescore_compare_determinism(tmp_path):
+    import pandas as pd
+    from distributed import Client, LocalCluster
+
+    from shipradar.sim.studies.evaluate.cli import cli_main
+    from shipradar.sim.studies.evaluate.study import run_study
+
+    oracle = f"{PY} {shlex.quote(str(TRACKERS))} oracle {{plots}} {{tracks}}"
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+                      dashboard_address=None) as cluster, Client(cluster) as client:
+        a = run_study(DEMO, oracle, runs=2, out=tmp_path / "a", seed=3, duration_s=5.0,
+                      client=client)
+        b = run_study(DEMO, oracle + " --shift-m 40", runs=2, out=tmp_path / "b", seed=3,
+                      duration_s=5.0, client=client)
+        a2 = run_study(DEMO, oracle, runs=2, out=tmp_path / "a2", seed=3, duration_s=5.0,
+                       client=client, report=False)
+    assert a["scored"] == 2 and not a["failed"] and b["scored"] == a2["scored"] == 2
+    for name in ("index.html", "gospa.png", "coverage.png", "ppi.png", "per_scan.parquet",
+                 "per_run.csv", "per_target.parquet", "summary.csv"):
+        assert (tmp_path / "a" / name).stat().st_size > 0, name
+    # determinism: same seeds and a deterministic tracker, identical scores
+    cols = ["seed", "scan", "t_s", "gospa", "localisation", "missed", "false", "tracks"]
+    pa = pd.read_parquet(tmp_path / "a" / "per_scan.parquet")[cols]
+    pd.testing.assert_frame_equal(pa, pd.read_parquet(tmp_path / "a2" / "per_scan.parquet")[cols])
+    # rescore with another cut-off, no run
+    assert cli_main(["--rescore", str(tmp_path / "b"), "--c", "30"]) == 0
+    rb = pd.read_parquet(tmp_path / "b" / "per_run.parquet")
+    assert (rb["missed"] == 15.0).all() and (rb["false"] == 15.0).all()  # 40 m > c = 30 m
+    assert cli_main(["--rescore", str(tmp_path / "b")]) == 0
+    assert cli_main(["--compare", str(tmp_path / "a"), str(tmp_path / "b"),
+                     "--out", str(tmp_path / "cmp")]) == 0
+    cmp = pd.read_csv(tmp_path / "cmp" / "compare.csv")
+    diff = cmp[(cmp["kind"] != "mean") & (cmp["metric"] == "localisation")].iloc[0]
+    assert diff["mean"] == pytest.approx(40.0, rel=1e-9) and diff["runs"] == 2
+
+
+def test_cli_failed_run_exit_code_and_bad_input(tmp_path, capsys):
+    from shipradar.sim.studies.evaluate.cli import cli_main
+
+    assert cli_main(["--tracker", "x", str(tmp_path / "nope.yaml")]) == 2
+    assert cli_main(["--rescore", str(tmp_path)]) == 2
+    crash = f"{PY} {shlex.quote(str(TRACKERS))} crash {{plots}} {{tracks}} --after 1"
+    code = cli_main([DEMO, "--tracker", crash, "--runs", "1", "--duration", "20",
+                     "--workers", "1", "--out", str(tmp_path / "c"), "--quiet"])
+    assert code == 1
+    assert "exited with code 3" in capsys.readouterr().err
+    html = (tmp_path / "c" / "index.html").read_text()
+    assert "Failed runs" in html and "crashing on purpose" in html
+
+
+def _free_port():
+    from shipradar.sim.studies.evaluate.runner import free_port
+
+    return free_port()
+
+
+def test_study_on_dask_cli_cluster(tmp_path):
+    """A separately started ``dask scheduler`` and two ``dask worker`` processes."""
+    from distributed import Client
+
+    from shipradar.sim.studies.evaluate.study import run_study
+
+    dask = str(Path(sys.executable).with_name("dask"))
+    port = _free_port()
+    addr = f"tcp://127.0.0.1:{port}"
+    procs = []
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    try:
+        procs.append(subprocess.Popen(
+            [dask, "scheduler", "--host", "127.0.0.1", "--port", str(port),
+             "--no-dashboard"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+            env=env, start_new_session=True))
+        for _ in range(2):
+            procs.append(subprocess.Popen(
+                [dask, "worker", addr, "--host", "127.0.0.1", "--nthreads", "1",
+                 "--no-dashboard", "--nworkers", "1"], stdout=subprocess.DEVNULL,
+                stderr=subprocess.DEVNULL, env=env, start_new_session=True))
+        with Client(addr, timeout=60) as client:
+            client.wait_for_workers(2, timeout=60)
+            oracle = f"{PY} {shlex.quote(str(TRACKERS))} oracle {{plots}} {{tracks}}"
+            res = run_study(DEMO, oracle, runs=2, out=tmp_path / "s", seed=5,
+                            duration_s=4.0, client=client, report=False)
+            workers = {w["host"] for w in client.scheduler_info()["workers"].values()}
+        assert res["scored"] == 2 and workers == {"127.0.0.1"}
+        assert all(r["mean"] == 0.0 for r in res["metrics"] if r["metric"] == "gospa")
+        settings = json.loads((tmp_path / "s" / "study.json").read_text())
+        assert len(settings["seeds"]) == 2
+    finally:
+        for p in reversed(procs):
+            if p.poll() is None:
+                os.killpg(p.pid, signal.SIGTERM)
+        for p in procs:
+            try:
+                p.wait(20)
+            except subprocess.TimeoutExpired:
+                os.killpg(p.pid, signal.SIGKILL)
+                p.wait()
+
+
+# ------------------------------------------------------------------------ in process
+class _OracleObject:
+    """In-process oracle: it must not read the truth, so it is handed the scene's
+    trajectories by the test (as a perfect tracker would estimate them)."""
+
+    def __init__(self, scenario):
+        from shipradar.sim.world.kinematics import LocalFrame
+        from shipradar.sim.world.trajectory import trajectories
+
+        self.traj = trajectories(scenario.targets, LocalFrame(scenario.origin), hold=False)
+        self.ids = [t.id for t in scenario.targets]
+
+    def on_message(self, topic, t, payload):
+        if topic != "eos":
+            return None
+        n = len(self.ids)
+        pos, vel, _, active = self.traj.state_acc(np.full(n, t), np.arange(n))
+        idx = np.flatnonzero(active)
+        return {"sensor": payload["sensor"], "scan": payload["scan"], "time_s": t,
+                "track_id": [self.ids[j] for j in idx], "east_m": pos[idx, 0],
+                "north_m": pos[idx, 1], "v_east_mps": vel[idx, 0],
+                "v_north_mps": vel[idx, 1]}
+
+
+def test_in_process_evaluate():
+    import shipradar
+    from shipradar.api import evaluate
+
+    s = shipradar.load_scenario(DEMO)
+    res = evaluate(s, tracker=lambda: _OracleObject(s), runs=2, seed=2, duration_s=5.0)
+    assert len(res["per_run"]) == 2 and not res["failed"]
+    assert all(r["gospa"] == 0.0 and r["siap_completeness"] == 1.0 for r in res["per_run"])
+
+    class Broken:
+        def on_message(self, topic, t, payload):
+            raise RuntimeError("boom")
+
+    res = evaluate(s, tracker=Broken, runs=1, seed=2, duration_s=3.0)
+    assert res["failed"] and "boom" in res["failed"][0]["error"]
