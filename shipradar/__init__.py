@@ -43,6 +43,7 @@ _EXPORTS = {
     "example_names": "shipradar.scenarios",
     "example_path": "shipradar.scenarios",
     "build_tables": "shipradar.api",
+    "evaluate": "shipradar.api",
     "example": "shipradar.api",
     "messages": "shipradar.api",
     "run": "shipradar.api",

@@ -17,7 +17,7 @@ from shipradar.sim.world.scenario import Scenario, load_scenario
 if TYPE_CHECKING:
     from shipradar.tables.scene import SceneTables
 
-__all__ = ["build_tables", "example", "messages", "run"]
+__all__ = ["build_tables", "evaluate", "example", "messages", "run"]
 
 ScenarioLike = Scenario | str | Path
 
