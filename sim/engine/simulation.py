@@ -36,9 +36,9 @@ import math
 import sys
 import time
 from collections import deque
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Generator, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 import simpy
@@ -58,6 +58,7 @@ from shipradar.sim.stream.schema import (
 )
 from shipradar.sim.stream.sink import (
     CallbackSink,
+    FrameSink,
     MessageSink,
     PlotsAheadSink,
     takes_batches,
@@ -168,7 +169,8 @@ class Simulation:
             self.radars.append(process)
 
     # ------------------------------------------------------------------ running
-    def _environment(self):
+    def _environment(self) -> simpy.Environment:
+        env: simpy.Environment
         if self.realtime:
             env = simpy.rt.RealtimeEnvironment(factor=1.0 / self.realtime, strict=False)
         else:
@@ -193,7 +195,7 @@ class Simulation:
             if env is not None:
                 env.process(self._progress(env, bar))
         wall0 = time.perf_counter()
-        if batched:
+        if env is None:
             self._run_batched(bar)
         else:
             env.run(until=self.duration + 1e-9)
@@ -335,6 +337,16 @@ class Simulation:
         return takes_frames(self.bus)
 
 
+class _Clock(Protocol):
+    """What :meth:`_RadarProcess.run` asks of its clock: a :class:`simpy.Environment`, or the
+    batched path's :class:`_FastClock`."""
+
+    @property
+    def now(self) -> float: ...
+
+    def timeout(self, delay: float, /) -> Any: ...
+
+
 class _FastClock:
     """What :meth:`_RadarProcess.run` asks of a SimPy environment (``now``, ``timeout``),
     for :meth:`Simulation._run_batched`: a timeout is its delay, the loop does the rest."""
@@ -467,7 +479,7 @@ class _RadarProcess:
         return geom, jpos, ppos[0, :2]
 
     # ------------------------------------------------------------------ process
-    def run(self, env: simpy.Environment):
+    def run(self, env: _Clock) -> Generator[Any, Any, None]:
         sim = self.sim
         sim.active_radar = self.index
         resumes = self.resume_times
@@ -532,9 +544,13 @@ class _RadarProcess:
         bus = sim.bus
         if bus is None:
             return
-        if not takes_frames(bus):
+        if takes_frames(bus):
+            self._emit_meta_frames(bus, t, scan)
+        else:
             bus.emit(protocol.TOPIC_META, t, self._meta_payload(scan))
-            return
+
+    def _emit_meta_frames(self, bus: FrameSink, t: float, scan: int) -> None:
+        """The metadata from its items packed once (:meth:`_emit_meta`)."""
         parts = self._meta_items
         if parts is None:
             payload = self._meta_payload(0)
@@ -787,13 +803,14 @@ class _RadarProcess:
     def _send_sector(self, t_b: float, rows: int, plots: bytes | dict, truth: bytes | dict
                      ) -> None:
         """Publish a sector's ``plots`` and ``truth`` messages framed ahead
-        (:meth:`_frame_block`): their bodies, or their payloads."""
+        (:meth:`_frame_block`): their bodies to a bus that takes frames, or their payloads."""
         self.plot_counter += rows
         bus = self.sim.bus
         if isinstance(plots, bytes) and isinstance(truth, bytes):
+            assert takes_frames(bus)  # framed for it (_frame_block)
             bus.emit_frames(t_b, [protocol.TOPIC_PLOTS, plots])
             bus.emit_frames(t_b, [protocol.TOPIC_TRUTH, truth])
-        else:
+        elif isinstance(plots, dict) and isinstance(truth, dict) and bus is not None:
             bus.emit(protocol.TOPIC_PLOTS, t_b, plots)
             bus.emit(protocol.TOPIC_TRUTH, t_b, truth)
 

@@ -216,7 +216,9 @@ class Publisher:
             self._abort()
             raise
         #: The bound endpoint, with the port resolved when ``*`` was asked.
-        self.endpoint: str = self._sock.getsockopt(zmq.LAST_ENDPOINT).decode()
+        endpoint_bytes = self._sock.getsockopt(zmq.LAST_ENDPOINT)
+        assert isinstance(endpoint_bytes, bytes)  # LAST_ENDPOINT is a bytes option
+        self.endpoint: str = endpoint_bytes.decode()
         self._subscriptions: Counter[bytes] = Counter()
         self._waited = wait_subscribers == 0
         self._sent: Counter[bytes] = Counter()
@@ -343,7 +345,7 @@ class Publisher:
         if self._since_drain >= _DRAIN_EVERY:
             # Reading EVENTS costs about a send, so subscriptions are taken in periodically.
             self._since_drain = 0
-            if sock.getsockopt(zmq.EVENTS) & zmq.POLLIN:
+            if int(sock.getsockopt(zmq.EVENTS)) & zmq.POLLIN:
                 self._drain_subscriptions()
         topic = bytes(frames[0])
         last = len(frames) - 1

@@ -165,13 +165,13 @@ def plot_tables(path: str | os.PathLike[str]) -> tuple[dict[str, np.ndarray],
             parts["n_targets"].append(np.diff(p["contrib_offsets"]).astype(np.int64))
         elif topic == "truth" and p.get("kind") == "targets":
             ids = np.asarray(meta[p["sensor"]]["target_ids"], dtype=object)
-            k = ids.size
-            tparts["sensor"].append(np.full(k, p["sensor"], dtype=object))
-            tparts["scan"].append(np.full(k, p["scan"], dtype=np.int64))
-            tparts["time_s"].append(np.full(k, p["time_s"], dtype=float))
+            n_t = ids.size
+            tparts["sensor"].append(np.full(n_t, p["sensor"], dtype=object))
+            tparts["scan"].append(np.full(n_t, p["scan"], dtype=np.int64))
+            tparts["time_s"].append(np.full(n_t, p["time_s"], dtype=float))
             tparts["target"].append(ids)
             for c in _TARGET_COLUMNS:
-                tparts[c].append(_column(p, TRUTH_TARGETS[c], k, meta[p["sensor"]]))
+                tparts[c].append(_column(p, TRUTH_TARGETS[c], n_t, meta[p["sensor"]]))
     empty = {"sensor": object, "scan": np.int64, "n_targets": np.int64, "target": object,
              **{k: object for k in _CODE_NAMES},
              **{k: PLOTS[k].dtype for k in _PLOT_NUMBERS if k not in _CODE_NAMES},

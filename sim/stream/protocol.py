@@ -191,11 +191,12 @@ def decode_array(data: bytes) -> np.ndarray:
     pos = _EXT_HEAD.size + lts
     if ndim > MAX_NDIM or size < pos:
         raise ProtocolError("array column header is malformed")
-    dtype = _WIRE_DTYPES.get(bytes(data[_EXT_HEAD.size : pos]))
-    if dtype is None:
+    wire = _WIRE_DTYPES.get(bytes(data[_EXT_HEAD.size : pos]))
+    if wire is None:
         raise ProtocolError(
             f"array column has unsupported element type {bytes(data[_EXT_HEAD.size : pos])!r}"
         )
+    dtype = wire
     pos += _pad8(pos)
     end_shape = pos + 8 * ndim
     if size < end_shape:
@@ -446,10 +447,11 @@ def encode(topic: bytes, t_sim: float, payload: Mapping[str, Any]) -> list[bytes
 
 def encode_slices(
     topic: bytes,
-    times: Sequence[float],
+    times: Sequence[float] | np.ndarray,
     fixed: Mapping[str, Any] | Sequence[Mapping[str, Any]],
-    columns: Mapping[str, tuple[np.ndarray, Sequence[int], Sequence[int]]],
-    fixed_index: Sequence[int] | None = None,
+    columns: Mapping[str, tuple[np.ndarray, Sequence[int] | np.ndarray,
+                                Sequence[int] | np.ndarray]],
+    fixed_index: Sequence[int] | np.ndarray | None = None,
 ) -> list[bytes]:
     """Encode many messages that share their keys and slice the same columns: the bodies.
 
@@ -488,7 +490,7 @@ def encode_slices(
         As :func:`encode` (the keys of ``fixed`` and ``columns`` together must be distinct).
     """
     many = not isinstance(fixed, Mapping)
-    parts = list(fixed) if many else [fixed]
+    parts: list[Mapping[str, Any]] = [fixed] if isinstance(fixed, Mapping) else list(fixed)
     if not parts or any(list(p) != list(parts[0]) for p in parts):
         raise ProtocolError("fixed parts must be one or more mappings with the same keys")
     if any(key in parts[0] for key in columns):
@@ -506,11 +508,11 @@ def encode_slices(
         which = np.ascontiguousarray(fixed_index, dtype=np.int64)
     else:
         which = np.zeros(n_msg, dtype=np.int64)
-    times = np.asarray(times, dtype=np.float64)
-    if times.ndim != 1:
+    t_msg = np.asarray(times, dtype=np.float64)
+    if t_msg.ndim != 1:
         raise ProtocolError("times must be 1-d")
-    if not np.isfinite(times).all():
-        raise ProtocolError(f"t_sim must be finite, got {times[~np.isfinite(times)][0]!r}")
+    if not np.isfinite(t_msg).all():
+        raise ProtocolError(f"t_sim must be finite, got {t_msg[~np.isfinite(t_msg)][0]!r}")
     cols = []
     bounds: dict[int, np.ndarray] = {}  # columns often share their start and stop arrays
     for key, (array, start, stop) in columns.items():
@@ -530,7 +532,7 @@ def encode_slices(
     # the time, the fixed part, and per column its key, extension header, array head,
     # element count and slice of the column's bytes
     try:
-        return _frames.encode_slices(prefix, fixed_parts, which, times, tuple(cols),
+        return _frames.encode_slices(prefix, fixed_parts, which, t_msg, tuple(cols),
                                      EXT_NDARRAY, MAX_BODY_BYTES)
     except OverflowError as exc:
         raise ProtocolError(

@@ -285,7 +285,8 @@ class Recorder:
             framed = _frames.frame_records(records, self.records, MAX_RECORD_BYTES,
                                            len(self._buf))
             if framed is not None:
-                self._append_framed(*framed, records)
+                f_blob, f_ends, f_raw, f_done = framed
+                self._append_framed(f_blob, f_ends, f_raw, f_done, records)
                 return
         crc32, pack_mid, pack_u32 = zlib.crc32, _REC2_MID.pack, _U32.pack
         head2, pack_len = _RECORD_HEAD_2.pack, _FRAME_LEN.pack
@@ -386,14 +387,16 @@ class Recorder:
         whole = max((e for e in self._ends if e <= done), default=0)
         lost = sum(1 for e in self._ends if e > whole)
         keep = self._committed + whole
-        try:
-            os.ftruncate(self._fd, keep)  # shrinking needs no space and passes RLIMIT_FSIZE
-        except OSError:
-            pass
+        if self._fd is not None:
+            try:
+                os.ftruncate(self._fd, keep)  # shrinking needs no space, passes RLIMIT_FSIZE
+            except OSError:
+                pass
         on_disk = self.records - lost
         why = {errno.ENOSPC: "no space left on the device",
                errno.EFBIG: "file size limit reached",
-               errno.EDQUOT: "disk quota exceeded"}.get(exc.errno, exc.strerror or str(exc))
+               errno.EDQUOT: "disk quota exceeded"}.get(exc.errno or 0,
+                                                        exc.strerror or str(exc))
         self._committed = keep
         self._buf = bytearray()
         self._ends.clear()

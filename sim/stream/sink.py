@@ -22,7 +22,7 @@ takes payloads) is served as a plain :class:`MessageSink`.
 from __future__ import annotations
 
 from collections.abc import Callable, Container, Mapping, Sequence
-from typing import Any, Protocol, runtime_checkable
+from typing import Any, Protocol, TypeGuard, runtime_checkable
 
 __all__ = [
     "BatchSink",
@@ -82,12 +82,12 @@ class PlotsAheadSink(FrameSink, Protocol):
         ``starts[j]:stops[j]`` of the revolution's columns ``plots``."""
 
 
-def takes_frames(bus: object) -> bool:
+def takes_frames(bus: object) -> TypeGuard[FrameSink]:
     """True when ``bus`` is a :class:`FrameSink` that asks for frames."""
     return isinstance(bus, FrameSink) and bus.encodes_ahead is True
 
 
-def takes_batches(bus: object) -> bool:
+def takes_batches(bus: object) -> TypeGuard[BatchSink]:
     """True when ``bus`` is a :class:`BatchSink` that accepts a scan's messages at once."""
     return (isinstance(bus, BatchSink) and bus.encodes_ahead is True
             and bus.accepts_batches is True)
