@@ -322,8 +322,10 @@ def _improvement_estimate(scenario: Scenario, radar, where: str):
     from shipradar.tables import improvement as ti
     from shipradar.tables.scene import improvement_kwargs
 
-    inputs = ti.improvement_table_inputs(radar.processor.type,
-                                         **improvement_kwargs(scenario, radar))
+    kw = improvement_kwargs(scenario, radar)
+    inputs = None if kw is None else ti.improvement_table_inputs(radar.processor.type, **kw)
+    if inputs is None:  # the scene has an improvement spec only when there are inputs
+        raise ValueError(f"{radar.id}: the processor has no improvement-factor table")
     if inputs["processor"] == "mti":
         n_taps, n_filters = inputs["mti_pulses"], 1
     else:

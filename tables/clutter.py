@@ -9,7 +9,8 @@ Sea map (:func:`build_sea_clutter_map`), values P_sc [W] at the RF input ([21]),
 same grid, read on-line by S/C [46], the distribution loss [64] and the clutter false alarms
 [94]-[96]:
 
-* ``sigma0_db``: σ0* [dB] ([22], GIT with the ducting extension; :data:`DB_FLOOR` = none);
+* ``sigma0_db``: σ0* [dB] ([22], GIT with the ducting extension;
+  :data:`shipradar.sensors.sea_clutter.DB_FLOOR` = none);
 * ``sigma0_diff_db``: σ0d = σ0* - σ0(reference) [dB] ([32]);
 * ``weibull_a``: a ([32] for VP, the 4.1.2 heuristic for HP; 1 (Rayleigh) when the radar is
   not of medium-to-high resolution);
@@ -434,7 +435,7 @@ def build_weather_clutter_map(**kwargs: Any) -> Table:
     spread = np.where(has, np.sqrt(np.where(has, second, 0.0) / np.where(has, power, 1.0)), own)
 
     phi = (azimuths - p["wind_direction_rad"])[None, :]
-    f1 = 0.0
+    f1: float | NDArray[np.float64] = 0.0
     if not p["motion_compensated"]:
         f1 = sc.platform_doppler_hz(
             p["ship_speed_mps"], azimuths[None, :] - p["ship_heading_rad"], 0.0, lam

@@ -209,7 +209,9 @@ def processor_weights(inputs: dict[str, Any]) -> NDArray:
     """Filter weights, shape (F, N), of the processor described by ``inputs``."""
     kind = inputs["processor"]
     mti = df.canceller_weights(inputs["mti_pulses"]) if "mti_pulses" in inputs else None
-    if kind == "mti":
+    if kind in ("mti", "mti_bank") and mti is None:
+        raise ValueError(f"a {kind!r} processor needs mti_pulses")
+    if kind == "mti" and mti is not None:
         return mti[None, :]
     n_taps = inputs["n_pulses"] - (inputs["mti_pulses"] - 1 if kind == "mti_bank" else 0)
     bank = df.bank_weights(
@@ -219,7 +221,7 @@ def processor_weights(inputs: dict[str, Any]) -> NDArray:
         sidelobe_db=inputs.get("window_sidelobe_db"),
         nbar=inputs.get("taylor_nbar", df.DEFAULT_TAYLOR_NBAR),
     )
-    if kind == "mti_bank":
+    if kind == "mti_bank" and mti is not None:
         return df.cascade_weights(mti, bank)
     return bank
 
@@ -241,7 +243,7 @@ def doppler_period(inputs: dict[str, Any]) -> float:
     common = math.lcm(*(f.denominator for f in fracs))
     nums = [f.numerator * (common // f.denominator) for f in fracs]
     lcm_hz = Fraction(math.lcm(*nums), common)
-    return float(min(lcm_hz / Fraction(inputs["prf_hz"]), MAX_STAGGER_PERIOD))
+    return min(float(lcm_hz / Fraction(inputs["prf_hz"])), MAX_STAGGER_PERIOD)
 
 
 def _axes(inputs: dict[str, Any], n_taps: int) -> tuple[NDArray, NDArray]:

@@ -70,7 +70,7 @@ def pfac_map_inputs(
     p_fac_max: float | None = None,
     range_sector_m: float | None = None,
     azimuth_sector_rad: float | None = None,
-    clutter_fa_model: str = fa.DEFAULT_CLUTTER_FA_MODEL,
+    clutter_fa_model: fa.ClutterFaModel = fa.DEFAULT_CLUTTER_FA_MODEL,
 ) -> dict[str, Any]:
     """The hashable inputs of a P_fac map (see :func:`build_pfac_map`)."""
     sea = {k: v for k, v in sea_map_inputs.items() if k not in DOPPLER_ONLY_INPUTS}
@@ -95,12 +95,12 @@ def pfac_map_inputs(
         raise ValueError(f"clutter_fa_model must be one of {fa.CLUTTER_FA_MODELS}")
     hp = sea["polarization"] == "H"
     user_max = hp and p_fac_max is not None
-    inputs = {
+    inputs: dict[str, Any] = {
         "sea_map": sea,
         # P_fa sets [95] (VP) and the default P_facmax (HP); not a user P_facmax
         "pfa": None if user_max else float(pfa),
         "k_clutter": float(k_clutter),
-        "p_fac_max": float(p_fac_max) if user_max else None,
+        "p_fac_max": float(p_fac_max) if user_max and p_fac_max is not None else None,
         "n_range_sectors": n_r,
         "n_azimuth_sectors": n_az,
     }
@@ -140,7 +140,7 @@ def sector_edges(table: Table) -> tuple[np.ndarray, np.ndarray]:
 
 def node_pfac(sea_map: Table, *, pfa: float | None, k_clutter: float = 1.0,
               p_fac_max: float | None = None,
-              clutter_fa_model: str = fa.DEFAULT_CLUTTER_FA_MODEL) -> np.ndarray:
+              clutter_fa_model: fa.ClutterFaModel = fa.DEFAULT_CLUTTER_FA_MODEL) -> np.ndarray:
     """P_fac at the nodes of a sea-clutter map (before the sector average) [-].
 
     Parameters
@@ -162,6 +162,8 @@ def node_pfac(sea_map: Table, *, pfa: float | None, k_clutter: float = 1.0,
     power = sea_map.values
     a_min, n0 = float(si["a_min"]), float(si["noise_power_w"])
     if si["polarization"] == "V":
+        if pfa is None:
+            raise ValueError("a VP map needs pfa")
         return fa.clutter_fa_probability(a, pfa, a_min, k_clutter, power, n0,
                                          model=clutter_fa_model)
     off = (a <= a_min) | (power < fa.NOISE_LIKE_FACTOR * n0)
@@ -172,8 +174,12 @@ def node_pfac(sea_map: Table, *, pfa: float | None, k_clutter: float = 1.0,
     beyond = off & (ranges[:, None] > r_ref)
     first = np.argmax(beyond, axis=0)
     r_end = np.where(beyond.any(axis=0), ranges[first], ranges[-1])
-    p_max = (float(fa.default_p_fac_max(pfa, a_min, clutter_fa_model)) if p_fac_max is None
-             else float(p_fac_max))
+    if p_fac_max is not None:
+        p_max = float(p_fac_max)
+    elif pfa is not None:
+        p_max = float(fa.default_p_fac_max(pfa, a_min, clutter_fa_model))
+    else:
+        raise ValueError("pfa may be None only for HP with p_fac_max")
     p = fa.hp_clutter_fa_probability(ranges[:, None], r_ref, r_end[None, :], p_max, k_clutter)
     return np.where(off, 0.0, p)
 
@@ -186,7 +192,7 @@ def build_pfac_map(
     p_fac_max: float | None = None,
     range_sector_m: float | None = None,
     azimuth_sector_rad: float | None = None,
-    clutter_fa_model: str = fa.DEFAULT_CLUTTER_FA_MODEL,
+    clutter_fa_model: fa.ClutterFaModel = fa.DEFAULT_CLUTTER_FA_MODEL,
 ) -> Table:
     """Build the P_fac map of one radar from its sea-clutter map, seed 7.2 [94]-[96].
 

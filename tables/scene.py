@@ -19,7 +19,7 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from shipradar.sim.world.scenario import Platform, Radar, Scenario
+from shipradar.sim.world.scenario import Jammer, Platform, Radar, Scenario, Target
 from shipradar.tables.store import Table
 
 
@@ -37,13 +37,13 @@ class TableSpec:
     kind: str
     describe: str
     make: Callable[[], Table]
-    key: Callable[[], tuple[str, int, dict[str, Any]]] | None = None
+    key: Callable[[], tuple[str, int, dict[str, Any]]]
 
     def cached(self) -> bool:
-        """Whether the table is already in the cache (False when the key is unknown)."""
+        """Whether the table is already in the cache."""
         from shipradar.tables.store import is_cached
 
-        return self.key is not None and is_cached(*self.key())
+        return is_cached(*self.key())
 
 
 @dataclass
@@ -98,12 +98,14 @@ def _atmosphere_spec(scenario: Scenario, platform: Platform, radar: Radar) -> Ta
 
     env = scenario.environment
     ranges, elev = atmosphere_axes(radar)
-    kw = {"temperature_k": env.temperature_c + 273.15,
-          "pressure_hpa": env.pressure_hpa,
-          "water_vapour_density_g_m3": env.water_vapour_g_m3,
-          "fog_lwc_g_m3": env.fog.liquid_water_g_m3 if env.fog else 0.0,
-          "fog_top_m": env.fog.top_m if env.fog else 100.0,
-          "antenna_height_m": radar.antenna_height_m}
+    kw: dict[str, Any] = {
+        "temperature_k": env.temperature_c + 273.15,
+        "pressure_hpa": env.pressure_hpa,
+        "water_vapour_density_g_m3": env.water_vapour_g_m3,
+        "fog_lwc_g_m3": env.fog.liquid_water_g_m3 if env.fog else 0.0,
+        "fog_top_m": env.fog.top_m if env.fog else 100.0,
+        "antenna_height_m": radar.antenna_height_m,
+    }
 
     def make() -> Table:
         return ta.atmospheric_loss_grid(radar.frequency_hz, ranges, elev, **kw)
@@ -261,7 +263,10 @@ def _improvement_specs(scenario: Scenario, platform: Platform, radar: Radar) -> 
     from shipradar.tables import improvement as ti
 
     def make() -> Table:
-        return ti.improvement_table(radar.processor.type, **kw)[0]
+        table, _ = ti.improvement_table(radar.processor.type, **kw)
+        if table is None:  # improvement_kwargs gave inputs, so the processor has a table
+            raise RuntimeError(f"{radar.id}: no improvement table for {radar.processor.type}")
+        return table
 
     def key():
         return (ti.BUILDER_NAME, ti.BUILDER_VERSION,
@@ -297,7 +302,7 @@ def _clutter_specs(scenario: Scenario, platform: Platform, radar: Radar) -> list
     duct = 0.0
     if env.duct is not None:
         duct = duct_height_m(scenario)
-    common = {
+    common: dict[str, Any] = {
         "freq_hz": radar.frequency_hz,
         "antenna_height_m": radar.antenna_height_m,
         "beamwidth_az_rad": k.theta_b,
@@ -313,7 +318,7 @@ def _clutter_specs(scenario: Scenario, platform: Platform, radar: Radar) -> list
         "n_range": n_range,
         "n_azimuth": n_az,
     }
-    sea = {
+    sea: dict[str, Any] = {
         "polarization": radar.polarization,
         "elevation_pattern": k.pattern_key(radar),
         "noise_power_w": k.n0,
@@ -328,7 +333,7 @@ def _clutter_specs(scenario: Scenario, platform: Platform, radar: Radar) -> list
         lambda: tc.sea_clutter_map(elevation_directivity=k.elevation_pattern(radar), **sea)[0],
         lambda: (tc.SEA_MAP_NAME, tc.SEA_MAP_VERSION, tc.sea_clutter_map_inputs(**sea)))]
     if env.rain is not None:
-        weather = {
+        weather: dict[str, Any] = {
             "beamwidth_el_rad": k.phi_b,
             "prf_hz": radar.prf_hz,
             "rain_rate_mm_h": env.rain.rate_mm_h,
@@ -388,8 +393,9 @@ def _pfac_specs(scenario: Scenario, platform: Platform, radar: Radar) -> list[Ta
     sea_spec = next(s for s in _clutter_specs(scenario, platform, radar) if s.kind == "sea_clutter")
     pfa = false_alarm_probability(radar)
 
-    kw = {"pfa": pfa, "k_clutter": radar.k_clutter, "p_fac_max": radar.p_fac_max,
-          "clutter_fa_model": scenario.fidelity.clutter_fa_model}
+    kw: dict[str, Any] = {"pfa": pfa, "k_clutter": radar.k_clutter,
+                          "p_fac_max": radar.p_fac_max,
+                          "clutter_fa_model": scenario.fidelity.clutter_fa_model}
 
     def make() -> Table:
         return tp.pfac_map(sea_spec.make(), **kw)[0]
@@ -416,7 +422,7 @@ def pe_table_height_m(scenario: Scenario, radar: Radar) -> float:
     outside the table and stop the run). At least 100 m, at most :data:`PE_MAX_HEIGHT_M`
     (above it the two-ray model answers, counted as a fallback).
     """
-    movers = [*scenario.targets, *scenario.jammers]
+    movers: list[Target | Jammer] = [*scenario.targets, *scenario.jammers]
     top = max([radar.antenna_height_m, *(m.max_altitude_m for m in movers)])
     return min(PE_MAX_HEIGHT_M, max(100.0, 1.2 * top + 20.0))
 

@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 #: Bump when the file layout changes.
 FORMAT_VERSION = 1
@@ -154,7 +155,9 @@ class Table:
             if sum(a.nbytes for a in arrays.values()) > FAST_SAVE_BYTES:
                 _savez_fast(tmp, {"metadata": meta, **arrays})
             else:
-                np.savez_compressed(tmp, metadata=meta, **arrays)
+                # every entry is an array saved under its name (none is savez's allow_pickle)
+                payload: dict[str, Any] = {"metadata": meta, **arrays}
+                np.savez_compressed(tmp, **payload)
             os.replace(tmp, path)
         finally:
             if os.path.exists(tmp):
@@ -190,7 +193,7 @@ class Table:
         return table
 
     # ------------------------------------------------------------------ lookup
-    def lookup(self, *coords: np.ndarray, array: str | None = None) -> np.ndarray:
+    def lookup(self, *coords: ArrayLike, array: str | None = None) -> np.ndarray:
         """Multilinear interpolation at broadcast coordinates; NaN outside the grid.
 
         Vectorized and O(1) per point (binary search on each axis).  ``array`` picks an
@@ -199,7 +202,7 @@ class Table:
         data = self.values if array is None else self.extra[array]
         return interp_grid(self.axes, data, *coords)
 
-    def inside(self, *coords: np.ndarray) -> np.ndarray:
+    def inside(self, *coords: ArrayLike) -> np.ndarray:
         """Boolean mask of the broadcast coordinates that lie inside the grid."""
         pts = np.broadcast_arrays(*[np.asarray(c, dtype=float) for c in coords])
         ok = np.ones(pts[0].shape, dtype=bool)
@@ -208,7 +211,7 @@ class Table:
         return ok
 
 
-def interp_grid(axes: Sequence[np.ndarray], data: np.ndarray, *coords: np.ndarray) -> np.ndarray:
+def interp_grid(axes: Sequence[np.ndarray], data: np.ndarray, *coords: ArrayLike) -> np.ndarray:
     """Multilinear interpolation of ``data`` on the rectilinear grid ``axes``.
 
     Points outside the grid (or NaN) give NaN, so that the caller can fall back to another

@@ -496,7 +496,7 @@ def test_figures_write_png(tmp_path, table_cache):
     # the extra noise draw stands for min_noise/η scans
     model = model_of(s)
     assert fa_["noise_scans"] == pytest.approx(3 + 200 / model.noise_false_alarms_per_scan)
-    zoom = clutter_extent_m(fa_)
+    zoom = clutter_extent_m(fa_["range_m"], fa_["origin"])
     assert fa_["range_m"][clutter].max() <= zoom * 1.5 and zoom < 0.5 * fa_["max_range_m"]
     p3 = plot_ppi_by_origin(tmp_path / "ppi2.png", fa_["range_m"][first],
                             fa_["azimuth_rad"][first], fa_["origin"][first],

@@ -40,13 +40,16 @@ import math
 import os
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+
+if TYPE_CHECKING:
+    from shipradar.sim.studies.figures.false_alarms import GeneratedFalseAlarms
 
 __all__ = ["build_report", "cli_main"]
 
@@ -124,7 +127,7 @@ def _fig_pd(path: Path, model_rows: list[dict], study_csv: Path | None) -> str:
 
 
 def _fig_false_alarms(path: Path, scenario, tables, radar_id: str, scans: int,
-                      seed: int) -> tuple[str, dict]:
+                      seed: int) -> tuple[str, GeneratedFalseAlarms]:
     """The seed's Fig. 8 for the scene: noise-induced (flat) beside sea-clutter-induced
     (falling with range), from the dwell model's own per-scan generators."""
     from shipradar.sim.studies.figures.false_alarms import (
@@ -150,7 +153,10 @@ def _fig_ppi(path: Path, messages: list, sensor: str, r_max_m: float,
              wind_from_rad: float) -> str:
     from shipradar.sim.studies.figures.false_alarms import clutter_extent_m, plot_ppi_by_origin
 
-    plots, truth_plots, targets, eos = {}, {}, [], {}
+    plots: dict[int, list[dict[str, Any]]] = {}
+    truth_plots: dict[int, list[dict[str, Any]]] = {}
+    targets: list[dict[str, Any]] = []
+    eos: dict[int, dict[str, Any]] = {}
     for topic, _t, p in messages:
         if p.get("sensor") != sensor:
             continue
@@ -190,7 +196,7 @@ def _fig_ppi(path: Path, messages: list, sensor: str, r_max_m: float,
         for j in range(e.shape[1]):
             m = act[:, j]
             tracks.append((np.arctan2(e[m, j], n[m, j]), np.hypot(e[m, j], n[m, j])))
-    zoom = clutter_extent_m({"range_m": rng, "origin": origin})
+    zoom = clutter_extent_m(rng, origin)
     plot_ppi_by_origin(path, rng, az, origin, max_range_m=r_max_m, zoom_range_m=zoom,
                        tracks=tracks, wind_from_rad=wind_from_rad,
                        title=f"{sensor}: scan {scan} (t = {eos[scan]['time_s']:.1f} s)")

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pymap3d
+from numpy.typing import ArrayLike, NDArray
 from scipy.special import ellipeinc
 
 from shipradar.sim.world.scenario import Origin, Platform, Waypoint
@@ -88,10 +89,10 @@ def waypoint_enu(waypoints: Sequence[Waypoint], frame: LocalFrame | Origin) -> n
     frame = frame if isinstance(frame, LocalFrame) else LocalFrame(frame)
     out = np.empty((len(waypoints), 4))
     for i, w in enumerate(waypoints):
-        if w.lat_deg is not None:
-            e, n = frame.en_of_geodetic(w.lat_deg, w.lon_deg)
-        else:
+        if w.east_m is not None and w.north_m is not None:
             e, n = w.east_m, w.north_m
+        else:  # the schema gives exactly one of the two forms
+            e, n = frame.en_of_geodetic(w.lat_deg, w.lon_deg)
         out[i] = (w.time_s, e, n, w.altitude_m)
     return out
 
@@ -199,7 +200,7 @@ def piece_state(p0, vel0, kind, par, tau, accel=True):
             v, psi = v0 + a * ts, psi0 + w * ts
             s, c = np.sin(psi), np.cos(psi)
             vel[sel] = np.column_stack([v * s, v * c, vz0 + az * ts])
-            if accel:
+            if acc is not None:
                 # along-track a, centripetal v ω to the right of the heading (cos ψ, -sin ψ)
                 acc[sel] = np.column_stack([a * s + v * w * c, a * c - v * w * s, az])
             continue
@@ -216,7 +217,7 @@ def piece_state(p0, vel0, kind, par, tau, accel=True):
                                                np.zeros(sel.size)]), [0.0, 0.0, 1.0])
         pos[sel] += along[:, None] * u + off[:, None] * n
         vel[sel] = ds[:, None] * u + dd[:, None] * n
-        if accel:
+        if acc is not None:
             dds = -v * m * k * st * ct / np.where(root > 0, root, 1.0)
             acc[sel] = dds[:, None] * u + (amp * k * k * ct)[:, None] * n
     return pos, vel, acc
@@ -256,6 +257,8 @@ class Trajectories:
                  pieces: Sequence[Sequence[Piece]] | None = None):
         ends = None
         if pieces is None:
+            if tracks is None:
+                raise ValueError("give the tracks or the pieces")
             tracks = [np.asarray(t, dtype=float) for t in tracks]
             pieces = [linear_pieces(t) for t in tracks]
             # the last waypoint's own time (t0 + dt could differ from it in the last bit)
@@ -489,7 +492,7 @@ def antenna_geometry(
     return Geometry(azimuth, ground, slant, elev, radial, los, vel_enu)
 
 
-def gaussian_radius_m(lat_deg: np.ndarray) -> np.ndarray:
+def gaussian_radius_m(lat_deg: ArrayLike) -> NDArray[np.float64]:
     """Gaussian mean radius of curvature √(M N) of the WGS-84 ellipsoid at a latitude [m]."""
     a, f = 6_378_137.0, 1.0 / 298.257223563
     e2 = f * (2.0 - f)

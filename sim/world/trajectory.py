@@ -41,6 +41,13 @@ TWO_PI = 2.0 * math.pi
 _MIN_CORNER_RAD = 1e-9
 
 
+def _given(value: float | None, what: str) -> float:
+    """A field the schema's cross-field rules guarantee at this point of a validated scenario."""
+    if value is None:
+        raise ValueError(f"{what} is missing: build trajectories from a validated scenario")
+    return value
+
+
 def _heading_vector(psi: float) -> np.ndarray:
     return np.array([math.sin(psi), math.cos(psi), 0.0])
 
@@ -70,7 +77,7 @@ def segment_pieces(obj: Target | Platform, frame: LocalFrame) -> list[Piece]:
     start = waypoint_enu(obj.waypoints, frame)[0]
     t, pos = float(start[0]), start[1:].copy()
     psi = math.radians(obj.heading_deg or 0.0)
-    v = float(obj.speed_mps)
+    v = float(_given(obj.speed_mps, "speed_mps"))
     out: list[Piece] = []
 
     def add(piece: Piece) -> None:
@@ -84,7 +91,7 @@ def segment_pieces(obj: Target | Platform, frame: LocalFrame) -> list[Piece]:
             add(Piece(t, s.duration_s, pos, v * _heading_vector(psi)))
         elif s.type == "turn":
             rate = (STANDARD_GRAVITY * s.turn_g / v if s.turn_g is not None
-                    else math.radians(s.turn_rate_deg_s))
+                    else math.radians(_given(s.turn_rate_deg_s, "turn_rate_deg_s")))
             if s.to_heading_deg is not None:
                 delta = math.remainder(math.radians(s.to_heading_deg) - psi, TWO_PI)
                 if s.direction == "right":
@@ -97,7 +104,7 @@ def segment_pieces(obj: Target | Platform, frame: LocalFrame) -> list[Piece]:
                 dt = abs(delta) / rate
             else:
                 w = rate if s.direction == "right" else -rate
-                dt = s.duration_s
+                dt = _given(s.duration_s, "duration_s")
             add(_arc(t, pos, psi, v, dt, w=w))
             psi = (psi + w * dt) % TWO_PI
         elif s.type == "accelerate":
@@ -107,7 +114,7 @@ def segment_pieces(obj: Target | Platform, frame: LocalFrame) -> list[Piece]:
             elif dv == 0.0:
                 continue
             else:
-                a = math.copysign(STANDARD_GRAVITY * s.accel_g, dv)
+                a = math.copysign(STANDARD_GRAVITY * _given(s.accel_g, "accel_g"), dv)
                 dt = dv / a
             add(_arc(t, pos, psi, v, dt, a=a))
             v = s.to_speed_mps
@@ -152,6 +159,8 @@ def smoothed_pieces(obj: Target | Platform, frame: LocalFrame) -> list[Piece]:
     track = waypoint_enu(obj.waypoints, frame)
     if len(track) < 3:
         return linear_pieces(track)
+    if obj.smoothing is None:
+        raise ValueError("smoothed_pieces needs a smoothing")
     g = STANDARD_GRAVITY * obj.smoothing.turn_g
     dt_leg = np.diff(track[:, 0])
     dpos = np.diff(track[:, 1:], axis=0)

@@ -5,12 +5,14 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import Any
 
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.projections.polar import PolarAxes  # noqa: E402
 
 from shipradar.sensors import sea_clutter as sc  # noqa: E402
 from shipradar.tables.store import Table  # noqa: E402
@@ -51,7 +53,7 @@ def plot_ducting_reflectivity(
     """
     path = Path(path)
     d = np.linspace(200.0, max_range_m, 1200)
-    common = dict(
+    common: dict[str, Any] = dict(
         antenna_height_m=antenna_height_m,
         freq_hz=freq_hz,
         wind_speed_mps=wind_speed_mps,
@@ -134,6 +136,7 @@ def plot_clutter_ppi(
     keep = ranges <= extent + (ranges[1] - ranges[0])
     fig = plt.figure(figsize=(6.5, 6), dpi=110)
     ax = fig.add_subplot(projection="polar")
+    assert isinstance(ax, PolarAxes)
     ax.set_theta_zero_location("N")
     ax.set_theta_direction(-1)
     mesh = ax.pcolormesh(az, ranges[keep] / 1e3, data[keep], shading="auto", cmap="viridis")

@@ -14,12 +14,14 @@ import math
 import os
 import sys
 from pathlib import Path
+from typing import TypedDict
 
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.projections.polar import PolarAxes  # noqa: E402
 
 #: Origin codes as on the truth topic (shipradar.sim.engine.simulation): target, noise, sea clutter.
 ORIGIN_LABELS = {0: "target", 1: "noise", 2: "sea clutter"}
@@ -135,6 +137,7 @@ def plot_ppi_by_origin(
     fig = plt.figure(figsize=(6.5 * len(radii), 6.8), dpi=110)
     for k, rad in enumerate(radii):
         ax = fig.add_subplot(1, len(radii), k + 1, projection="polar")
+        assert isinstance(ax, PolarAxes)
         ax.set_theta_zero_location("N")
         ax.set_theta_direction(-1)
         for t_az, t_r in tracks or []:
@@ -196,6 +199,7 @@ def plot_pfac_map(
     rows = np.nonzero(p.max(axis=1) > 0.0)[0]
     fig = plt.figure(figsize=(12, 5.5), dpi=110)
     ax = fig.add_subplot(1, 2, 1, projection="polar")
+    assert isinstance(ax, PolarAxes)
     ax.set_theta_zero_location("N")
     ax.set_theta_direction(-1)
     ax2 = fig.add_subplot(1, 2, 2)
@@ -239,9 +243,23 @@ def plot_pfac_map(
     return path
 
 
+class GeneratedFalseAlarms(TypedDict):
+    """The false alarms of :func:`generated_false_alarms` and what they stand for."""
+
+    range_m: np.ndarray  # [m]
+    azimuth_rad: np.ndarray  # [rad]
+    origin: np.ndarray  # 1 noise, 2 sea clutter
+    scan: np.ndarray  # revolution, -1 for the extra noise draw
+    radar_id: str
+    max_range_m: float  # the radar's instrumented range [m]
+    scans: int  # revolutions drawn
+    noise_scans: float  # revolutions the noise false alarms stand for
+    wind_from_rad: float  # [rad]
+
+
 def generated_false_alarms(scenario, radar_id: str | None = None, scans: int = 20,
                            seed: int = 0, min_noise: int = 0,
-                           tables=None) -> dict[str, np.ndarray]:
+                           tables=None) -> GeneratedFalseAlarms:
     """Noise and sea-clutter false alarms of ``scans`` revolutions of one radar, drawn by the
     model's generators (no targets, no engine): ranges [m], azimuths [rad], scan and origin.
 
@@ -263,7 +281,7 @@ def generated_false_alarms(scenario, radar_id: str | None = None, scans: int = 2
 
     Returns
     -------
-    dict
+    GeneratedFalseAlarms
         ``range_m``, ``azimuth_rad``, ``origin`` (1 noise, 2 sea clutter), ``scan`` (-1 for
         the extra noise draw) arrays; ``radar_id``, ``max_range_m``, ``scans``,
         ``noise_scans`` (revolutions the noise false alarms stand for) and ``wind_from_rad``.
@@ -306,21 +324,26 @@ def generated_false_alarms(scenario, radar_id: str | None = None, scans: int = 2
         out["azimuth_rad"].append(az)
         out["origin"].append(np.full(r.size, 1, dtype=np.uint8))
         out["scan"].append(np.full(r.size, -1, dtype=np.int64))
-    res = {k: np.concatenate(v) for k, v in out.items()}
-    res["radar_id"] = radar.id
-    res["max_range_m"] = radar.instrumented_range_m
-    res["scans"] = scans
-    # the extra noise draw stands for min_noise/η further revolutions
-    res["noise_scans"] = scans + (min_noise / eta if min_noise > 0 and eta > 0 else 0.0)
-    res["wind_from_rad"] = math.radians(scenario.environment.wind_direction_deg)
-    return res
+    return GeneratedFalseAlarms(
+        range_m=np.concatenate(out["range_m"]),
+        azimuth_rad=np.concatenate(out["azimuth_rad"]),
+        origin=np.concatenate(out["origin"]),
+        scan=np.concatenate(out["scan"]),
+        radar_id=radar.id,
+        max_range_m=radar.instrumented_range_m,
+        scans=scans,
+        # the extra noise draw stands for min_noise/η further revolutions
+        noise_scans=scans + (min_noise / eta if min_noise > 0 and eta > 0 else 0.0),
+        wind_from_rad=math.radians(scenario.environment.wind_direction_deg),
+    )
 
 
-def clutter_extent_m(fa: dict, quantile: float = 0.999) -> float | None:
-    """Radius [m] of a zoomed PPI holding the sea-clutter false alarms of ``fa``
-    (:func:`generated_false_alarms`): 1.1 × their ``quantile`` range, rounded up to 0.5 km;
-    None without any."""
-    r = fa["range_m"][fa["origin"] == 2]
+def clutter_extent_m(range_m: np.ndarray, origin: np.ndarray,
+                     quantile: float = 0.999) -> float | None:
+    """Radius [m] of a zoomed PPI holding the sea-clutter false alarms (``origin`` 2) among
+    false alarms at ``range_m`` [m] (e.g. of :func:`generated_false_alarms`): 1.1 × their
+    ``quantile`` range, rounded up to 0.5 km; None without any."""
+    r = range_m[origin == 2]
     if r.size == 0:
         return None
     return 500.0 * math.ceil(1.1 * float(np.quantile(r, quantile)) / 500.0)
@@ -348,7 +371,7 @@ def main(argv: list[str] | None = None) -> int:
     p2 = plot_ppi_by_origin(
         out / "ppi_false_alarms.png", fa["range_m"][first], fa["azimuth_rad"][first],
         fa["origin"][first], title=f"{fa['radar_id']}: one scan's false alarms",
-        max_range_m=fa["max_range_m"], zoom_range_m=clutter_extent_m(fa),
+        max_range_m=fa["max_range_m"], zoom_range_m=clutter_extent_m(fa["range_m"], fa["origin"]),
         wind_from_rad=fa["wind_from_rad"])
     print(p1)
     print(p2)

@@ -11,12 +11,13 @@ detection probability).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
 from shipradar.sim.world.kinematics import EARTH_RADIUS_M, K_FACTOR, LocalFrame
-from shipradar.sim.world.scenario import Scenario
+from shipradar.sim.world.scenario import Platform, Scenario, Target
 from shipradar.sim.world.trajectory import trajectories
 
 
@@ -32,8 +33,9 @@ def sampled_tracks(scenario: Scenario, step_s: float = 1.0):
     sampled every ``step_s`` over its existence within the scenario's duration."""
     frame = LocalFrame(scenario.origin)
     out = []
-    for kind, objs, hold in (("platform", scenario.platforms, True),
-                             ("target", scenario.targets, False)):
+    groups: tuple[tuple[str, Sequence[Platform | Target], bool], ...] = (
+        ("platform", scenario.platforms, True), ("target", scenario.targets, False))
+    for kind, objs, hold in groups:
         if not objs:
             continue
         tr = trajectories(objs, frame, hold=hold)
