@@ -15,7 +15,7 @@ elevation on the 4/3 effective earth used throughout the radar model.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -506,9 +506,9 @@ def wrap_pi(a: np.ndarray) -> np.ndarray:
 
 
 def beam_crossing_times(
-    azimuth_at,
-    t_start: float,
-    beam_azimuth_start: float,
+    azimuth_at: Callable[[np.ndarray], np.ndarray],
+    t_start: float | np.ndarray,
+    beam_azimuth_start: float | np.ndarray,
     rate_rad_s: float,
     n: int,
     iterations: int = 6,
