@@ -357,6 +357,7 @@ class ShipradarDetectionReader(DetectionReader):
                 if (topic == protocol.TOPIC_TRUTH and p.get("kind") == ready["wait"]
                         and p.get("scan") == ready["scan"]):
                     if ready["wait"] == "targets":
+                        assert st is not None  # a step is made only once the meta is known
                         self._set_truth(st, p)
                     else:
                         ready["plot_truth"].update(_plot_truth(p))
@@ -381,7 +382,7 @@ class ShipradarDetectionReader(DetectionReader):
                 st.pending.append(p)
                 if not self.per_scan and st.eos is not None:
                     dets = self._detections(st, st.pending, st.eos, None)
-                    e, n = sensor_positions([t_sim], st.eos, None)
+                    e, n = sensor_positions(np.array([t_sim]), st.eos, None)
                     step = {"when": st.when(t_sim), "dets": dets, "scan": p["scan"],
                             "pos": (float(e[0]), float(n[0])), "plot_truth": plot_truth,
                             "wait": "plots"}

@@ -56,7 +56,6 @@ DEFAULT_MAX_BLOCK_BYTES = 1400
 MIN_BLOCK_BYTES, MAX_BLOCK_BYTES = 64, 65507
 
 #: I048/040 RHO: 16 bits, LSB 1/256 NM, so RHO < 256 NM (the standard's own bound).
-RHO_LSB_NM = 1.0 / 256.0
 RHO_MAX_NM = 256.0
 #: I048/040 THETA and I034/020: LSB 360°/2^16 (I034/020 keeps the 8 most significant bits).
 THETA_COUNTS = 1 << 16
@@ -410,7 +409,7 @@ def pack_blocks(category: int, buf: np.ndarray, offsets: np.ndarray,
     return blocks
 
 
-def encode_cat048(plots: dict, *, sac: int, sic: int, start_sod_s: float,
+def encode_cat048(plots: Mapping[str, Any], *, sac: int, sic: int, start_sod_s: float,
                   prl_deg: float | None = None, noise_power_dbm: float | None = None,
                   max_block_bytes: int = DEFAULT_MAX_BLOCK_BYTES,
                   clutter_code: int = 1) -> list[bytes]:
@@ -584,10 +583,10 @@ def encode_cat034_sector_crossings(
             size = 3 + 8 * len(part)
             blocks.append(bytes((CAT034, size >> 8, size & 0xFF)) + b"".join(part))
         return blocks
-    tod = time_of_day_counts(time_s, start_sod_s)
+    tod = time_of_day_counts(np.asarray(time_s, dtype=float), start_sod_s)
     n = tod.size
     # 16-bit count first, then its top byte: the rounding happens once, at the LSB
-    sector = (_azimuth_counts(azimuth_rad) >> 8).astype(np.uint8)
+    sector = (_azimuth_counts(np.asarray(azimuth_rad, dtype=float)) >> 8).astype(np.uint8)
 
     def const(v: int) -> np.ndarray:
         return np.full(n, v, dtype=np.uint8)

@@ -152,8 +152,7 @@ class AsterixStream:
         out: list[tuple[float, bytes]] = []
         if topic == "meta":
             self._meta(payload)
-            src = self._sources[payload["sensor"]]
-            self._due(src, t_sim, out)
+            self._due(self._sources[payload["sensor"]], t_sim, out)
         elif topic == "plots":
             src = self._sources.get(payload["sensor"])
             if src is None:
@@ -166,10 +165,10 @@ class AsterixStream:
                                    clutter_code=src.clutter_code)
             return self._plots(src, t_sim, len(payload["range_m"]), blocks)
         elif topic == "eos":
-            src = self._sources.get(payload["sensor"])
-            if src is not None:
-                src.eos = payload
-                self._due(src, t_sim, out)
+            eos_src = self._sources.get(payload["sensor"])
+            if eos_src is not None:
+                eos_src.eos = payload
+                self._due(eos_src, t_sim, out)
         self._count(out)
         return out
 
@@ -345,6 +344,7 @@ class AsterixStream:
 
     def _north_marker(self, src: _Source, t: float) -> bytes:
         e = src.eos
+        assert e is not None  # north markers are due only once the radar's eos is known
         pos = e["position"]
         lat, lon = float(pos["lat_deg"]), float(pos["lon_deg"])
         dt_s = t - float(e["time_s"])

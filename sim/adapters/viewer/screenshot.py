@@ -132,6 +132,7 @@ def render(recording: str | Path, out: str | Path, *, at_s: float | None = None,
     from shipradar.sim.adapters.viewer.server import ViewerServer, ViewerThread
 
     server = ViewerServer(str(recording), port=0, autoplay=False)
+    assert server.recording is not None  # a recording's path, never a live endpoint
     t0, t1 = server.recording.t0, server.recording.t1
     at = t0 + 0.85 * (t1 - t0) if at_s is None else min(max(at_s, t0), t1)
     out = Path(out)
@@ -139,7 +140,9 @@ def render(recording: str | Path, out: str | Path, *, at_s: float | None = None,
     with ViewerThread(server) as viewer, sync_playwright() as pw:
         browser = launch_chromium(pw)
         try:
-            page = open_page(browser, viewer.server.url, width=width, height=height)
+            url = viewer.server.url
+            assert url is not None  # set when the thread started the server
+            page = open_page(browser, url, width=width, height=height)
             page.fill("#fade", str(fade_scans))
             page.dispatch_event("#fade", "change")
             page.evaluate("""(z) => { const v = window.shipradarViewer;

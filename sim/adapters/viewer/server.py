@@ -378,8 +378,8 @@ class RecordingSource:
 
     def __init__(self, path: str | Path) -> None:
         self.path = Path(path)
-        self.t0: float | None = None
-        self.t1: float | None = None
+        first: float | None = None
+        last: float | None = None
         self.records = 0
         self.meta: dict[str, dict] = {}
         self.truncated = False
@@ -390,9 +390,9 @@ class RecordingSource:
         truth_points = 0
         with read_recording(self.path) as reader:
             for t, frames in reader:
-                if self.t0 is None:
-                    self.t0 = t
-                self.t1 = t
+                if first is None:
+                    first = t
+                last = t
                 self.records += 1
                 topic = bytes(frames[0])
                 if topic not in (b"meta", b"truth"):
@@ -412,8 +412,9 @@ class RecordingSource:
                     truth_points += item["e"].size
                     self.truth.append(item)
             self.truncated = reader.truncated
-        self.t0 = 0.0 if self.t0 is None else self.t0
-        self.t1 = self.t0 if self.t1 is None else self.t1
+        #: Simulated times of the first and last message [s] (0 for an empty recording).
+        self.t0: float = 0.0 if first is None else first
+        self.t1: float = self.t0 if last is None else last
         self.clients: set[Client] = set()
         self.players: dict[Client, Player] = {}
 

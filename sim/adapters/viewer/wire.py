@@ -62,7 +62,7 @@ MAX_PLOTS_PER_MESSAGE: int = 1_000_000
 MAX_BATCH_BYTES: int = 4 << 20
 
 _U32 = struct.Struct("<I")
-_TYPES = {"f8": np.dtype("<f8"), "f4": np.dtype("<f4"), "u1": np.dtype("u1"),
+_TYPES: dict[str, np.dtype] = {"f8": np.dtype("<f8"), "f4": np.dtype("<f4"), "u1": np.dtype("u1"),
           "i4": np.dtype("<i4")}
 
 
@@ -193,10 +193,10 @@ def to_view(topic: bytes, t: float, p: Mapping[str, Any]) -> dict[str, Any] | No
     if topic == TOPIC_TRACKS:
         e = _col(p, "east_m", "f8")
         n = e.size
-        ids = _str_list(p, "track_id", MAX_PLOTS_PER_MESSAGE)
-        if len(ids) != n:
-            raise ViewError(f"'track_id' holds {len(ids)} ids, expected {n}")
-        base.update(k="tracks", sensor=_str(p, "sensor"), ids=ids, e=e,
+        track_ids = _str_list(p, "track_id", MAX_PLOTS_PER_MESSAGE)
+        if len(track_ids) != n:
+            raise ViewError(f"'track_id' holds {len(track_ids)} ids, expected {n}")
+        base.update(k="tracks", sensor=_str(p, "sensor"), ids=track_ids, e=e,
                     n=_col(p, "north_m", "f8", n), ve=_col(p, "v_east_mps", "f4", n),
                     vn=_col(p, "v_north_mps", "f4", n),
                     se=_col(p, "sigma_east_m", "f4", n), sn=_col(p, "sigma_north_m", "f4", n))
