@@ -65,7 +65,7 @@ from typing import Any
 import numpy as np
 
 from shipradar.sim.dwell.look import LookObserver, LookResults
-from shipradar.sim.world.scenario import Fidelity, Scenario, ScenarioError
+from shipradar.sim.world.scenario import Fidelity, Jammer, Radar, Scenario, ScenarioError, Target
 
 __all__ = [
     "Part",
@@ -123,12 +123,6 @@ class Part:
     choice: str | None = None
 
 
-def _pe_max_height() -> float:
-    from shipradar.tables.scene import PE_MAX_HEIGHT_M
-
-    return PE_MAX_HEIGHT_M
-
-
 def explain(scenario: Scenario) -> list[Part]:
     """The parts of the model the scene exercises and those it skips, each with its reason.
 
@@ -144,137 +138,153 @@ def explain(scenario: Scenario) -> list[Part]:
     Returns
     -------
     list of Part
+        The targets' parts, propagation, atmosphere, jamming, then each radar's parts.
     """
+    out = _target_parts(scenario)
+    out += _propagation_parts(scenario)
+    out.append(_atmosphere_part(scenario))
+    n_j = len(scenario.jammers)
+    out.append(Part("stand-off jamming [47]-[48]", n_j > 0,
+                    f"{n_j} jammer(s)" if n_j else "no jammer: S/J not computed"))
+    for _platform, radar in scenario.radars():
+        out += _radar_parts(scenario, radar)
+    return out
+
+
+def _movers(scenario: Scenario) -> list[Target | Jammer]:
+    """The scene's targets and jammers (what propagation and the atmosphere are read for)."""
+    return [*scenario.targets, *scenario.jammers]
+
+
+def _target_parts(scenario: Scenario) -> list[Part]:
+    """The echo, S/I and P_d chain, and unresolved targets."""
+    n_t = len(scenario.targets)
+    name = "target echo, S/I and P_d [2]-[3], [66]-[83]"
+    if n_t:
+        cases = sorted({t.swerling_case for t in scenario.targets})
+        echo = Part(name, True, f"{n_t} target(s), Swerling {cases}; P_d method "
+                                f"{scenario.fidelity.pd_method!r}", choice="pd_method")
+    else:
+        echo = Part(name, False, "no targets: only false alarms are drawn", choice="pd_method")
+    merge = Part("unresolved targets (2.2.1)", n_t > 1,
+                 f"{n_t} targets may share a cell" if n_t > 1 else
+                 "fewer than two targets: nothing to merge")
+    return [echo, merge]
+
+
+def _propagation_parts(scenario: Scenario) -> list[Part]:
+    """The PE table and the two-ray fallback: which movers are inside the PE table's height
+    (:data:`shipradar.tables.scene.PE_MAX_HEIGHT_M`) and which above it."""
+    from shipradar.tables.scene import PE_MAX_HEIGHT_M
+
+    fid = scenario.fidelity
+    movers = _movers(scenario)
+    if not movers:
+        return [Part("propagation factor F [4]-[7]", False, "no targets or jammers",
+                     choice="propagation")]
+    if fid.propagation != "pe":
+        other = "two-ray model" if fid.propagation == "two_ray" else "pattern alone"
+        return [Part("PE table [5]-[7]", False,
+                     f"fidelity.propagation is {fid.propagation!r}: F by the {other}",
+                     choice="propagation")]
+    top = PE_MAX_HEIGHT_M
+    # highest altitude including climbs and pop-ups where the schema knows them
+    above = sorted(m.id for m in movers if min(w.altitude_m for w in m.waypoints) > top)
+    partly = sorted(m.id for m in movers if m.max_altitude_m > top and m.id not in above)
+    inside = [m.id for m in movers if m.id not in above]
+    if inside:
+        pe = Part("PE table [5]-[7]", True,
+                  f"{len(inside)} target(s)/jammer(s) at or below its {top:g} m top; "
+                  f"{_refractivity_description(scenario)}; grid {fid.pe_grid!r}",
+                  choice="pe_grid")
+    else:
+        pe = Part("PE table [5]-[7]", False,
+                  f"every target is above the PE table's {top:g} m top: two-ray",
+                  choice="pe_grid")
+    if above or partly:
+        what = []
+        if above:
+            what.append(f"always above {top:g} m: {', '.join(above)}")
+        if partly:
+            what.append(f"partly above: {', '.join(partly)}")
+        why = "targets above the PE domain use two-ray (" + "; ".join(what) + ")"
+    else:
+        why = ("only for points outside the PE table (steep angles, beyond its range), "
+               "counted as propagation_fallbacks")
+    return [pe, Part("two-ray fallback (3.1.2)", True, why, choice="propagation")]
+
+
+def _refractivity_description(scenario: Scenario) -> str:
+    """The scene's M-profile in words (standard, a profile, an evaporation duct)."""
+    from shipradar.tables.scene import duct_height_m
+
+    duct = scenario.environment.duct
+    if duct is None:
+        return "standard atmosphere"
+    if duct.type == "profile":
+        return f"M-profile of {len(duct.heights_m)} points"
+    return f"evaporation duct {duct_height_m(scenario):.3g} m" + (
+        " (bulk model)" if duct.type == "bulk" else "")
+
+
+def _atmosphere_part(scenario: Scenario) -> Part:
+    """Atmospheric attenuation [16]: gases, fog and rain."""
+    name = "atmospheric attenuation [16]"
+    env = scenario.environment
+    if not _movers(scenario):
+        return Part(name, False, "no targets or jammers", choice="atmosphere")
+    if not scenario.fidelity.atmosphere:
+        return Part(name, False, "fidelity.atmosphere is false", choice="atmosphere")
+    bits = ["gases (ITU-R P.676)", "fog (P.840)" if env.fog else "no fog",
+            "rain (P.838)" if env.rain else "no rain"]
+    return Part(name, True, ", ".join(bits), choice="atmosphere")
+
+
+def _radar_parts(scenario: Scenario, r: Radar) -> list[Part]:
+    """One radar's clutter, processor and false-alarm parts."""
     from shipradar.sensors.radar import radar_constants
     from shipradar.sensors.sea_clutter import is_medium_high_resolution
 
-    fid = scenario.fidelity
-    env = scenario.environment
-    out: list[Part] = []
-    n_t, n_j = len(scenario.targets), len(scenario.jammers)
-    movers = [*scenario.targets, *scenario.jammers]
-    if n_t:
-        cases = sorted({t.swerling_case for t in scenario.targets})
-        out.append(Part("target echo, S/I and P_d [2]-[3], [66]-[83]", True,
-                        f"{n_t} target(s), Swerling {cases}; P_d method {fid.pd_method!r}",
-                        choice="pd_method"))
+    fid, env = scenario.fidelity, scenario.environment
+    clutter_off = "fidelity.clutter is false"
+    k = radar_constants(scenario, r)
+    hi_res = bool(is_medium_high_resolution(k.theta_b, r.pulse_width_s))
+    x = math.degrees(k.theta_b) * r.pulse_width_s * 1e6
+    out = []
+    sea = "sea clutter [21]-[38]"
+    out.append(Part(sea, False, clutter_off, r.id, "clutter") if not fid.clutter else
+               Part(sea, True, f"sea state {env.sea_state}, wave height "
+                               f"{scenario.wave_height:g} m", r.id, "clutter"))
+    wx = "weather clutter [39]-[45]"
+    if env.rain is None:
+        out.append(Part(wx, False, "no rain", r.id))
+    elif not fid.clutter:
+        out.append(Part(wx, False, clutter_off, r.id))
     else:
-        out.append(Part("target echo, S/I and P_d [2]-[3], [66]-[83]", False,
-                        "no targets: only false alarms are drawn", choice="pd_method"))
-    out.append(Part("unresolved targets (2.2.1)", n_t > 1,
-                    f"{n_t} targets may share a cell" if n_t > 1 else
-                    "fewer than two targets: nothing to merge"))
-    # propagation
-    if not movers:
-        out.append(Part("propagation factor F [4]-[7]", False, "no targets or jammers",
-                        choice="propagation"))
-    elif fid.propagation != "pe":
-        out.append(Part("PE table [5]-[7]", False,
-                        f"fidelity.propagation is {fid.propagation!r}: F by the "
-                        f"{'two-ray model' if fid.propagation == 'two_ray' else 'pattern alone'}",
-                        choice="propagation"))
+        out.append(Part(wx, True, f"rain {env.rain.rate_mm_h:g} mm/h ({env.rain.kind})", r.id))
+    proc = r.processor.type
+    dop = "Doppler processor, I_F table [49]-[62]"
+    if proc == "none":
+        out.append(Part(dop, False, "no processor", r.id, "improvement_grid"))
+    elif not fid.clutter:
+        out.append(Part(dop, False, f"{clutter_off} (I_F is read only against clutter)",
+                        r.id, "improvement_grid"))
     else:
-        top = _pe_max_height()
-        # highest altitude including climbs and pop-ups where the schema knows them
-        heights = {m.id: float(getattr(m, "max_altitude_m", None)
-                               or max(w.altitude_m for w in m.waypoints)) for m in movers}
-        above = sorted(i for i, h in heights.items() if min(
-            w.altitude_m for w in next(m for m in movers if m.id == i).waypoints) > top)
-        partly = sorted(i for i, h in heights.items() if h > top and i not in above)
-        inside = [i for i in heights if i not in above]
-        from shipradar.tables.scene import duct_height_m
-
-        duct = env.duct
-        if duct is None:
-            prof = "standard atmosphere"
-        elif duct.type == "profile":
-            prof = f"M-profile of {len(duct.heights_m)} points"
-        else:
-            prof = f"evaporation duct {duct_height_m(scenario):.3g} m" + (
-                " (bulk model)" if duct.type == "bulk" else "")
-        if inside:
-            out.append(Part("PE table [5]-[7]", True,
-                            f"{len(inside)} target(s)/jammer(s) at or below its {top:g} m top; "
-                            f"{prof}; grid {fid.pe_grid!r}", choice="pe_grid"))
-        else:
-            out.append(Part("PE table [5]-[7]", False,
-                            f"every target is above the PE table's {top:g} m top: two-ray",
-                            choice="pe_grid"))
-        if above or partly:
-            what = []
-            if above:
-                what.append(f"always above {top:g} m: {', '.join(above)}")
-            if partly:
-                what.append(f"partly above: {', '.join(partly)}")
-            out.append(Part("two-ray fallback (3.1.2)", True,
-                            "targets above the PE domain use two-ray (" + "; ".join(what) + ")",
-                            choice="propagation"))
-        else:
-            out.append(Part("two-ray fallback (3.1.2)", True,
-                            "only for points outside the PE table (steep angles, beyond its "
-                            "range), counted as propagation_fallbacks", choice="propagation"))
-    # atmosphere
-    if not movers:
-        out.append(Part("atmospheric attenuation [16]", False, "no targets or jammers",
-                        choice="atmosphere"))
-    elif not fid.atmosphere:
-        out.append(Part("atmospheric attenuation [16]", False,
-                        "fidelity.atmosphere is false", choice="atmosphere"))
+        out.append(Part(dop, True, f"{proc}; grid {fid.improvement_grid!r}", r.id,
+                        "improvement_grid"))
+    cfa = "sea-clutter false alarms [94]-[96]"
+    if not hi_res:
+        out.append(Part(cfa, False, f"low resolution (θ_b τ' = {x:.2g} deg µs, τ' = "
+                                    f"{r.pulse_width_s * 1e6:.3g} µs: Rayleigh clutter, seed "
+                                    "4.1.2)", r.id, "clutter_fa_model"))
+    elif not fid.clutter:
+        out.append(Part(cfa, False, clutter_off, r.id, "clutter_fa_model"))
     else:
-        bits = ["gases (ITU-R P.676)"]
-        bits.append("fog (P.840)" if env.fog else "no fog")
-        bits.append("rain (P.838)" if env.rain else "no rain")
-        out.append(Part("atmospheric attenuation [16]", True, ", ".join(bits),
-                        choice="atmosphere"))
-    # jamming
-    out.append(Part("stand-off jamming [47]-[48]", n_j > 0,
-                    f"{n_j} jammer(s)" if n_j else "no jammer: S/J not computed"))
-    # per radar
-    for _platform, r in scenario.radars():
-        k = radar_constants(scenario, r)
-        hi_res = bool(is_medium_high_resolution(k.theta_b, r.pulse_width_s))
-        x = math.degrees(k.theta_b) * r.pulse_width_s * 1e6
-        if not fid.clutter:
-            out.append(Part("sea clutter [21]-[38]", False, "fidelity.clutter is false",
-                            r.id, "clutter"))
-        else:
-            out.append(Part("sea clutter [21]-[38]", True,
-                            f"sea state {env.sea_state}, wave height {scenario.wave_height:g} m",
-                            r.id, "clutter"))
-        if env.rain is None:
-            out.append(Part("weather clutter [39]-[45]", False, "no rain", r.id))
-        elif not fid.clutter:
-            out.append(Part("weather clutter [39]-[45]", False, "fidelity.clutter is false",
-                            r.id))
-        else:
-            out.append(Part("weather clutter [39]-[45]", True,
-                            f"rain {env.rain.rate_mm_h:g} mm/h ({env.rain.kind})", r.id))
-        proc = r.processor.type
-        if proc == "none":
-            out.append(Part("Doppler processor, I_F table [49]-[62]", False,
-                            "no processor", r.id, "improvement_grid"))
-        elif not fid.clutter:
-            out.append(Part("Doppler processor, I_F table [49]-[62]", False,
-                            "fidelity.clutter is false (I_F is read only against clutter)",
-                            r.id, "improvement_grid"))
-        else:
-            out.append(Part("Doppler processor, I_F table [49]-[62]", True,
-                            f"{proc}; grid {fid.improvement_grid!r}", r.id, "improvement_grid"))
-        if not hi_res:
-            out.append(Part("sea-clutter false alarms [94]-[96]", False,
-                            f"low resolution (θ_b τ' = {x:.2g} deg µs, τ' = "
-                            f"{r.pulse_width_s * 1e6:.3g} µs: Rayleigh clutter, seed 4.1.2)",
-                            r.id, "clutter_fa_model"))
-        elif not fid.clutter:
-            out.append(Part("sea-clutter false alarms [94]-[96]", False,
-                            "fidelity.clutter is false", r.id, "clutter_fa_model"))
-        else:
-            out.append(Part("sea-clutter false alarms [94]-[96]", True,
-                            f"medium/high resolution (θ_b τ' = {x:.2g} deg µs); model "
-                            f"{fid.clutter_fa_model!r}, K_clutter {r.k_clutter:g}",
-                            r.id, "clutter_fa_model"))
-        out.append(Part("noise false alarms [90]-[93]", True,
-                        f"t_fa = {r.false_alarm_time_s:g} s", r.id))
+        out.append(Part(cfa, True, f"medium/high resolution (θ_b τ' = {x:.2g} deg µs); model "
+                                   f"{fid.clutter_fa_model!r}, K_clutter {r.k_clutter:g}",
+                        r.id, "clutter_fa_model"))
+    out.append(Part("noise false alarms [90]-[93]", True,
+                    f"t_fa = {r.false_alarm_time_s:g} s", r.id))
     return out
 
 
@@ -627,99 +637,140 @@ def _look_key(looks: dict[str, np.ndarray], n_targets: int) -> np.ndarray:
 
 
 def compare(ref: RunResult, res: RunResult, scenario: Scenario, tol: Tolerances) -> Comparison:
-    """Differences of ``res`` from ``ref`` (same looks, common random numbers)."""
+    """Differences of ``res`` from ``ref`` (same looks, common random numbers).
+
+    Steps: the two runs' looks aligned (:func:`_align_looks`); one row per (radar, target)
+    (:func:`_target_row`) checked against the P_d and range tolerances; the expected false
+    alarms per scan (:func:`_false_alarm_changes`); the latency; the totals
+    (:func:`_totals`).
+    """
     radar_ids = [r.id for _, r in scenario.radars()]
     target_ids = [t.id for t in scenario.targets]
-    n_t = len(target_ids)
-    a, b = ref.looks, res.looks
-    ka, kb = _look_key(a, n_t), _look_key(b, n_t)
-    common, ia, ib = np.intersect1d(ka, kb, assume_unique=False, return_indices=True)
-    # the looks depend on the kinematics alone; a look only one side has is compared with
-    # P_d = 0 (not seen) on the other
-    only_a = np.setdiff1d(np.arange(ka.size), ia)
-    only_b = np.setdiff1d(np.arange(kb.size), ib)
-
-    def take(d, idx):
-        return {k: v[idx] for k, v in d.items()}
-
-    A = {k: np.concatenate([take(a, ia)[k], take(a, only_a)[k], _blank(b, only_b, k)])
-         for k in a}
-    B = {k: np.concatenate([take(b, ib)[k], _blank(a, only_a, k), take(b, only_b)[k]])
-         for k in b}
-    # identity of each look from whichever side has it
-    for k in ("run", "radar", "target", "scan", "range_m"):
-        B[k] = A[k] = np.concatenate([a[k][ia], a[k][only_a], b[k][only_b]])
+    A, B = _align_looks(ref.looks, res.looks, len(target_ids))
     dpd = np.abs(B["pd"] - A["pd"])
-    rows = []
-    violations: list[str] = []
     runs = int(A["run"].max()) + 1 if A["run"].size else 1
     order = np.lexsort((A["scan"], A["target"], A["radar"], A["run"]))
+    rows: list[dict[str, Any]] = []
+    violations: list[str] = []
     for ri, rid in enumerate(radar_ids):
         for ti, tid in enumerate(target_ids):
             sel = order[(A["radar"][order] == ri) & (A["target"][order] == ti)]
             if sel.size == 0:
                 continue
-            # realized (common random numbers): the first look whose uniform fell below P_d
-            d_real, first_a_all, first_b_all = [], [], []
-            for run in range(runs):
-                s = sel[A["run"][sel] == run]
-                fa_, fb_ = _first_range(A, s), _first_range(B, s)
-                first_a_all.append(fa_)
-                first_b_all.append(fb_)
-                if fa_ is not None or fb_ is not None:
-                    d_real.append(math.inf if (fa_ is None) != (fb_ is None) else fb_ - fa_)
-            # expected (dice-free, what the tolerance reads): P_d is a function of the look
-            # alone, so run 0's looks give it
-            s0 = sel[A["run"][sel] == 0]
-            ea, pa = _expected_first_range(A["pd"][s0], A["range_m"][s0])
-            eb, pb = _expected_first_range(B["pd"][s0], B["range_m"][s0])
-            if ea is None and eb is None:
-                d_exp = 0.0
-            elif (ea is None) != (eb is None):
-                d_exp = math.inf
-            else:
-                d_exp = abs(eb - ea)
-            row = {
-                "radar": rid, "target": tid, "looks": int(sel.size) // runs,
-                "mean_abs_dpd": float(dpd[sel].mean()),
-                "max_abs_dpd": float(dpd[sel].max()),
-                "mean_pd_ref": float(A["pd"][sel].mean()),
-                "mean_pd": float(B["pd"][sel].mean()),
-                "expected_detections_ref": float(A["pd"][s0].sum()),
-                "expected_detections": float(B["pd"][s0].sum()),
-                "detections_ref": int(A["hit"][sel].sum()) / runs,
-                "detections": int(B["hit"][sel].sum()) / runs,
-                "p_detected_ref": pa, "p_detected": pb,
-                "expected_first_range_ref_m": ea, "expected_first_range_m": eb,
-                "abs_dfirst_m": d_exp,
-                "first_range_ref_m": _mean_or_none(first_a_all),
-                "first_range_m": _mean_or_none(first_b_all),
-                "realized_abs_dfirst_m": (float(np.mean(np.abs(d_real))) if d_real else 0.0),
-            }
-            row["d_detections"] = row["detections"] - row["detections_ref"]
-            row["d_expected_detections"] = (row["expected_detections"]
-                                            - row["expected_detections_ref"])
-            if row["mean_abs_dpd"] > tol.pd:
-                violations.append(f"{rid}/{tid}: mean |ΔP_d| {row['mean_abs_dpd']:.3g} > "
-                                  f"{tol.pd:g}")
-            if d_exp > tol.range_m:
-                violations.append(f"{rid}/{tid}: |Δ expected first-detection range| "
-                                  f"{_fmt_m(d_exp)} > {tol.range_m:g} m")
+            row = _target_row(A, B, dpd, sel, runs, rid, tid)
+            violations += _target_violations(row, tol)
             rows.append(row)
-    # false alarms: the model's expected count per scan of each radar and origin
-    fa_rows = {}
+    fa_rows, fa_violations = _false_alarm_changes(ref, res, tol)
+    violations += fa_violations
+    latency = _latency_s(scenario, res.setting.fidelity)
+    if tol.latency_s is not None and latency > tol.latency_s * (1 + 1e-9):
+        violations.append(f"latency {latency:.3g} s (one sector) > {tol.latency_s:.3g} s")
+    if res.error:
+        violations.append(res.error)
+    return Comparison(res, rows, _totals(rows, dpd, runs, fa_rows, res, latency), violations)
+
+
+def _align_looks(a: dict[str, np.ndarray], b: dict[str, np.ndarray], n_targets: int
+                 ) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+    """The looks of two runs side by side: those both have, then those only the first has,
+    then those only the second has. The looks depend on the kinematics alone; a look only
+    one side has is compared with P_d = 0 (not seen) on the other (:func:`_blank`), and its
+    identity (run, radar, target, scan, range) is taken from whichever side has it."""
+    ka, kb = _look_key(a, n_targets), _look_key(b, n_targets)
+    _, ia, ib = np.intersect1d(ka, kb, assume_unique=False, return_indices=True)
+    only_a = np.setdiff1d(np.arange(ka.size), ia)
+    only_b = np.setdiff1d(np.arange(kb.size), ib)
+    A = {k: np.concatenate([a[k][ia], a[k][only_a], _blank(b, only_b, k)]) for k in a}
+    B = {k: np.concatenate([b[k][ib], _blank(a, only_a, k), b[k][only_b]]) for k in b}
+    for k in ("run", "radar", "target", "scan", "range_m"):
+        B[k] = A[k] = np.concatenate([a[k][ia], a[k][only_a], b[k][only_b]])
+    return A, B
+
+
+def _target_row(A: dict[str, np.ndarray], B: dict[str, np.ndarray], dpd: np.ndarray,
+                sel: np.ndarray, runs: int, rid: str, tid: str) -> dict[str, Any]:
+    """One (radar, target)'s differences over its looks ``sel`` (in run and scan order)."""
+    # realized (common random numbers): the first look whose uniform fell below P_d
+    d_real: list[float] = []
+    first_a_all: list[float | None] = []
+    first_b_all: list[float | None] = []
+    for run in range(runs):
+        s = sel[A["run"][sel] == run]
+        fa_, fb_ = _first_range(A, s), _first_range(B, s)
+        first_a_all.append(fa_)
+        first_b_all.append(fb_)
+        if fa_ is None and fb_ is None:
+            continue
+        d_real.append(math.inf if fa_ is None or fb_ is None else fb_ - fa_)
+    # expected (dice-free, what the tolerance reads): P_d is a function of the look
+    # alone, so run 0's looks give it
+    s0 = sel[A["run"][sel] == 0]
+    ea, pa = _expected_first_range(A["pd"][s0], A["range_m"][s0])
+    eb, pb = _expected_first_range(B["pd"][s0], B["range_m"][s0])
+    if ea is None and eb is None:
+        d_exp = 0.0
+    elif ea is None or eb is None:
+        d_exp = math.inf
+    else:
+        d_exp = abs(eb - ea)
+    detections_ref = int(A["hit"][sel].sum()) / runs
+    detections = int(B["hit"][sel].sum()) / runs
+    expected_ref = float(A["pd"][s0].sum())
+    expected = float(B["pd"][s0].sum())
+    return {
+        "radar": rid, "target": tid, "looks": int(sel.size) // runs,
+        "mean_abs_dpd": float(dpd[sel].mean()),
+        "max_abs_dpd": float(dpd[sel].max()),
+        "mean_pd_ref": float(A["pd"][sel].mean()),
+        "mean_pd": float(B["pd"][sel].mean()),
+        "expected_detections_ref": expected_ref,
+        "expected_detections": expected,
+        "detections_ref": detections_ref,
+        "detections": detections,
+        "p_detected_ref": pa, "p_detected": pb,
+        "expected_first_range_ref_m": ea, "expected_first_range_m": eb,
+        "abs_dfirst_m": d_exp,
+        "first_range_ref_m": _mean_or_none(first_a_all),
+        "first_range_m": _mean_or_none(first_b_all),
+        "realized_abs_dfirst_m": (float(np.mean(np.abs(d_real))) if d_real else 0.0),
+        "d_detections": detections - detections_ref,
+        "d_expected_detections": expected - expected_ref,
+    }
+
+
+def _target_violations(row: dict[str, Any], tol: Tolerances) -> list[str]:
+    """A (radar, target) row outside the P_d or the first-detection range tolerance."""
+    who = f"{row['radar']}/{row['target']}"
+    out = []
+    if row["mean_abs_dpd"] > tol.pd:
+        out.append(f"{who}: mean |ΔP_d| {row['mean_abs_dpd']:.3g} > {tol.pd:g}")
+    if row["abs_dfirst_m"] > tol.range_m:
+        out.append(f"{who}: |Δ expected first-detection range| "
+                   f"{_fmt_m(row['abs_dfirst_m'])} > {tol.range_m:g} m")
+    return out
+
+
+def _false_alarm_changes(ref: RunResult, res: RunResult, tol: Tolerances
+                         ) -> tuple[dict[tuple[str, str], tuple[float, float]], list[str]]:
+    """The model's expected false alarms per scan of each radar and origin, (reference,
+    setting), and those outside the tolerance (relative, at least :data:`FA_REL_FLOOR`)."""
+    fa_rows: dict[tuple[str, str], tuple[float, float]] = {}
+    violations = []
     for (rid, origin), e_ref in ref.expected_fa.items():
         e = res.expected_fa.get((rid, origin), 0.0)
         fa_rows[(rid, origin)] = (e_ref, e)
         if abs(e - e_ref) > tol.fa_rel * max(e_ref, FA_REL_FLOOR):
             violations.append(f"{rid}: expected {origin.replace('_', '-')} false alarms per scan "
                               f"{e:.4g} vs {e_ref:.4g} (tolerance {tol.fa_rel:.0%})")
-    latency = _latency_s(scenario, res.setting.fidelity)
-    if tol.latency_s is not None and latency > tol.latency_s * (1 + 1e-9):
-        violations.append(f"latency {latency:.3g} s (one sector) > {tol.latency_s:.3g} s")
-    if res.error:
-        violations.append(res.error)
-    total = {
+    return fa_rows, violations
+
+
+def _totals(rows: list[dict[str, Any]], dpd: np.ndarray, runs: int,
+            fa_rows: dict[tuple[str, str], tuple[float, float]], res: RunResult,
+            latency: float) -> dict[str, Any]:
+    """The setting's totals over every (radar, target) and look; ``zero`` when nothing at
+    all differs from the reference."""
+    return {
         "looks": int(dpd.size) // max(runs, 1),
         "mean_abs_dpd": float(dpd.mean()) if dpd.size else 0.0,
         "max_abs_dpd": float(dpd.max()) if dpd.size else 0.0,
@@ -743,7 +794,6 @@ def compare(ref: RunResult, res: RunResult, scenario: Scenario, tol: Tolerances)
             and r["realized_abs_dfirst_m"] == 0 for r in rows) and all(
             v[0] == v[1] for v in fa_rows.values()),
     }
-    return Comparison(res, rows, total, violations)
 
 
 def _blank(d: dict[str, np.ndarray], idx: np.ndarray, k: str) -> np.ndarray:
@@ -897,7 +947,7 @@ def run_fidelity_study(scenario: Scenario, *, duration_s: float | None = None, r
     pick: dict[str, tuple[Any, float, float]] = {}  # choice -> (value, cost, own error)
     for c in comps:
         s = c.result.setting
-        if s.kind != "alternative" or not c.ok:
+        if s.kind != "alternative" or s.choice is None or not c.ok:
             continue
         best = pick.get(s.choice, (ref_fid[s.choice], ref_cost, 0.0))
         if c.cost_s < best[1] - margin:

@@ -194,7 +194,7 @@ def reduce_run(messages: Sequence[tuple[bytes, float, dict]], scenario, run: int
     for sensor in sorted(per_sensor):
         st = per_sensor[sensor]
         n_scans = len(st["eos"])
-        first = [None] * n_t
+        first: list[tuple[float, float] | None] = [None] * n_t
         count = np.zeros((n_t, 2), dtype=int)  # looks, detections
         for scan in sorted(st["eos"]):
             eos, truth = st["eos"][scan], st["truth"].get(scan)
@@ -217,8 +217,8 @@ def reduce_run(messages: Sequence[tuple[bytes, float, dict]], scenario, run: int
                               "scan": int(scan), "time_s": float(eos["time_s"]),
                               "range_m": float(rng_m[i]), "detected": int(d)})
         fa_n, fa_c = st["fa"][ORIGIN_NOISE], st["fa"][ORIGIN_SEA_CLUTTER]
-        for origin, k in (("noise", fa_n), ("sea_clutter", fa_c)):
-            fas.append({"run": run, "sensor": sensor, "origin": origin, "scans": n_scans,
+        for origin_name, k in (("noise", fa_n), ("sea_clutter", fa_c)):
+            fas.append({"run": run, "sensor": sensor, "origin": origin_name, "scans": n_scans,
                         "false_alarms": k})
         base = {"run": run, "seed": seed, "sensor": sensor, "scans": n_scans,
                 "noise_false_alarms": fa_n, "sea_clutter_false_alarms": fa_c}
@@ -226,11 +226,12 @@ def reduce_run(messages: Sequence[tuple[bytes, float, dict]], scenario, run: int
             results.append(dict(base, target="", kind="", looks=0, detections=0, misses=0,
                                 first_detection_range_m="", first_detection_time_s=""))
         for i in range(n_t):
+            fi = first[i]
             results.append(dict(
                 base, target=ids[i], kind=kinds[i], looks=int(count[i, 0]),
                 detections=int(count[i, 1]), misses=int(count[i, 0] - count[i, 1]),
-                first_detection_range_m="" if first[i] is None else first[i][0],
-                first_detection_time_s="" if first[i] is None else first[i][1]))
+                first_detection_range_m="" if fi is None else fi[0],
+                first_detection_time_s="" if fi is None else fi[1]))
     return {"results": results, "looks": looks, "false_alarms": fas}
 
 
@@ -284,7 +285,7 @@ def _one_run(scenario, run: int, seed: int, duration_s, tables_ref) -> dict:
     bus = _MemoryBus()
     sim = Simulation(scenario, bus=bus, seed=seed, duration_s=duration_s, tables=tables)
     summary = sim.run()
-    out = reduce_run(bus.messages, scenario, run, seed)
+    out: dict[str, Any] = dict(reduce_run(bus.messages, scenario, run, seed))
     out["summary"] = {"run": run, "wall_s": summary.get("wall_s"), "pid": os.getpid()}
     return out
 
@@ -395,10 +396,7 @@ def run_study(
         ``files`` (paths), ``runs``, ``seed``, ``n_workers``, ``wall_s``,
         ``runs_per_minute``, ``worker_pids`` (distinct processes that ran replications).
     """
-    from distributed import Client, LocalCluster, as_completed
-
     from shipradar.sim.world.scenario import Scenario, load_scenario
-    from shipradar.tables.scene import load_scene_tables
 
     if runs < 1:
         raise ValueError(f"runs must be >= 1, got {runs}")
@@ -406,12 +404,44 @@ def run_study(
         scenario = load_scenario(scenario)
     base_seed = scenario.seed if seed is None else int(seed)
     seeds = [run_seed(c) for c in np.random.SeedSequence(base_seed).spawn(runs)]
-    # the off-line level, once, here; workers only read the files
+    tables, files = _study_tables(scenario, progress)
+    t0 = time.perf_counter()
+    done, workers = _run_replications(scenario, seeds, base_seed, duration_s, tables, files,
+                                      scheduler=scheduler, n_workers=n_workers, client=client,
+                                      progress=progress)
+    wall = time.perf_counter() - t0
+    paths = _write_study(done, out, bin_m)
+    return {
+        "scenario": scenario.name,
+        "files": {k: str(v) for k, v in paths.items()},
+        "runs": runs,
+        "seed": base_seed,
+        "n_workers": workers,
+        "wall_s": round(wall, 3),
+        "runs_per_minute": round(60.0 * runs / wall, 2) if wall > 0 else None,
+        "worker_pids": len({res["summary"]["pid"] for res in done}),
+        "tables_from_cache_files": files is not None,
+    }
+
+
+def _study_tables(scenario, progress: bool) -> tuple[Any, tuple[tuple[str, str, str], ...] | None]:
+    """The off-line level, once, here (step 1 of the module docstring): the scene's tables
+    and their cache files (None if one has none: the tables are then sent to the workers)."""
+    from shipradar.tables.scene import load_scene_tables
+
     tables = load_scene_tables(scenario, log=sys.stderr if progress else None)
-    files = _table_files(tables, [r.id for _, r in scenario.radars()])
+    return tables, _table_files(tables, [r.id for _, r in scenario.radars()])
+
+
+def _run_replications(scenario, seeds: list[int], base_seed: int, duration_s: float | None,
+                      tables, files, *, scheduler: str | None, n_workers: int | None,
+                      client, progress: bool) -> tuple[list[dict], int]:
+    """Every replication as a Dask task (:func:`_one_run`) on ``client``, or on a client
+    to ``scheduler``, or on a local cluster of ``n_workers`` processes (those two closed
+    after); returns the runs' reduced rows in run order and the number of workers."""
+    from distributed import Client, LocalCluster, as_completed
 
     cluster = own_client = None
-    t0 = time.perf_counter()
     try:
         if client is None:
             if scheduler is None:
@@ -429,7 +459,7 @@ def run_study(
         if progress:
             from tqdm import tqdm
 
-            bar = tqdm(total=runs, unit="run", file=sys.stderr, desc=scenario.name)
+            bar = tqdm(total=len(seeds), unit="run", file=sys.stderr, desc=scenario.name)
         done: dict[int, dict] = {}
         for fut in as_completed(futures):
             res = fut.result()
@@ -444,12 +474,18 @@ def run_study(
             own_client.close()
         if cluster is not None:
             cluster.close()
-    wall = time.perf_counter() - t0
-    results, looks, fas = [], [], []
-    for i in range(runs):
-        results += done[i]["results"]
-        looks += done[i]["looks"]
-        fas += done[i]["false_alarms"]
+    return [done[i] for i in range(len(seeds))], workers
+
+
+def _write_study(done: list[dict], out: str | os.PathLike, bin_m: float) -> dict[str, Path]:
+    """The study's four files (:func:`study_paths`) from the runs' rows, sorted."""
+    results: list[dict] = []
+    looks: list[dict] = []
+    fas: list[dict] = []
+    for res in done:
+        results += res["results"]
+        looks += res["looks"]
+        fas += res["false_alarms"]
     results.sort(key=lambda r: (r["run"], r["sensor"], r["target"]))
     looks.sort(key=lambda r: (r["run"], r["sensor"], r["target"], r["scan"]))
     paths = study_paths(out)
@@ -457,17 +493,7 @@ def run_study(
     _write_csv(paths["looks"], LOOK_COLUMNS, looks)
     _write_csv(paths["pd_range"], PD_COLUMNS, aggregate_pd(looks, bin_m))
     _write_csv(paths["false_alarms"], FA_COLUMNS, aggregate_false_alarms(fas))
-    return {
-        "scenario": scenario.name,
-        "files": {k: str(v) for k, v in paths.items()},
-        "runs": runs,
-        "seed": base_seed,
-        "n_workers": workers,
-        "wall_s": round(wall, 3),
-        "runs_per_minute": round(60.0 * runs / wall, 2) if wall > 0 else None,
-        "worker_pids": len({done[i]["summary"]["pid"] for i in range(runs)}),
-        "tables_from_cache_files": files is not None,
-    }
+    return paths
 
 
 # --------------------------------------------------------------------------- model P_d
