@@ -28,7 +28,7 @@ import threading
 import time
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from aiohttp import WSMsgType, web
 
@@ -41,7 +41,10 @@ from shipradar.sim.adapters.viewer.wire import (
 )
 from shipradar.sim.stream.bus import EndpointError
 from shipradar.sim.stream.protocol import MAX_BODY_BYTES, ProtocolError, decode
-from shipradar.sim.stream.recording import RecordingError, read_recording
+from shipradar.sim.stream.recording import RecordingError, RecordingReader, read_recording
+
+if TYPE_CHECKING:  # zmq is imported when a live source opens
+    import zmq.asyncio
 
 __all__ = [
     "DEFAULT_MAX_QUEUE",
@@ -134,7 +137,6 @@ class Client:
         self.dropped = 0
         self.items_sent = 0
         self.batches_sent = 0
-        self.bytes_sent = 0
         self._ready = asyncio.Event()
 
     def push(self, item: dict[str, Any]) -> None:
@@ -182,7 +184,6 @@ class Client:
             await self.ws.send_bytes(data)
             self.items_sent += len(items)
             self.batches_sent += 1
-            self.bytes_sent += len(data)
 
 
 # ----------------------------------------------------------------------------- live
@@ -211,8 +212,8 @@ class LiveSource:
         self.endpoints = endpoints
         self._context = context
         self._curve = curve
-        self._ctx = None
-        self._sock = None
+        self._ctx: zmq.asyncio.Context | None = None
+        self._sock: zmq.asyncio.Socket | None = None
         self.clients: set[Client] = set()
         self.received = 0
         self.bad = 0
@@ -325,6 +326,8 @@ class LiveSource:
     async def run(self) -> None:
         """Read the stream until cancelled (after :meth:`open`)."""
         sock = self._sock
+        if sock is None:
+            raise RuntimeError("open() the live source before running it")
         try:
             while True:
                 frames = await sock.recv_multipart(copy=True)
@@ -416,7 +419,6 @@ class RecordingSource:
         self.t0: float = 0.0 if first is None else first
         self.t1: float = self.t0 if last is None else last
         self.clients: set[Client] = set()
-        self.players: dict[Client, Player] = {}
 
     @property
     def window_s(self) -> float:
@@ -449,7 +451,7 @@ class Player:
         self._anchor = (time.monotonic(), source.t0)
         self._wake = asyncio.Event()
         self._records: Iterator[tuple[float, list[bytes]]] | None = None
-        self._reader = None
+        self._reader: RecordingReader | None = None
         self._pending: collections.deque = collections.deque()
         self.bad = 0
         self._seek_to: tuple[float, int] | None = (source.t0, 0)
