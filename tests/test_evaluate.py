@@ -186,7 +186,7 @@ def test_gospa_and_siap_equal_stonesoup_called_directly():
         [SIAPMetrics(position_measure=Euclidean(mapping=(0, 2)),
                      velocity_measure=Euclidean(mapping=(1, 3)), generator_name="s",
                      tracks_key="tracks", truths_key="truths")],
-        associator=TrackToTruth(association_threshold=400.0, consec_pairs_confirm=1,
+        associator=TrackToTruth(association_threshold=400.0, consec_pairs_confirm=2,
                                 consec_misses_end=1, measure=Euclidean(mapping=(0, 2))))
     manager.add_data({"tracks": {Track(v, id=k) for k, v in tracks.items()},
                       "truths": {GroundTruthPath(v, id=str(k)) for k, v in truths.items()}})
@@ -430,3 +430,25 @@ def test_in_process_evaluate():
 
     res = evaluate(s, tracker=Broken, runs=1, seed=2, duration_s=3.0)
     assert res["failed"] and "boom" in res["failed"][0]["error"]
+
+
+def test_template_tracker_stands_alone_and_scores(tmp_path):
+    """examples/tracker_template.py imports nothing of shipradar and tracks the demo."""
+    import ast
+
+    path = ROOT / "examples" / "tracker_template.py"
+    tree = ast.parse(path.read_text())
+    roots = {(n.module if isinstance(n, ast.ImportFrom) else a.name).split(".")[0]
+             for n in ast.walk(tree) if isinstance(n, (ast.Import, ast.ImportFrom))
+             for a in (n.names if isinstance(n, ast.Import) else [n])}
+    assert roots <= {"__future__", "argparse", "itertools", "struct", "msgpack", "numpy",
+                     "zmq"}, roots
+    from shipradar.sim.studies.evaluate.runner import RunSpec
+
+    spec = RunSpec(DEMO, 11, str(tmp_path / "tpl"),
+                   f"{PY} {shlex.quote(str(path))} {{plots}} {{tracks}}", duration_s=60.0)
+    info, s = _run_and_score(spec)
+    assert info["status"] == "ok", info
+    assert s.run["malformed_messages"] == 0 and s.run["tracks_messages"] == 60
+    row = s.per_target[0]
+    assert row["scans_held"] >= 15 and row["mean_error_m"] < 600  # the missile, from ~20 km

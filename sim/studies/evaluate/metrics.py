@@ -14,9 +14,9 @@ What is computed and by whom:
   2001): Stone Soup's :class:`stonesoup.metricgenerator.tracktotruthmetrics.SIAPMetrics`
   through a :class:`~stonesoup.metricgenerator.manager.MultiManager` whose associator is
   :class:`~stonesoup.dataassociator.tracktotrack.TrackToTruth` (a track and a truth are
-  associated at a scan when within ``siap_threshold_m``, from the first such scan, ended at
-  the first scan beyond it): completeness, ambiguity, spuriousness, position and velocity
-  accuracy, rate of track-number change, longest track segment.
+  associated from the first of two scans in a row within ``siap_threshold_m``, until the
+  first scan beyond it, :data:`SIAP_CONFIRM_SCANS`): completeness, ambiguity, spuriousness,
+  position and velocity accuracy, rate of track-number change, longest track segment.
 - **By hand**, because no library has them: per target the time and range of its first
   track, track breaks and identity swaps; false tracks per hour; the tracker's latency.
   They read the GOSPA assignment of each scan (a target is *held* at a scan by the track
@@ -97,6 +97,12 @@ class MetricConfig:
     def as_dict(self) -> dict[str, Any]:
         return dict(asdict(self), alpha=2)
 
+
+#: Scans in a row within the SIAP threshold that start a track-to-truth association (from
+#: the first of them). Not 1: Stone Soup's association is a time range that must not be
+#: empty, so a one-scan association raises; a track within the threshold for a single scan
+#: is therefore not associated (spurious at that scan).
+SIAP_CONFIRM_SCANS = 2
 
 #: The documented defaults.
 DEFAULT_METRICS = MetricConfig()
@@ -234,8 +240,9 @@ def siap(tracks: dict[str, list[tuple[float, np.ndarray]]],
     gen = SIAPMetrics(position_measure=Euclidean(mapping=(0, 2)),
                       velocity_measure=Euclidean(mapping=(1, 3)), generator_name="siap",
                       tracks_key="tracks", truths_key="truths")
-    assoc = TrackToTruth(association_threshold=config.threshold_m, consec_pairs_confirm=1,
-                         consec_misses_end=1, measure=Euclidean(mapping=(0, 2)))
+    assoc = TrackToTruth(association_threshold=config.threshold_m,
+                         consec_pairs_confirm=SIAP_CONFIRM_SCANS, consec_misses_end=1,
+                         measure=Euclidean(mapping=(0, 2)))
     manager = MultiManager([gen], associator=assoc)
     manager.add_data({"tracks": ss_tracks, "truths": ss_truths})
     m = manager.generate_metrics()["siap"]
@@ -354,8 +361,13 @@ def score_run(data: RunData, config: MetricConfig = DEFAULT_METRICS) -> RunScore
         idx = np.flatnonzero(counted)
         ids, track_rows = tracks_at(tracks, float(t), max_age)
         when = EPOCH + dt.timedelta(seconds=float(t))
-        value, assignment = gospa.compute_gospa_metric(_states(track_rows, when),
-                                                       _states(truth_rows[idx], when))
+        if idx.size or len(ids):
+            value, assignment = gospa.compute_gospa_metric(_states(track_rows, when),
+                                                           _states(truth_rows[idx], when))
+            v = value.value
+        else:  # two empty sets: GOSPA 0 (Stone Soup asks for at least one state)
+            v, assignment = dict.fromkeys(("distance", "localisation", "missed", "false"),
+                                          0.0), []
         row_held: list[str | None] = [None] * k_targets
         for j, a in zip(idx, assignment, strict=False):
             if a != -1:
@@ -368,7 +380,6 @@ def score_run(data: RunData, config: MetricConfig = DEFAULT_METRICS) -> RunScore
             ss_tracks.setdefault(tid, []).append((float(t), s))
         for j in idx:
             ss_truths.setdefault(int(j), []).append((float(t), truth_rows[j]))
-        v = value.value
         per_scan.append({
             "seed": seed, "scan": i, "t_s": float(t), "truths": int(idx.size),
             # + 0.0: Stone Soup's sums of negated costs give -0.0

@@ -76,7 +76,11 @@ def _run_and_score(spec: RunSpec, config: MetricConfig) -> tuple[dict, RunScores
     if info["status"] != "ok":
         return info, None
     t0 = time.perf_counter()
-    scores = score_run(load_run(spec.run_dir), config)
+    try:
+        scores = score_run(load_run(spec.run_dir), config)
+    except Exception as exc:  # noqa: BLE001 - reported on the run; the others are scored
+        info.update(status="failed", error=f"scoring error: {exc!r}")
+        return info, None
     info["score_s"] = time.perf_counter() - t0
     return info, scores
 
