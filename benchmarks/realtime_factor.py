@@ -44,8 +44,12 @@ TARGET_FACTOR = {"raid": 1000.0, "stress": 300.0}
 
 
 class _PerFrameBus(Bus):
-    """A Bus the engine does not recognise as one: it encodes every sector frame on its own
-    (the path before issue 16), under SimPy's event loop, one record written per message."""
+    """A Bus that declares neither fast path (shipradar.sim.stream.sink): the engine encodes
+    every sector frame on its own (the path before issue 16), under SimPy's event loop, one
+    record written per message."""
+
+    accepts_batches = False
+    encodes_ahead = False
 
 
 class _SimPyLoop(Simulation):

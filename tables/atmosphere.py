@@ -109,7 +109,8 @@ def atmospheric_loss_grid(
     Table
         ``values[i, j]`` = one-way loss [dB] at ``(ranges_m[i], elevations_rad[j])``;
         ``extra["gaseous_db"]`` and ``extra["fog_db"]`` hold the two parts.  Rain is not in
-        the table (it depends on the rain cell geometry): see :func:`rain_loss_db`.
+        the table (it depends on the rain cell geometry): see
+        :func:`shipradar.sensors.atmosphere.rain_loss_db`.
     """
     ranges = np.asarray(ranges_m, dtype=float)
     elevations = np.asarray(elevations_rad, dtype=float)
@@ -173,7 +174,7 @@ def lookup_gas_fog_loss_db(
         Slant range [m].
     elevation_rad : array_like
         Elevation of the ray at the antenna [rad], on the table's 4/3 earth: for a target
-        use :func:`ray_elevation_rad`.
+        use :func:`shipradar.sensors.atmosphere.ray_elevation_rad`.
 
     Returns
     -------

@@ -64,6 +64,7 @@ from typing import Any
 import numpy as np
 
 from shipradar.sim.dwell.look import LookResults
+from shipradar.sim.stream.sink import MemorySink
 
 __all__ = [
     "cli_main",
@@ -143,20 +144,6 @@ def run_seed(child: np.random.SeedSequence) -> int:
 
 
 # --------------------------------------------------------------------------- one run
-class _MemoryBus:
-    """Keeps the decoded truth/eos/meta messages of a run (plots are not needed here)."""
-
-    def __init__(self):
-        self.messages: list[tuple[bytes, float, dict]] = []
-
-    def emit(self, topic, t, payload):
-        if topic != b"plots":
-            self.messages.append((topic, t, payload))
-
-    def flush(self):
-        pass
-
-
 def reduce_run(messages: Sequence[tuple[bytes, float, dict]], scenario, run: int,
                seed: int) -> dict[str, list[dict]]:
     """Rows of one run from its messages ``(topic, t_sim, payload)`` (see module docstring).
@@ -282,7 +269,7 @@ def _one_run(scenario, run: int, seed: int, duration_s, tables_ref) -> dict:
         tables = _tables_from_files(tables_ref)
     else:
         tables = tables_ref
-    bus = _MemoryBus()
+    bus = MemorySink(skip={b"plots"})  # truth, eos and meta only
     sim = Simulation(scenario, bus=bus, seed=seed, duration_s=duration_s, tables=tables)
     summary = sim.run()
     out: dict[str, Any] = dict(reduce_run(bus.messages, scenario, run, seed))

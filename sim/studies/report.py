@@ -48,22 +48,13 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from shipradar.sim.stream.sink import MemorySink
+
 if TYPE_CHECKING:
     from shipradar.sim.studies.figures.false_alarms import GeneratedFalseAlarms
 
 __all__ = ["build_report", "cli_main"]
 
-
-
-class _Bus:
-    def __init__(self):
-        self.messages = []
-
-    def emit(self, topic, t, payload):
-        self.messages.append((topic, t, payload))
-
-    def flush(self):
-        pass
 
 
 def _first_line(doc: str | None) -> str:
@@ -279,7 +270,7 @@ def build_report(scenario, out_dir: str | os.PathLike = "report", *,
         figures.append({"file": name, "caption": caption})
 
     # one run: model P_d at every crossing, and the stream for the PPI
-    bus = _Bus()
+    bus = MemorySink()
     model_rows = model_pd_looks(scenario, tables=tables, duration_s=duration_s, bus=bus,
                                 seed=seed)
     model_rows = [r for r in model_rows if r["sensor"] == radar.id]

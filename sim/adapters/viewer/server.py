@@ -506,10 +506,17 @@ class Player:
             self._reader.close()
             self._reader = None
 
+    def _iter_records(self) -> Iterator[tuple[float, list[bytes]]]:
+        """The open recording's records from where the reader stands (opened if need be)."""
+        if self._records is None:
+            self._open()
+        assert self._records is not None  # _open sets it
+        return self._records
+
     def _read_chunk(self, n: int = 512) -> int:
         """Read up to n records into the pending queue (runs in a worker thread)."""
         got = 0
-        for t, frames in self._records:
+        for t, frames in self._iter_records():
             self._pending.append((t, frames))
             got += 1
             if got >= n:
@@ -523,7 +530,7 @@ class Player:
         each CRC, so this costs a sequential read of the skipped part (a few ms per MB).
         """
         self._open()
-        for t, frames in self._records:
+        for t, frames in self._iter_records():
             if t >= t_from:
                 self._pending.append((t, frames))
                 return
@@ -550,9 +557,9 @@ class Player:
             if not self._pending and not await asyncio.to_thread(self._read_chunk):
                 break
             while self._pending and self._pending[0][0] <= t:
-                item = self._view(*self._pending.popleft())
-                if item is not None:
-                    self.client.push(item)
+                view = self._view(*self._pending.popleft())
+                if view is not None:
+                    self.client.push(view)
             if self._pending:
                 break
         self.t = t
@@ -683,8 +690,14 @@ class ViewerServer:
         return web.FileResponse(STATIC / "index.html",
                                 headers={"Cache-Control": "no-store"})
 
+    def _replay(self) -> RecordingSource:
+        """The recording a replay viewer shows (a live viewer has none)."""
+        if self.recording is None:
+            raise RuntimeError("a live viewer has no recording to replay")
+        return self.recording
+
     def _server_status(self) -> dict[str, Any]:
-        src = self.live.status() if self.live is not None else self.recording.status()
+        src = self.live.status() if self.live is not None else self._replay().status()
         return {**src, "pages": len(self.clients)}
 
     async def _status(self, request: web.Request) -> web.Response:
@@ -721,8 +734,8 @@ class ViewerServer:
         if self.live is not None:
             self.live.attach(client)
         else:
-            client.control(self.recording.info())
-            player = Player(self.recording, client, self.speed)
+            client.control(self._replay().info())
+            player = Player(self._replay(), client, self.speed)
             if self.autoplay:
                 player.play()
             player_task = asyncio.create_task(player.run())
@@ -764,7 +777,7 @@ class ViewerServer:
         elif cmd == "speed":
             player.set_speed(_number(msg, "value", MIN_SPEED, MAX_SPEED))
         elif cmd == "seek":
-            src = self.recording
+            src = self._replay()
             t = _number(msg, "t", src.t0, src.t1)
             window = int(_number(msg, "window_scans", 0, MAX_FADE_SCANS)) \
                 if "window_scans" in msg else 10
@@ -798,7 +811,8 @@ class ViewerServer:
         except OSError:
             await self.stop()
             raise
-        sockets = site._server.sockets if site._server else []
+        server = site._server  # an asyncio.Server once started (aiohttp types it abstract)
+        sockets = server.sockets if isinstance(server, asyncio.Server) else []
         port = sockets[0].getsockname()[1] if sockets else self.port
         host = f"[{self.host}]" if ":" in self.host else self.host
         self.url = f"http://{host}:{port}/"
@@ -892,6 +906,8 @@ class ViewerThread:
             raise TimeoutError("viewer did not start")
         if self._error is not None:
             raise self._error
+        if self.server.url is None:
+            raise RuntimeError("viewer started without an address")
         return self.server.url
 
     def call(self, fn, timeout_s: float = 10.0):
