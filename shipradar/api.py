@@ -15,6 +15,7 @@ from shipradar.sim.engine.simulation import CallbackSink, Simulation
 from shipradar.sim.world.scenario import Scenario, load_scenario
 
 if TYPE_CHECKING:
+    from shipradar.sim.studies.evaluate.metrics import MetricConfig
     from shipradar.tables.scene import SceneTables
 
 __all__ = ["build_tables", "evaluate", "example", "messages", "run"]
@@ -96,8 +97,9 @@ def messages(scenario: ScenarioLike, *, seed: int | None = None,
     yield from _simulation(scenario, tables, seed, duration_s).messages()
 
 
-def evaluate(scenario: ScenarioLike, *, tracker, runs: int = 1, seed: int | None = None,
-             duration_s: float | None = None, tables=None, config=None, out=None
+def evaluate(scenario: ScenarioLike, *, tracker: Any, runs: int = 1, seed: int | None = None,
+             duration_s: float | None = None, tables: SceneTables | None = None,
+             config: MetricConfig | None = None, out: str | Path | None = None
              ) -> dict[str, Any]:
     """Score an in-process tracker on seeded runs (``shipradar evaluate`` for a Python object).
 
