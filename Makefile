@@ -10,7 +10,8 @@ ENDPOINT ?= tcp://127.0.0.1:5556
 SERVE_ARGS ?= --realtime 1
 TAIL_ARGS ?=
 
-.PHONY: install demo test bench lint clean tables serve tail tshark chromium viewer-screenshot
+.PHONY: install demo test check typecheck bench lint clean tables serve tail tshark chromium \
+  viewer-screenshot
 
 $(STAMP): pyproject.toml shipradar/_frames.c
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -35,9 +36,23 @@ serve: $(STAMP)
 tail: $(STAMP)
 	$(VENV)/bin/shipradar tail $(ENDPOINT) $(TAIL_ARGS)
 
-# the tests in two processes (pytest-xdist; this machine has 2 cores): about 4 minutes
-test: $(STAMP) tshark chromium
+LINT_PATHS := shipradar sim sensors tables scenarios tests benchmarks examples
+
+# the type check first, then the tests in two processes (pytest-xdist; this machine has 2
+# cores): about 4 minutes
+test: $(STAMP) typecheck tshark chromium
 	MPLBACKEND=Agg $(PY) -m pytest -q -n 2 --dist loadgroup
+
+# mypy with the pydantic plugin over the package shipradar (resolved from the checkout through
+# the links in shipradar/); strict on the public API and sensors/ ([tool.mypy], pyproject.toml)
+typecheck: $(STAMP)
+	$(VENV)/bin/mypy
+
+# the edit loop, under a minute: lint, type check and the tests not marked slow
+check: $(STAMP)
+	$(VENV)/bin/ruff check $(LINT_PATHS)
+	$(VENV)/bin/mypy
+	MPLBACKEND=Agg $(PY) -m pytest -q -n 2 --dist loadgroup -m "not slow"
 
 # Wireshark's ASTERIX dissector checks our CAT048/CAT034 bytes (tests/test_asterix.py);
 # installed when missing and we are root, never failing here (the tests say what is missing)
@@ -64,7 +79,7 @@ bench: $(STAMP)
 	for b in benchmarks/*.py; do echo "== $$b"; $(PY) $$b || exit 1; done
 
 lint: $(STAMP)
-	$(PY) -m pip install -q ruff && $(VENV)/bin/ruff check shipradar sim sensors tables scenarios tests benchmarks examples
+	$(VENV)/bin/ruff check $(LINT_PATHS)
 
 clean:
 	rm -rf $(VENV) $(OUT) .pytest_cache

@@ -403,6 +403,7 @@ def _cli_collect(argv, env):
     return res, got
 
 
+@pytest.mark.slow
 def test_udp_run_and_replay_deliver_every_datagram(tmp_path, monkeypatch):
     import json
     import os

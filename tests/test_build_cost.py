@@ -44,6 +44,7 @@ def cache(tmp_path, monkeypatch):
 
 
 # -- the estimate --------------------------------------------------------------------------
+@pytest.mark.slow
 def test_estimate_is_within_a_factor_of_the_measured_build(cache):
     """A table of about a second (the PE of a 20 GHz radar, 30 km): estimate / measured in
     [1/3, 3] (the benchmark's fit gave 0.57-1.29 on tables over 0.5 s). Measured in CPU
@@ -87,6 +88,7 @@ def test_announce_one_line_per_missing_table_with_size_and_estimate(cache):
         assert "~" in line and ("KiB" in line or "MiB" in line)
 
 
+@pytest.mark.slow
 def test_a_cached_table_is_not_counted(cache):
     s = parse_scenario(_demo())
     assert main(["tables", "build", SCENE]) == 0
@@ -158,6 +160,7 @@ def test_fidelity_study_is_refused_before_any_work(cache, capsys):
     assert not cache.exists()
 
 
+@pytest.mark.slow
 def test_no_progress_bar_in_captured_stderr(cache, capsys):
     assert main(["tables", "build", SCENE]) == 0
     err = capsys.readouterr().err

@@ -474,6 +474,7 @@ def test_engine_run_emits_sea_clutter_plots(table_cache):
         assert d.max() < 1e-9
 
 
+@pytest.mark.slow
 def test_figures_write_png(tmp_path, table_cache):
     from shipradar.sim.studies.figures.false_alarms import (
         clutter_extent_m,

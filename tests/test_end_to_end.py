@@ -54,6 +54,7 @@ def _recorded(path):
     return msgs, reader
 
 
+@pytest.mark.slow
 def test_publish_equals_recording_then_replay_identical(tmp_path, env):
     rec = tmp_path / "run.rec"
     endpoint = f"tcp://127.0.0.1:{free_port()}"
@@ -91,6 +92,7 @@ def test_publish_equals_recording_then_replay_identical(tmp_path, env):
     assert [list(map(bytes, f)) for f in got2] == recorded
 
 
+@pytest.mark.slow
 def test_same_seed_same_bytes_other_seed_differs(tmp_path, env):
     paths = []
     for name, seed in (("a", "4"), ("b", "4"), ("c", "5")):
@@ -103,6 +105,7 @@ def test_same_seed_same_bytes_other_seed_differs(tmp_path, env):
     assert paths[0] != paths[2]
 
 
+@pytest.mark.slow
 def test_truncated_recording_replays_whole_frames(tmp_path, env):
     rec = tmp_path / "t.rec"
     assert _cli("run", "scenarios/single_missile.yaml", *FAST, "--record", str(rec), "--quiet",
@@ -127,6 +130,7 @@ def test_truncated_recording_replays_whole_frames(tmp_path, env):
     assert {json.loads(x)["topic"] for x in lines} >= {"meta", "plots", "eos", "truth"}
 
 
+@pytest.mark.slow
 def test_record_refuses_to_overwrite(tmp_path, env):
     rec = tmp_path / "keep.rec"
     rec.write_bytes(b"precious")
@@ -135,6 +139,7 @@ def test_record_refuses_to_overwrite(tmp_path, env):
     assert rec.read_bytes() == b"precious"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(p.stem for p in (ROOT / "scenarios").glob("*.yaml")))
 def test_every_example_runs(name, env, tmp_path):
     proc = _cli("run", f"scenarios/{name}.yaml", "--duration", "20", "--quiet",
@@ -144,6 +149,7 @@ def test_every_example_runs(name, env, tmp_path):
     assert summary["scans"] >= 1
 
 
+@pytest.mark.slow
 def test_jammed_squall_sees_each_interference(env):
     """The jamming-and-rain example: contacts are limited by noise, by clutter (sea and the
     squall's weather clutter) and by the escort jammer, each at least once."""
@@ -153,6 +159,7 @@ def test_jammed_squall_sees_each_interference(env):
     assert min(dom.values()) > 0, dom
 
 
+@pytest.mark.slow
 def test_progress_bar_only_on_a_terminal(tmp_path, env):
     """stderr on a pseudo-terminal: a progress bar; on a pipe: none (the summary alone)."""
     import fcntl

@@ -167,6 +167,7 @@ def test_meta_carries_the_radar_clutter_false_alarm_profile():
     assert "clutter_false_alarm_profile" not in quiet.of(protocol.TOPIC_META)[0][1]
 
 
+@pytest.mark.slow
 def test_a_long_run_keeps_no_per_sector_state(table_cache):
     """Memory a run keeps must not grow with its length (the soak benchmark's flat RSS):
     what the SimPy path still holds after 100 s is within a few kB of what it holds after

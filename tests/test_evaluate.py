@@ -262,6 +262,7 @@ def test_harness_oracle_and_shift(tmp_path):
     assert s2.run["localisation"] == pytest.approx(25.0, rel=1e-9)
 
 
+@pytest.mark.slow
 def test_harness_silent_scores_missed_only(tmp_path):
     info, s = _run_and_score(_spec(tmp_path, "silent"))
     assert info["status"] == "ok" and s.run["tracks_messages"] == 0
@@ -292,6 +293,7 @@ def test_harness_malformed_tracks_counted_not_trusted(tmp_path):
 
 
 # ------------------------------------------------------------------ studies on Dask, CLI
+@pytest.mark.slow
 def test_study_cli_rescore_compare_determinism(tmp_path):
     import pandas as pd
     from distributed import Client, LocalCluster
@@ -348,6 +350,7 @@ def _free_port():
     return free_port()
 
 
+@pytest.mark.slow
 def test_study_on_dask_cli_cluster(tmp_path):
     """A separately started ``dask scheduler`` and two ``dask worker`` processes."""
     from distributed import Client

@@ -45,6 +45,7 @@ def _explain(o: ex.Outcome) -> str:
 
 
 # -- the campaign's own generation --------------------------------------------------------------
+@pytest.mark.slow
 def test_every_schema_field_is_exercised() -> None:
     """Each numeric, Literal and bool field of the schema gets a value of its own in some case
     (a new field is picked up by the walk; a new optional model needs a VARIANTS entry)."""
@@ -65,6 +66,7 @@ def test_bounds_come_from_the_schema() -> None:
                                                      "chebyshev")
 
 
+@pytest.mark.slow
 def test_case_ids_are_unique() -> None:
     ids = [c.id for c in ex.all_cases("all")]
     assert len(ids) == len(set(ids))

@@ -136,6 +136,7 @@ def test_property_counts_nonnegative_integers(eta, n_ch, seed):
     assert np.all(c <= eta + 12 * np.sqrt(eta) + 40)
 
 
+@pytest.mark.slow
 def test_poisson_quantile_equals_scipy_ppf_and_edges():
     # the fast inverse CDF of [93] gives scipy's counts draw for draw (the stream depends
     # on it), over the whole Poisson regime and at U = 0

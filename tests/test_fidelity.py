@@ -89,6 +89,7 @@ def _comp(study, label):
 
 
 # ----------------------------------------------------------------------------- CRN
+@pytest.mark.slow
 def test_reference_against_itself_is_exactly_zero():
     """Two separate runs of the reference: the same dice per look, so nothing differs; a
     setting the scene does not read (improvement_grid, no processor) is zero as well and
@@ -117,6 +118,7 @@ def test_reference_against_itself_is_exactly_zero():
     assert not np.array_equal(other.looks["hit"], a.looks["hit"])
 
 
+@pytest.mark.slow
 def test_common_random_numbers_survive_other_draws(monkeypatch):
     """The sea-clutter false-alarm model changes how many numbers each scan draws, not any
     target's P_d: with common random numbers every look keeps its outcome; on the engine's
@@ -180,6 +182,7 @@ def test_default_run_is_unchanged_by_the_hooks():
 
 
 # ----------------------------------------------------------------------------- physics
+@pytest.mark.slow
 def test_ducted_low_target_rejects_two_ray(ducted_study):
     """The duct carries the target beyond the horizon; two-ray's diffraction does not:
     a large ΔP_d and no recommendation of two_ray."""
@@ -193,6 +196,7 @@ def test_ducted_low_target_rejects_two_ray(ducted_study):
     assert coarse.total["max_abs_dpd"] > 0.0
 
 
+@pytest.mark.slow
 def test_free_space_like_geometry_accepts_two_ray(lit_study):
     two = _comp(lit_study, "propagation=two_ray")
     assert two.ok, two.violations
@@ -201,6 +205,7 @@ def test_free_space_like_geometry_accepts_two_ray(lit_study):
     assert lit_study.recommended["propagation"] in ("two_ray", "free_space")
 
 
+@pytest.mark.slow
 def test_recommendation_applied_and_rerun_is_inside_its_tolerances(ducted_study, tmp_path):
     study = ducted_study
     path = tmp_path / "ducted.yaml"
@@ -224,6 +229,7 @@ def test_recommendation_applied_and_rerun_is_inside_its_tolerances(ducted_study,
         assert row["abs_dfirst_m"] <= study.tolerances.range_m
 
 
+@pytest.mark.slow
 def test_recommendation_obeys_tolerances_and_is_the_cheapest(ducted_study):
     study = ducted_study
     rc = study.recommended_comparison
@@ -244,6 +250,7 @@ def test_recommendation_obeys_tolerances_and_is_the_cheapest(ducted_study):
     assert bad and all(c.violations for c in bad)
 
 
+@pytest.mark.slow
 def test_scene_without_rain_or_jammer_skips_those_rows(ducted_study):
     skipped = dict(ducted_study.skipped)
     # low-resolution radar (3.3 deg x 2 us): no sea-clutter false alarms, no P_fac model row
@@ -273,6 +280,7 @@ def test_explain_with_rain_processor_high_target():
 
 
 # ----------------------------------------------------------------------------- output
+@pytest.mark.slow
 def test_report_csv_png(lit_study, tmp_path):
     text = fi.format_report(lit_study)
     assert "recommended" in text and "fidelity:\n  pd_method:" in text

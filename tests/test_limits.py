@@ -96,6 +96,7 @@ def _limit_file_size():
     signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
 
 
+@pytest.mark.slow
 def test_disk_full_ends_the_run_with_a_valid_recording(tmp_path, env):
     rec = tmp_path / "full.rec"
     proc = subprocess.run(
@@ -117,6 +118,7 @@ def test_disk_full_ends_the_run_with_a_valid_recording(tmp_path, env):
 
 
 # -- signals ---------------------------------------------------------------------------------
+@pytest.mark.slow
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
 def test_signal_mid_run_closes_the_recording_and_prints_the_summary(tmp_path, env, sig):
     rec = tmp_path / "sig.rec"

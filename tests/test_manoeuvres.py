@@ -42,6 +42,7 @@ def _messages(path):
         return [protocol.decode(frames) for _, frames in reader]
 
 
+@pytest.mark.slow
 def test_truth_accelerations_and_range_rates(recording):
     msgs = _messages(recording)
     truth = [p for topic, _, p in msgs if topic == protocol.TOPIC_TRUTH
@@ -84,6 +85,7 @@ def _imm_hold(recording):
     return held, err, res["mean_ospa"]
 
 
+@pytest.mark.slow
 def test_imm_holds_the_weaving_missile(recording, tmp_path):
     # one seed's hold varies (0.75-1.0 of the scans over seeds 1-5 and 17): pooled over
     # three seeds (the scene's 17, then 1 and 2)
@@ -111,6 +113,7 @@ def _cli(*argv, cwd=ROOT):
                           capture_output=True, text=True, timeout=300)
 
 
+@pytest.mark.slow
 def test_authoring_aids_explain_and_geometry(tmp_path):
     proc = _cli("validate", "--explain", "scenarios/manoeuvres.yaml")
     assert proc.returncode == 0, proc.stderr

@@ -94,6 +94,7 @@ def studies(tmp_path_factory):
     return sc, out
 
 
+@pytest.mark.slow
 def test_same_seed_same_files(studies):
     _sc, out = studies
     assert out["a"]["worker_pids"] == 2  # both workers ran replications
@@ -118,6 +119,7 @@ def _read(path):
         return list(csv.DictReader(f))
 
 
+@pytest.mark.slow
 def test_empirical_pd_agrees_with_model(studies):
     """Each replication draws detection at crossing j with the model's P_d p_j (crossings
     depend on kinematics only). Per range bin, detections ~ Poisson-binomial with mean
@@ -161,6 +163,7 @@ def test_empirical_pd_agrees_with_model(studies):
         assert lo <= pd <= hi
 
 
+@pytest.mark.slow
 def test_false_alarms_per_scan_agree_with_meta_rate(studies):
     """Noise false alarms per scan: the exact Poisson interval of the study covers the
     radar's stated rate (meta: noise_false_alarms_per_scan), widened to 99.9 %."""
@@ -175,6 +178,7 @@ def test_false_alarms_per_scan_agree_with_meta_rate(studies):
     assert lo <= rate <= hi
 
 
+@pytest.mark.slow
 def test_cli_local_cluster_is_closed(tmp_path, capsys):
     """``shipradar montecarlo`` with its own local cluster: the files appear, the summary line
     is printed, and the worker processes are gone afterwards (no hang, nothing left)."""
@@ -194,6 +198,7 @@ def test_cli_local_cluster_is_closed(tmp_path, capsys):
     assert not left
 
 
+@pytest.mark.slow
 def test_sea_clutter_false_alarms_per_scan_agree_with_pfac_map(studies):
     """Sea-clutter false alarms per scan: the study's exact Poisson interval (99.9 %) covers
     the P_fac map's expected count Σ P_fac × cells (≈388 per scan for this scene at K_clutter

@@ -25,6 +25,7 @@ def reader(swerling: int, pfa: float = PFA, n_max: float = N_MAX) -> PdTable:
     return PdTable(build_pd_table(pfa, swerling, n_max))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("swerling", range(5))
 def test_table_within_tolerance_of_exact(swerling):
     rng = np.random.default_rng(swerling)

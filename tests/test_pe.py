@@ -107,6 +107,7 @@ def test_free_space_normalization_on_the_beam_peak():
         assert np.interp(z, h, F[i]) == pytest.approx(1.0, abs=0.02)
 
 
+@pytest.mark.slow
 def test_convergence_halving_steps_at_fine_fidelity():
     """Halving dz and dx at fine fidelity changes F by < 0.1 dB rms, < 0.3 dB at the 95th
     percentile, where F > -30 dB (an evaporation duct, so refraction is exercised)."""
@@ -124,6 +125,7 @@ def test_convergence_halving_steps_at_fine_fidelity():
     assert np.percentile(err, 95) < 0.3
 
 
+@pytest.mark.slow
 def test_seed_figure_4_ducting_behaviour():
     """10 GHz, HP, antenna 20 m, target 25 m: nulls move to longer range as the duct height
     goes 0, 5, 10, 15 m; a 15 m duct gives a much larger F at 50 km, 10 m than standard."""

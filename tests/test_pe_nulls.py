@@ -104,6 +104,7 @@ def test_reference_pe_matches_image_theory():
     assert np.median(e[band]) < 0.05 and np.percentile(e[band], 95) < 0.1
 
 
+@pytest.mark.slow
 def test_table_matches_independent_pe_in_lobes_and_nulls():
     """Standard atmosphere (earth curvature), perfect conductor: the table built by the
     split-step Fourier PE against the split-step Padé reference, 4-20 km, 0-150 m."""

@@ -59,6 +59,7 @@ def test_coverage_picture_reads_the_lookup(tmp_path, small_table, monkeypatch):
     assert np.isfinite(f).mean() > 0.9
 
 
+@pytest.mark.slow
 def test_cli_plot_propagation_and_coverage(tmp_path, table_cache, capsys):
     scenario = yaml.safe_load(Path("scenarios/single_missile.yaml").read_text())
     scenario.setdefault("fidelity", {})["pe_grid"] = "coarse"

@@ -35,6 +35,7 @@ def scene():
     return load_scenario(ROOT / "scenarios" / "single_missile.yaml")
 
 
+@pytest.mark.slow
 def test_report_writes_every_listed_figure(tmp_path, scene):
     # a fake study file beside the report: the report must find it and draw its points
     mc._write_csv(tmp_path / "montecarlo_pd_range.csv", mc.PD_COLUMNS, [
@@ -68,6 +69,7 @@ def test_report_writes_every_listed_figure(tmp_path, scene):
         "index.html", "montecarlo_pd_range.csv"}
 
 
+@pytest.mark.slow
 def test_report_without_study_notes_it(tmp_path, scene, capsys):
     out = tmp_path / "rep"
     assert cli_main([str(ROOT / "scenarios" / "single_missile.yaml"), "--out", str(out),

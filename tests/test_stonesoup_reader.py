@@ -272,6 +272,7 @@ def test_tracker_on_noisy_synthetic_stream():
     assert len(res["tracks"]) == 3
 
 
+@pytest.mark.slow
 def test_end_to_end_single_missile_live_and_recorded(tmp_path):
     """The example tracker subscribed to a live run of the single-missile scene.
 

@@ -196,6 +196,7 @@ def _handshake(port: int, origin: str | None = None, keep: bool = False,
     return (status,)
 
 
+@pytest.mark.slow
 def test_stalled_page_does_not_change_the_run(tmp_path):
     """A page that never reads: the viewer drops for it and says so; the run, publishing with
     on_slow="drop" (any backpressure would show as drops), loses nothing and counts the same
@@ -225,6 +226,7 @@ def test_stalled_page_does_not_change_the_run(tmp_path):
 
 
 # ----------------------------------------------------------------------------- tracks
+@pytest.mark.slow
 def test_example_tracker_publishes_tracks_that_reach_the_page(demo_recording):
     """examples/track_stonesoup.py --publish-tracks -> shipradar view --tracks -> page."""
     import asyncio
