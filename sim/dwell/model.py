@@ -2,8 +2,8 @@
 
 One :class:`DwellModel` per radar and scene.  Everything that does not change during a run is
 computed once in its constructor (radar constant, system noise, P_fa, pulses per beam, the
-false-alarm rate, pattern and RCS parameters, the scene's tables); :meth:`process_targets`
-is then vectorized over all the targets the beam crosses in one sector, a chain of named steps
+false-alarm rate, pattern and RCS parameters, the scene's tables);
+:meth:`DwellModel.process_targets` is then vectorized over all the targets the beam crosses in one sector, a chain of named steps
 (:mod:`shipradar.sim.dwell.look`: geometry, propagation, target power, clutter, jamming,
 processing, S/I, N_e, P_d, measurement) whose intermediate results reach the observers of
 ``DwellModel.on_look`` as one :class:`shipradar.sim.dwell.look.LookResults` per call:
