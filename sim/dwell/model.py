@@ -1,12 +1,13 @@
 """The dwell processor: from the targets a beam crosses to plots (seed chapters 3-7, on-line).
 
-One :class:`DwellModel` per radar and scene.  Everything that does not change during a run is
+One :class:`DwellModel` per radar and scene. Everything that does not change during a run is
 computed once in its constructor (radar constant, system noise, P_fa, pulses per beam, the
 false-alarm rate, pattern and RCS parameters, the scene's tables);
-:meth:`DwellModel.process_targets` is then vectorized over all the targets the beam crosses in one sector, a chain of named steps
-(:mod:`shipradar.sim.dwell.look`: geometry, propagation, target power, clutter, jamming,
-processing, S/I, N_e, P_d, measurement) whose intermediate results reach the observers of
-``DwellModel.on_look`` as one :class:`shipradar.sim.dwell.look.LookResults` per call:
+:meth:`DwellModel.process_targets` is then vectorized over all the targets the beam crosses
+in one sector, a chain of named steps (:mod:`shipradar.sim.dwell.look`: geometry,
+propagation, target power, clutter, jamming, processing, S/I, N_e, P_d, measurement) whose
+intermediate results reach the observers of ``DwellModel.on_look`` as one
+:class:`shipradar.sim.dwell.look.LookResults` per call:
 
 1. cross section σ ([15], a table against aspect, or a constant);
 2. propagation factor F (the PE table [5]-[7], the two-ray fallback, or free space — each
