@@ -777,10 +777,18 @@ def _add_fidelity(sub: _Subcommands) -> None:
     fi.set_defaults(func=cmd_fidelity)
 
 
+def _add_evaluate(sub: Any) -> None:
+    """``shipradar evaluate``: its parser lives with the harness
+    (:mod:`shipradar.sim.studies.evaluate.cli`)."""
+    from shipradar.sim.studies.evaluate.cli import add_parser
+
+    add_parser(sub)
+
+
 #: The sub-commands, in the order ``shipradar -h`` lists them.
 _SUBCOMMANDS = (_add_examples, _add_validate, _add_tables, _add_run, _add_replay, _add_export,
                 _add_tail, _add_recording, _add_keys, _add_view, _add_plot, _add_montecarlo,
-                _add_report, _add_fidelity)
+                _add_report, _add_fidelity, _add_evaluate)
 
 
 def build_parser() -> argparse.ArgumentParser:

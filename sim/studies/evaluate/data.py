@@ -20,6 +20,7 @@ from __future__ import annotations
 import json
 import math
 from collections import Counter
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -176,7 +177,8 @@ class _Collect:
         self.eos: dict[str, list[tuple[float, tuple[float, float, float]]]] = {}
         self.inputs: dict[str, list[tuple[float, float]]] = {}
 
-    def add(self, topic: bytes, t: float, p: dict, sent_s: float = math.nan) -> None:
+    def add(self, topic: bytes, t: float, p: Mapping[str, Any], sent_s: float = math.nan
+            ) -> None:
         if topic == b"plots" or topic == b"eos":
             self.inputs.setdefault(p["sensor"], []).append((t, sent_s))
         if topic == b"meta":

@@ -6,10 +6,11 @@ What is computed and by whom:
   Svensson, *Generalized optimal sub-pattern assignment metric*, FUSION 2017) with its
   decomposition into localisation, missed and false parts: Stone Soup's
   :class:`stonesoup.metricgenerator.ospametric.GOSPAMetric` (``alpha = 2``, its only value),
-  :meth:`~GOSPAMetric.compute_gospa_metric` at every scored scan. The parts are in the
-  metric's own unit, metres to the power ``p``: with ``p = 1`` (default) the localisation
-  part is the sum of the assigned tracks' position errors [m], and the missed and false parts
-  are ``c / 2`` per missed target and per false track.
+  :meth:`~stonesoup.metricgenerator.ospametric.GOSPAMetric.compute_gospa_metric` at every
+  scored scan. The parts are in the metric's own unit, metres to the power ``p``: with
+  ``p = 1`` (default) the localisation part is the sum of the assigned tracks' position
+  errors [m], and the missed and false parts are ``c / 2`` per missed target and per false
+  track.
 - **SIAP** (Votruba et al., *Single Integrated Air Picture (SIAP) Metrics Implementation*,
   2001): Stone Soup's :class:`stonesoup.metricgenerator.tracktotruthmetrics.SIAPMetrics`
   through a :class:`~stonesoup.metricgenerator.manager.MultiManager` whose associator is
@@ -191,8 +192,9 @@ def _states(rows: np.ndarray, when: dt.datetime):
 def siap(tracks: dict[str, list[tuple[float, np.ndarray]]],
          truths: dict[int, list[tuple[float, np.ndarray]]], config: MetricConfig
          ) -> dict[str, Any]:
-    """SIAP metrics by Stone Soup's :class:`SIAPMetrics` on tracks and truths sampled at the
-    scored scans.
+    """SIAP metrics by Stone Soup's
+    :class:`~stonesoup.metricgenerator.tracktotruthmetrics.SIAPMetrics` on tracks and truths
+    sampled at the scored scans.
 
     Parameters
     ----------

@@ -36,7 +36,7 @@ import subprocess
 import threading
 import time
 import traceback
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -396,7 +396,7 @@ class _InProcessSink:
         self.recv: list[float] = []
         self.messages = 0
 
-    def emit(self, topic: bytes, t: float, payload: dict) -> None:
+    def emit(self, topic: bytes, t: float, payload: Mapping[str, Any]) -> None:
         self.messages += 1
         now = time.perf_counter() - self.t0
         self.collect.add(topic, t, payload, now)

@@ -39,7 +39,7 @@ SCAN_METRICS: tuple[str, ...] = ("gospa", "localisation", "missed", "false", "tr
                                  "tracks", "completeness")
 
 
-def mean_interval(values: Iterable[float], confidence: float = CONFIDENCE
+def mean_interval(values: Iterable[float | None], confidence: float = CONFIDENCE
                   ) -> tuple[float, float, float, int]:
     """Mean and its two-sided Student-t interval over the finite values.
 
@@ -47,6 +47,7 @@ def mean_interval(values: Iterable[float], confidence: float = CONFIDENCE
     -------
     (mean, low, high, n)
         NaN for an empty set; the interval is the mean itself for one value or no spread.
+        ``None`` values (a metric a run could not give) are left out like non-finite ones.
     """
     x = np.asarray([v for v in values if v is not None], dtype=float)
     x = x[np.isfinite(x)]
@@ -103,8 +104,8 @@ def paired_differences(a: Sequence[dict[str, Any]], b: Sequence[dict[str, Any]],
     common = sorted(set(ra) & set(rb))
     out = []
     for k in metrics:
-        pairs = [(ra[s].get(k), rb[s].get(k)) for s in common]
-        pairs = [(x, y) for x, y in pairs if x is not None and y is not None
+        raw = [(ra[s].get(k), rb[s].get(k)) for s in common]
+        pairs = [(float(x), float(y)) for x, y in raw if x is not None and y is not None
                  and math.isfinite(x) and math.isfinite(y)]
         d, lo, hi, n = mean_interval(y - x for x, y in pairs)
         out.append({"metric": k,
