@@ -58,6 +58,14 @@ def test_report_writes_every_listed_figure(tmp_path, scene):
     fa_caption = next(f["caption"] for f in res["figures"]
                       if f["file"] == "false_alarms_range.png")
     assert "Fig. 8" in fa_caption
+    # every caption a whole sentence: none cut at a docstring's line end, no raw Python
+    for f in res["figures"]:
+        caption = f["caption"].rstrip()
+        assert not caption.endswith((",", " and", " has", " the", " of", " a", " where")), caption
+        assert "{" not in caption and "': " not in caption, caption  # no dict repr
+    if_caption = next(f["caption"] for f in res["figures"]
+                      if f["file"] == "improvement_doppler.png")
+    assert "8 filters of 8 pulses, chebyshev 50 dB window" in if_caption
     # two panels side by side (Fig. 8 a and b; PPI full range and zoomed): wider than tall
     for name in ("false_alarms_range.png", "ppi.png"):
         w, h = check_png(tmp_path / name)

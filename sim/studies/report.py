@@ -57,8 +57,22 @@ __all__ = ["build_report", "cli_main"]
 
 
 
-def _first_line(doc: str | None) -> str:
-    return (doc or "").strip().split("\n")[0].strip()
+def _summary(doc: str | None) -> str:
+    """A figure function's caption: its docstring's first paragraph on one line (a first
+    *line* cut sentences in two: "... the PE table, and")."""
+    first = (doc or "").strip().split("\n\n")[0]
+    return " ".join(first.split())
+
+
+def _processor_words(kw: dict[str, Any]) -> str:
+    """The Doppler processor of :func:`_doppler_kwargs` in words, for a caption."""
+    window = kw["window"]
+    if "sidelobe_db" in kw:
+        window = f"{window} {kw['sidelobe_db']:g} dB"
+    words = f"{kw['n_filters']} filters of {kw['n_taps']} pulses, {window} window"
+    if "mti_pulses" in kw:
+        words += f", after a {kw['mti_pulses']}-pulse MTI canceller"
+    return words
 
 
 def _scene_heights(scenario) -> tuple[float, float]:
@@ -303,7 +317,8 @@ def build_report(scenario, out_dir: str | os.PathLike = "report", *,
 
         plot_improvement_vs_doppler(out / "improvement_doppler.png", **kw)
         add("improvement_doppler.png",
-            f"I_F against normalized Doppler f_d/f_r for the radar's processor ({kw})")
+            f"I_F against normalized Doppler f_d/f_r for the radar's processor "
+            f"({_processor_words(kw)})")
     # false alarms (seed Fig. 8) and the PPI of one scan of the run
     caption, _ = _fig_false_alarms(out / "false_alarms_range.png", scenario, tables, radar.id,
                                    fa_scans, scenario.seed if seed is None else seed)
@@ -338,7 +353,7 @@ def _propagation_figures(out: Path, scenario, radar, table, notes: list[str]) ->
         polarization=radar.polarization, antenna_height_m=radar.antenna_height_m,
         target_height_m=target_h, wave_height_m=scenario.wave_height)
     figs.append({"file": "propagation_factor_vs_range.png",
-                 "caption": _first_line(prop_fig.plot_factor_vs_range.__doc__)})
+                 "caption": _summary(prop_fig.plot_factor_vs_range.__doc__)})
     if table is None:
         notes.append("F from the scene's PE table and its coverage diagram: the scene has no "
                      f"PE table (fidelity.propagation = {scenario.fidelity.propagation!r})")
@@ -347,9 +362,9 @@ def _propagation_figures(out: Path, scenario, radar, table, notes: list[str]) ->
                                         height_m=target_h, wave_height_m=scenario.wave_height)
     prop_fig.plot_coverage(out / "propagation_coverage.png", table)
     figs += [{"file": "propagation_table_factor_vs_range.png",
-              "caption": _first_line(prop_fig.plot_table_factor_vs_range.__doc__)},
+              "caption": _summary(prop_fig.plot_table_factor_vs_range.__doc__)},
              {"file": "propagation_coverage.png",
-              "caption": _first_line(prop_fig.plot_coverage.__doc__)}]
+              "caption": _summary(prop_fig.plot_coverage.__doc__)}]
     return figs
 
 
