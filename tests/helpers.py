@@ -119,3 +119,19 @@ def identical_radars_scene(n: int = 3):
     radar = plat["radars"][0]
     plat["radars"] = [{**radar, "id": f"r{k}", "sic": k + 1} for k in range(n)]
     return Scenario.model_validate(doc)
+
+
+def package_modules() -> dict[str, Path]:
+    """Every module of the installed ``shipradar`` package and its source file, found by the
+    import system itself (pkgutil over the package's path, whatever folders it maps)."""
+    import importlib.util
+    import pkgutil
+
+    import shipradar
+
+    out = {"shipradar": Path(str(shipradar.__file__))}
+    for info in pkgutil.walk_packages(shipradar.__path__, "shipradar."):
+        spec = importlib.util.find_spec(info.name)
+        if spec is not None and spec.origin and spec.origin.endswith(".py"):
+            out[info.name] = Path(spec.origin)
+    return out

@@ -13,27 +13,16 @@ import ast
 import importlib
 import importlib.util
 import inspect
-import pkgutil
 import re
-from pathlib import Path
 
 import pytest
+
+from .helpers import package_modules
 
 ROLE = re.compile(r":(?:func|class|meth|mod|data|attr|exc|obj):`~?([A-Za-z_][\w.]*)(?:\(\))?`")
 
 
-def _modules() -> dict[str, Path]:
-    import shipradar
-
-    out = {"shipradar": Path(shipradar.__file__)}
-    for info in pkgutil.walk_packages(shipradar.__path__, "shipradar."):
-        spec = importlib.util.find_spec(info.name)
-        if spec is not None and spec.origin and spec.origin.endswith(".py"):
-            out[info.name] = Path(spec.origin)
-    return out
-
-
-MODULES = _modules()
+MODULES = package_modules()
 
 
 def _docstrings(tree: ast.Module) -> list[tuple[str, str]]:

@@ -19,31 +19,18 @@ included. The layers, bottom to top (README, "Layers"):
 from __future__ import annotations
 
 import ast
-import importlib.util
-import pkgutil
 import sys
 from pathlib import Path
 
 import pytest
 
+from .helpers import package_modules
+
 ROOT = Path(__file__).resolve().parents[1]
 SCHEMA, PHYSICS, TABLES, ONLINE, SERVICE = range(5)
 
 
-def _modules() -> dict[str, Path]:
-    """Every module of the installed ``shipradar`` package and its source file, found by the
-    import system itself (pkgutil over the package's path, whatever folders it maps)."""
-    import shipradar
-
-    out = {"shipradar": Path(shipradar.__file__)}
-    for info in pkgutil.walk_packages(shipradar.__path__, "shipradar."):
-        spec = importlib.util.find_spec(info.name)
-        if spec is not None and spec.origin and spec.origin.endswith(".py"):
-            out[info.name] = Path(spec.origin)
-    return out
-
-
-MODULES = _modules()
+MODULES = package_modules()
 
 
 #: The folder (package) of each layer below the service; everything else is layer 4.
