@@ -160,6 +160,52 @@ def _announce(estimates) -> None:
         print(line, file=sys.stderr)
 
 
+class _AllowInsecureRemote(argparse.Action):
+    """``--allow-insecure-remote`` and its deprecated alias ``--allow-remote``: set
+    ``allow_remote``, and ``allow_remote_alias`` when the alias was the one written (the
+    command then says it is deprecated, :func:`_insecure_remote`)."""
+
+    def __init__(self, option_strings, dest, **kwargs):
+        super().__init__(option_strings, dest, nargs=0, default=False, **kwargs)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        setattr(namespace, self.dest, True)
+        if option_string == "--allow-remote":
+            namespace.allow_remote_alias = True
+
+
+def _insecure_remote(args, curve) -> bool:
+    """Whether ``run``/``replay`` sends unencrypted data off this machine (a non-loopback
+    ``--publish`` without CURVE, or a non-loopback ``--asterix`` destination), allowed by
+    ``--allow-insecure-remote`` or ``--allow-remote``; each such destination, and the
+    deprecated alias, is warned about on stderr.  The value goes into the run summary as
+    ``insecure_remote`` (issue 25: an insecure remote bind is never silent)."""
+    from shipradar.sim.adapters.asterix.encode import AsterixError
+    from shipradar.sim.adapters.asterix.udp import parse_udp_url
+    from shipradar.sim.stream.bus import check_bind_endpoint
+
+    if getattr(args, "allow_remote_alias", False):
+        print("warning: --allow-remote is deprecated; use --allow-insecure-remote (the same "
+              "permission, named for what it allows)", file=sys.stderr)
+    insecure = False
+    if args.publish and check_bind_endpoint(args.publish, allow_remote=args.allow_remote,
+                                            secured=curve is not None):
+        insecure = True
+        print(f"warning: INSECURE: publishing on {args.publish} without CURVE: the stream is "
+              "unauthenticated and unencrypted, anyone who can reach this machine can "
+              "subscribe (secure it with --curve-secret-key and --curve-authorized, "
+              "docs/protocol.md section 9, or bind a loopback address)", file=sys.stderr)
+    if args.asterix:
+        try:
+            parse_udp_url(args.asterix)
+        except AsterixError:  # off this machine (the caller checked it with allow_remote)
+            insecure = True
+            print(f"warning: INSECURE: sending ASTERIX to {args.asterix}: it leaves this "
+                  "machine unauthenticated and unencrypted (ASTERIX has neither)",
+                  file=sys.stderr)
+    return insecure
+
+
 class _StopOnSignal:
     """SIGTERM or Ctrl-C: stop the run at the next end of scan (the bus raises
     RunInterrupted from its flush, so the recording ends with a whole scan); a second
@@ -213,6 +259,7 @@ def _check_run(args, s):
         problems = scenario_problems(s)
         if problems:
             raise BadInput("\n".join(f"--asterix: {p}" for p in problems))
+    args.insecure_remote = _insecure_remote(args, curve)
     return curve
 
 
@@ -300,6 +347,7 @@ def cmd_run(args) -> int:
                 raise
             print(f"error: {exc}", file=sys.stderr)
             summary["error"] = str(exc)
+    summary["insecure_remote"] = args.insecure_remote
     if "error" in summary:
         print(json.dumps(summary))
         return EXIT_FAILURE
@@ -322,6 +370,11 @@ def cmd_replay(args) -> int:
     if not Path(args.recording).exists():
         raise BadInput(f"replay: recording {args.recording} does not exist")
     curve = _curve(args, "server")
+    if args.asterix:
+        from shipradar.sim.adapters.asterix.udp import parse_udp_url
+
+        parse_udp_url(args.asterix, allow_remote=args.allow_remote)
+    insecure_remote = _insecure_remote(args, curve)
     asterix = None
     if args.asterix:
         from shipradar.sim.adapters.asterix.udp import AsterixBus, UdpSender
@@ -340,6 +393,7 @@ def cmd_replay(args) -> int:
             asterix.close()
     if asterix is not None:
         summary["asterix"] = asterix.stats["asterix"]
+    summary["insecure_remote"] = insecure_remote
     if summary["truncated"]:
         print(f"warning: {args.recording} is truncated: {summary['frames']} whole frame(s) "
               f"replayed, {summary['bytes_ignored']} byte(s) of a partial last frame ignored",
@@ -401,7 +455,7 @@ def _udp_port(text: str) -> int:
 def _asterix_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--asterix", default=None, metavar="udp://HOST:PORT",
                    help="also send the plots as ASTERIX CAT048 + CAT034 UDP datagrams "
-                        "(loopback unless --allow-remote; docs/asterix.md)")
+                        "(loopback unless --allow-insecure-remote; docs/asterix.md)")
     p.add_argument("--asterix-max-datagram", type=_datagram_size, default=1400,
                    metavar="BYTES", help="largest ASTERIX datagram [bytes] (default 1400)")
 
@@ -467,6 +521,15 @@ def cmd_view(args) -> int:
     if curve is not None and "://" not in source:
         raise BadInput(f"--curve-secret-key/--curve-server-key secure a live endpoint; "
                        f"{source!r} is a recording")
+    if args.allow_remote:
+        from shipradar.sim.adapters.viewer.server import check_http_host
+
+        try:
+            check_http_host(args.host)
+        except HostError:  # allowed: say so, as run and replay do for their streams
+            print(f"warning: INSECURE: the viewer listens on {args.host}: its page and "
+                  "stream are unauthenticated and unencrypted, anyone who can reach this "
+                  "machine can watch", file=sys.stderr)
     try:
         server = ViewerServer(source, host=args.host, port=args.port,
                               allow_remote=args.allow_remote, tracks=args.tracks,
@@ -609,9 +672,11 @@ def _add_run(sub: _Subcommands) -> None:
     r.add_argument("--compress", choices=COMPRESSIONS, default="none",
                    help="compress each record of the recording (zstd; docs/protocol.md)")
     r.add_argument("--allow-insecure-remote", "--allow-remote", dest="allow_remote",
-                   action="store_true",
+                   action=_AllowInsecureRemote,
                    help="allow binding a non-loopback address (e.g. tcp://0.0.0.0:5556) "
-                        "without CURVE: anyone on the network can subscribe")
+                        "without CURVE, or a non-loopback --asterix destination: anyone on "
+                        "the network can subscribe; warned on stderr and recorded as "
+                        "insecure_remote in the summary (--allow-remote: deprecated alias)")
     add_curve_arguments(r, "server")
     _budget_argument(r)
     r.add_argument("--realtime", nargs="?", const=1.0, default=None,
@@ -641,8 +706,10 @@ def _add_replay(sub: _Subcommands) -> None:
     rp.add_argument("--on-slow", choices=("pace", "drop"), default="pace",
                     help="slow subscriber: slow the replay down (pace) or count dropped frames")
     rp.add_argument("--allow-insecure-remote", "--allow-remote", dest="allow_remote",
-                    action="store_true",
-                    help="allow binding a non-loopback address without CURVE")
+                    action=_AllowInsecureRemote,
+                    help="allow binding a non-loopback address without CURVE, or a "
+                         "non-loopback --asterix destination; warned on stderr and recorded "
+                         "as insecure_remote in the summary (--allow-remote: deprecated alias)")
     rp.add_argument("--strict", action="store_true",
                     help="stop at the first damaged record (default: skip it and go on)")
     add_curve_arguments(rp, "server")

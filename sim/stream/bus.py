@@ -69,7 +69,7 @@ class RunInterrupted(Exception):
 
 
 def check_bind_endpoint(endpoint: str, *, allow_remote: bool = False,
-                        secured: bool = False) -> None:
+                        secured: bool = False) -> bool:
     """Refuse endpoints reachable from other machines unless secured or explicitly allowed.
 
     Parameters
@@ -85,6 +85,13 @@ def check_bind_endpoint(endpoint: str, *, allow_remote: bool = False,
         The stream is CURVE-authenticated and encrypted (:mod:`shipradar.sim.stream.security`): any
         TCP endpoint is accepted.
 
+    Returns
+    -------
+    bool
+        True if the bind is an insecure remote one: reachable from other machines without
+        CURVE, accepted only because ``allow_remote`` is True (the command line warns and
+        records ``insecure_remote`` in the run summary); False for a local or secured bind.
+
     Raises
     ------
     EndpointError
@@ -95,29 +102,36 @@ def check_bind_endpoint(endpoint: str, *, allow_remote: bool = False,
     scheme, sep, rest = endpoint.partition("://")
     if not sep or not rest:
         raise EndpointError(f"malformed endpoint {endpoint!r}: expected e.g. tcp://127.0.0.1:5555")
-    if allow_remote or scheme in ("ipc", "inproc") or (secured and scheme == "tcp"):
-        return
+    if scheme in ("ipc", "inproc") or (secured and scheme == "tcp"):
+        return False
     hint = ("bind a loopback address such as tcp://127.0.0.1:5555, secure the stream with "
             "CURVE (--curve-secret-key and --curve-authorized; shipradar keys generate DIR), "
             "or accept anyone on the network with --allow-insecure-remote")
     if scheme != "tcp":
+        if allow_remote:
+            return True
         raise EndpointError(
             f"refusing to bind {endpoint}: transport {scheme!r} is not local; {hint}"
         )
     host, colon, _port = rest.rpartition(":")
     if not colon:
+        if allow_remote:  # ZeroMQ will refuse it; not this function's concern then
+            return True
         raise EndpointError(f"malformed endpoint {endpoint!r}: no port")
     host = host.strip("[]")
     if host == "localhost":
-        return
+        return False
     try:
         loopback = ipaddress.ip_address(host).is_loopback
     except ValueError:  # '*', an interface name, a host name
         loopback = False
-    if not loopback:
-        raise EndpointError(
-            f"refusing to bind {endpoint}: it is reachable from other machines; {hint}"
-        )
+    if loopback:
+        return False
+    if allow_remote:
+        return True
+    raise EndpointError(
+        f"refusing to bind {endpoint}: it is reachable from other machines; {hint}"
+    )
 
 
 def _topic_str(topic: bytes) -> str:

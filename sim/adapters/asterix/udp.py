@@ -59,7 +59,8 @@ def parse_udp_url(url: str, *, allow_remote: bool = False) -> tuple[str, int, bo
         port = -1
     if not 1 <= port <= 65535:
         raise AsterixError(f"--asterix: port must be in [1, 65535], got {port_text!r}")
-    hint = "send to a loopback address such as udp://127.0.0.1:8600, or pass --allow-remote"
+    hint = ("send to a loopback address such as udp://127.0.0.1:8600, or pass "
+            "--allow-insecure-remote")
     if host == "localhost":
         return "127.0.0.1", port, False
     try:
