@@ -14,11 +14,14 @@ from .helpers import quiet_radar, require_system_tool
 START = "2026-06-01T23:59:50Z"
 
 
-def scene_dict(duration_s: float = 8.0, radars=None, start: str = START) -> dict:
+def scene_dict(duration_s: float = 8.0, radars=None, start: str = START,
+               doppler: bool = False) -> dict:
     """A ship under way (10 m/s) with two radars and one closing target; many noise false
-    alarms (t_fa 0.5 s), so a few seconds give a few dozen plots."""
+    alarms (t_fa 0.5 s), so a few seconds give a few dozen plots. ``doppler``: the first
+    radar has a Doppler bank (its plots carry a range rate, I048/120), the second none."""
+    bank = {"processor": {"type": "dft_bank", "n_coherent": 16}} if doppler else {}
     radars = radars or [
-        quiet_radar(id="r1", false_alarm_time_s=0.5),
+        quiet_radar(id="r1", false_alarm_time_s=0.5, **bank),
         # starts at 100°: its north crossings fall mid-revolution (dead-reckoned position)
         quiet_radar(id="r2", false_alarm_time_s=1.0, rotation_rpm=40, start_azimuth_deg=100.0,
                     beamwidth_az_deg=1.2, sac=25, sic=7),

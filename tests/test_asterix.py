@@ -62,6 +62,41 @@ def test_cat048_record_bytes_by_hand():
     assert blocks == [bytes.fromhex("30002b") + record + in_clutter]
 
 
+def test_cat048_i048_120_and_the_four_record_layouts_by_hand():
+    """I048/120 subfield CAL (FRN20: FSPEC octet 3 bit 3, after I048/030 in FRN order): a
+    primary subfield 0x80 (CAL only), then D (bit 16), 5 spare bits and the speed in 10
+    bits of two's complement, 1 m/s. Plots without a range rate (NaN) have no I048/120."""
+    plots = {"sensor": "r", "time_s": np.full(5, 1.5), "range_m": np.full(5, 10 * NM),
+             "azimuth_rad": np.full(5, math.pi / 2), "snr_db": np.full(5, 20.0),
+             "interference": np.array([0, 1, 0, 1, 0], np.uint8),
+             "range_rate_mps": np.array([np.nan, np.nan, -3.4, 600.0, 2.5])}
+    blocks = encode_cat048(plots, sac=1, sic=2, start_sod_s=0.0, prl_deg=1.0,
+                           noise_power_dbm=-100.0)
+    body = "01020000c0300a0040001817b005000000"  # I048/010 ... I048/042 as above
+    records = [
+        "f308" + body,  # neither
+        "f30940" + body + "1a",  # I048/030 only (FRN16)
+        "f30904" + body + "80" "03fd",  # I048/120 only (FRN20): CAL -3 m/s = 0x3fd, D 0
+        "f30944" + body + "1a" "80" "81ff",  # both; 600 m/s clipped to 511, D = 1 doubtful
+        "f30904" + body + "80" "0002",  # 2.5 m/s rounds half to even: 2
+    ]
+    rec = bytes.fromhex("".join(records))
+    assert blocks == [bytes((48, 0, len(rec) + 3)) + rec]
+    buf, offsets = cat048_records(
+        plots["time_s"], plots["range_m"], plots["azimuth_rad"], sac=1, sic=2,
+        start_sod_s=0.0, snr_db=plots["snr_db"], clutter=plots["interference"] == 1,
+        prl_deg=1.0, noise_power_dbm=-100.0, range_rate_mps=plots["range_rate_mps"])
+    assert buf.tobytes() == rec
+    assert np.diff(offsets).tolist() == [len(bytes.fromhex(r)) for r in records]
+    # and the slices of a revolution give the same bytes
+    assert encode_cat048_slices(plots, [0, 2], [2, 5], sac=1, sic=2, start_sod_s=0.0,
+                                prl_deg=1.0, noise_power_dbm=-100.0) == [
+        [bytes((48, 0, 3 + len(bytes.fromhex("".join(records[:2]))))) + bytes.fromhex(
+            "".join(records[:2]))],
+        [bytes((48, 0, 3 + len(bytes.fromhex("".join(records[2:]))))) + bytes.fromhex(
+            "".join(records[2:]))]]
+
+
 def test_cat034_bytes_by_hand():
     nm = encode_cat034_north_marker(
         2.0, sac=3, sic=4, start_sod_s=0.0, rotation_period_s=4.0, lat_deg=45.0,
@@ -130,7 +165,7 @@ def test_udp_destination_rules():
 @pytest.fixture(scope="module")
 def run():
     """Messages of a 8 s run across midnight, and the ASTERIX blocks they give."""
-    s = scene()
+    s = scene(doppler=True)  # r1 with a Doppler bank (I048/120), r2 without
     msgs = list(Simulation(s).messages())
     stream = AsterixStream()
     blocks = [b for m in msgs for b in stream.feed(*m)]
@@ -151,7 +186,8 @@ def _expected(s, msgs):
     out = {}
     for sensor, (sac, sic) in sources.items():
         cols = {k: np.concatenate([p[k] for p in plots.get(sensor, [])])
-                for k in ("time_s", "range_m", "azimuth_rad", "snr_db", "interference")}
+                for k in ("time_s", "range_m", "azimuth_rad", "snr_db", "interference",
+                          "range_rate_mps")}
         out[sic] = (sensor, sac, cols, eos[sensor], meta[sensor])
     return out
 
@@ -190,6 +226,15 @@ def _check_decoded(s, msgs, stream, recs048, recs034):
         assert np.abs(g["pam"] - pam).max() <= 0.5 + 1e-9
         bw = meta["radar"]["beamwidth_az_deg"]
         assert np.abs(g["prl"] - bw).max() <= 360 / 2**14 + 1e-9
+        # I048/120 CAL: the range rate within half its LSB (1 m/s), valid (D = 0); absent
+        # (NaN) for a radar without a Doppler bank
+        rr = cols["range_rate_mps"]
+        if meta["radar"]["processor"]["type"] in ("dft_bank", "fir_bank", "mti_bank"):
+            assert np.isfinite(rr).all() and np.abs(rr).max() > 1.0
+            assert np.abs(g["cal"] - rr).max() <= 0.5 + 1e-9
+            assert np.all(g["cal_d"] == 0)
+        else:
+            assert np.isnan(rr).all() and np.isnan(g["cal"]).all()
         # sector crossings: one per sector boundary from t = 0 to the end
         sector_s = meta["scan_period_s"] / meta["sectors_per_scan"]
         crossings = [r for r in recs034 if r["sic"] == sic and r["type"] == 2]
@@ -244,7 +289,9 @@ def test_two_independent_decoders_agree_with_the_stream(run, tmp_path):
                     "sim": r["I020"]["SIM"]["val"], "rho": r["I040"]["RHO"]["val"],
                     "theta": r["I040"]["THETA"]["val"], "x": r["I042"]["X"]["val"],
                     "y": r["I042"]["Y"]["val"], "prl": r["I130"]["PRLP"]["PRL"]["val"],
-                    "pam": r["I130"]["PAMP"]["PAM"]["val"]})
+                    "pam": r["I130"]["PAMP"]["PAM"]["val"],
+                    "cal": r["I120"]["CAL"]["CAL"]["val"] if "I120" in r else math.nan,
+                    "cal_d": r["I120"]["CAL"]["D"]["val"] if "I120" in r else math.nan})
             else:
                 rec = {"sic": r["I010"]["SIC"]["val"], "type": r["I000"]["MsgTyp"]["val"],
                        "tod": r["I030"]["ToD"]["val"]}
@@ -276,7 +323,8 @@ def test_two_independent_decoders_agree_with_the_stream(run, tmp_path):
                     "x": float(m["asterix.048_042"]["asterix.048_042_X"]),
                     "y": float(m["asterix.048_042"]["asterix.048_042_Y"]),
                     "prl": float(i130["asterix.048_130_PRL"]["asterix.048_130_PRL_VALUE"]),
-                    "pam": float(i130["asterix.048_130_PAM"]["asterix.048_130_PAM_VALUE"])})
+                    "pam": float(i130["asterix.048_130_PAM"]["asterix.048_130_PAM_VALUE"]),
+                    **_tshark_cal(m)})
             else:
                 rec = {"sic": int(m["asterix.034_010"]["asterix.034_010_SIC"], 16),
                        "type": int(m["asterix.034_000"]["asterix.034_000_VALUE"]),
@@ -291,6 +339,15 @@ def test_two_independent_decoders_agree_with_the_stream(run, tmp_path):
                                lon=float(p["asterix.034_120_LON"]))
                 recs034.append(rec)
     assert _check_decoded(s, msgs, stream, recs048, recs034) == n1
+
+
+def _tshark_cal(m: dict) -> dict:
+    """Wireshark's I048/120 CAL subfield of a record: speed [m/s] and D (NaN: absent)."""
+    cal = m.get("asterix.048_120", {}).get("asterix.048_120_CAL")
+    if cal is None:
+        return {"cal": math.nan, "cal_d": math.nan}
+    return {"cal": float(cal["asterix.048_120_CAL_CAL"]),
+            "cal_d": int(cal["asterix.048_120_CAL_D"])}
 
 
 def test_blocks_respect_the_size_and_the_bytes_are_deterministic(run):

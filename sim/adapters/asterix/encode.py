@@ -9,7 +9,8 @@ References (the standard's facts; layouts checked against two decoders we did no
 
 - EUROCONTROL-SPEC-0149-4, ASTERIX Category 048 "Monoradar Target Reports" (edition 1.21
   and later; the items used here have not changed since): I048/010, I048/020, I048/030,
-  I048/040, I048/042, I048/130, I048/140 and the standard User Application Profile.
+  I048/040, I048/042, I048/120 (subfield CAL), I048/130, I048/140 and the standard User
+  Application Profile.
 - EUROCONTROL-SPEC-0149-2b, ASTERIX Category 034 "Monoradar Service Messages" (edition
   1.27 and later): I034/000, I034/010, I034/020, I034/030, I034/041, I034/050, I034/060,
   I034/120.
@@ -70,6 +71,9 @@ PRL_PER_DEG = (1 << 13) / 360.0
 PERIOD_PER_S = 128
 #: I034/120 latitude/longitude: signed 24 bits, LSB 180°/2^23.
 LATLON_PER_DEG = (1 << 23) / 180.0
+#: I048/120 CAL: calculated Doppler speed, 10-bit two's complement, LSB 1 m/s, so
+#: [-512, 511] m/s; a speed beyond is sent clipped with D = 1 ("doubtful").
+CAL_MIN_MPS, CAL_MAX_MPS = -512, 511
 
 # I048/020 first octet: TYP = 1 (single PSR detection, bits 8-6 = 001), SIM = 1 (bit 5:
 # these reports are simulated), RDP/SPI/RAB = 0, FX = 0.
@@ -78,11 +82,16 @@ _I048_020 = 0x30
 _I048_030_CLUTTER = 13 << 1
 # CAT048 FSPEC (standard UAP): octet 1 FRN1 010, FRN2 140, FRN3 020, FRN4 040, FRN5 070,
 # FRN6 090, FRN7 130, FX; octet 2 FRN8 220 ... FRN12 042 (bit 4), FX; octet 3 FRN15 210,
-# FRN16 030 (bit 7).
+# FRN16 030 (bit 7), FRN17 080, FRN18 100, FRN19 110, FRN20 120 (bit 3), FRN21 230, FX.
 _FS1_BASE = 0x80 | 0x40 | 0x20 | 0x10 | 0x01  # 010, 140, 020, 040, FX
 _FS1_130 = 0x02
 _FS2_042 = 0x08
 _FS3_030 = 0x40
+_FS3_120 = 0x04
+# I048/120 primary subfield: CAL present (bit 8), RDS absent, FX = 0.
+_I120_CAL = 0x80
+# I048/120 CAL: D (bit 16) "Doppler speed is doubtful".
+_CAL_DOUBTFUL = 0x8000
 # I048/130 primary subfield: PRL present (bit 5), PAM present (bit 4), FX = 0.
 _I130_PRL, _I130_PAM = 0x10, 0x08
 # CAT034 message types (I034/000).
@@ -155,9 +164,10 @@ def _check_sac_sic(sac: int, sic: int) -> None:
 # field), rounded once, converted once to big-endian int64, and its bytes picked by one
 # gather with the byte positions of the record variant: a handful of numpy calls per batch,
 # whatever its size (a raid sector holds ~15 plots, where per-call overhead is everything).
-# Columns of that matrix:
-_COL_TOD, _COL_RHO, _COL_THETA, _COL_PAM, _COL_X, _COL_Y, _COL_FS2, _COL_CONST = range(8)
-_NCOL = 8
+# Columns of that matrix (EXT: FSPEC octet 3 and I048/120 CAL, 3 bytes):
+_COL_TOD, _COL_RHO, _COL_THETA, _COL_PAM, _COL_X, _COL_Y, _COL_FS2, _COL_EXT, _COL_CONST = (
+    range(9))
+_NCOL = 9
 
 
 def _byte(col: int, k: int, nbytes: int) -> int:
@@ -166,10 +176,13 @@ def _byte(col: int, k: int, nbytes: int) -> int:
     return 8 * col + 8 - nbytes + k
 
 
-# the constant column's 8 bytes: FSPEC octet 1, FSPEC octet 3, SAC, SIC, I048/020, I048/130
-# primary subfield, PRL, I048/030
-_K_FS1, _K_FS3, _K_SAC, _K_SIC, _K_020, _K_130, _K_PRL, _K_030 = (
+# the constant column's 8 bytes: FSPEC octet 1, I048/120 primary subfield, SAC, SIC,
+# I048/020, I048/130 primary subfield, PRL, I048/030
+_K_FS1, _K_120, _K_SAC, _K_SIC, _K_020, _K_130, _K_PRL, _K_030 = (
     _byte(_COL_CONST, k, 8) for k in range(8))
+#: Octets each record variant adds to a plain record, by variant code clutter + 2 doppler:
+#: none; FSPEC octet 3 + I048/030; FSPEC octet 3 + I048/120 (3 octets); all four.
+_VARIANT_EXTRA = np.array([0, 2, 4, 5], dtype=np.int64)
 
 
 @functools.lru_cache(maxsize=64)
@@ -177,11 +190,13 @@ def _cat048_layout(sac: int, sic: int, prl: int | None, has_pam: bool):
     """Constant bytes (as a signed int64) and byte gathers of a CAT048 record variant.
 
     Returns ``(const, plain, full, keep, width)``: ``plain`` picks the ``width`` bytes of a
-    record without I048/030; ``full`` the ``width + 2`` bytes of one with it (FSPEC octet 3
-    and the item); ``keep[c]`` which of ``full``'s bytes a record keeps (``c``: in clutter).
+    record without FSPEC octet 3 (no I048/030, no I048/120); ``full`` the ``width + 5``
+    bytes of one with both (FSPEC octet 3, I048/030 and the 3 octets of I048/120 CAL);
+    ``keep[c]`` which of ``full``'s bytes a record of variant ``c`` keeps (``c`` = clutter
+    + 2 doppler, the four record layouts; :data:`_VARIANT_EXTRA` their extra octets).
     """
     i130 = (_I130_PRL if prl is not None else 0) | (_I130_PAM if has_pam else 0)
-    const = bytes((_FS1_BASE | (_FS1_130 if i130 else 0), _FS3_030, sac, sic, _I048_020,
+    const = bytes((_FS1_BASE | (_FS1_130 if i130 else 0), _I120_CAL, sac, sic, _I048_020,
                    i130, 0 if prl is None else prl, _I048_030_CLUTTER))
     head = [_K_FS1, _byte(_COL_FS2, 0, 1)]
     items = [_K_SAC, _K_SIC, *(_byte(_COL_TOD, k, 3) for k in range(3)), _K_020,
@@ -196,17 +211,26 @@ def _cat048_layout(sac: int, sic: int, prl: int | None, has_pam: bool):
     items += [_byte(_COL_X, 0, 2), _byte(_COL_X, 1, 2), _byte(_COL_Y, 0, 2),
               _byte(_COL_Y, 1, 2)]
     plain = np.array(head + items, dtype=np.intp)
-    full = np.array(head + [_K_FS3] + items + [_K_030], dtype=np.intp)
+    # in FRN order: FSPEC octet 3 after octet 2, I048/030 (FRN16) before I048/120 (FRN20)
+    full = np.array(head + [_byte(_COL_EXT, 0, 3)] + items
+                    + [_K_030, _K_120, _byte(_COL_EXT, 1, 3), _byte(_COL_EXT, 2, 3)],
+                    dtype=np.intp)
     width = plain.size
-    keep = np.ones((2, width + 2), dtype=bool)
-    keep[0, 2] = keep[0, width + 1] = False
+    keep = np.ones((4, width + 5), dtype=bool)
+    keep[0, 2] = False  # plain: neither FSPEC octet 3 nor the items it announces
+    keep[(0, 2), width + 1] = False  # no I048/030
+    keep[:2, width + 2:] = False  # no I048/120
+    for c in range(4):
+        assert keep[c].sum() == width + _VARIANT_EXTRA[c]
     return int.from_bytes(const, "big", signed=True), plain, full, keep, width
 
 
 def _cat048_bytes(time_s, range_m, azimuth_rad, *, sac, sic, start_sod_s, snr_db=None,
-                  clutter=None, prl_deg=None, noise_power_dbm=None, sensor="?"):
-    """The records of :func:`cat048_records` back to back, the per-record clutter flags
-    (None: no record has I048/030) and the width of a record without I048/030."""
+                  clutter=None, prl_deg=None, noise_power_dbm=None, range_rate_mps=None,
+                  sensor="?"):
+    """The records of :func:`cat048_records` back to back, the per-record variant codes
+    (clutter + 2 doppler, :func:`_cat048_layout`; None: every record is plain, without
+    FSPEC octet 3) and the width of a plain record."""
     if not (type(sac) is int and type(sic) is int and 0 <= sac <= 255 and 0 <= sic <= 255):
         _check_sac_sic(sac, sic)
         sac, sic = int(sac), int(sic)
@@ -223,6 +247,12 @@ def _cat048_bytes(time_s, range_m, azimuth_rad, *, sac, sic, start_sod_s, snr_db
         in_clutter = np.asarray(clutter, dtype=bool)
         if not np.count_nonzero(in_clutter):
             in_clutter = None
+    doppler = None
+    if range_rate_mps is not None:
+        rr = np.asarray(range_rate_mps, dtype=float)
+        doppler = np.isfinite(rr)  # NaN: a radar without a Doppler bank, no I048/120
+        if not np.count_nonzero(doppler):
+            doppler = None
     # one contiguous row per field (fast whatever n), transposed by the integer conversion
     v = np.empty((_NCOL, n))
     tod = v[_COL_TOD]
@@ -252,10 +282,31 @@ def _cat048_bytes(time_s, range_m, azimuth_rad, *, sac, sic, start_sod_s, snr_db
     np.sin(az, out=v[_COL_X])
     np.cos(az, out=v[_COL_Y])
     xy *= r * (XY_PER_NM / NM_M)
-    if in_clutter is None:
+    if in_clutter is None and doppler is None:
         v[_COL_FS2] = _FS2_042
+        v[_COL_EXT] = 0.0
+        variant = None
     else:
-        np.add(in_clutter, float(_FS2_042), out=v[_COL_FS2])  # FX of FSPEC octet 2
+        variant = np.zeros(n, dtype=np.uint8)
+        if in_clutter is not None:
+            variant += in_clutter.view(np.uint8)
+        if doppler is not None:
+            variant += 2 * doppler.view(np.uint8)
+        # FX of FSPEC octet 2 when octet 3 follows
+        np.add(variant != 0, float(_FS2_042), out=v[_COL_FS2])
+        ext = v[_COL_EXT]
+        ext[:] = 0.0
+        if in_clutter is not None:
+            ext += in_clutter * float(_FS3_030 << 16)
+        if doppler is not None:
+            # I048/120 CAL: the range rate (positive receding) to 1 m/s, two's complement in
+            # 10 bits; beyond [-512, 511] m/s clipped and marked doubtful (D)
+            cal = np.rint(np.where(doppler, rr, 0.0))
+            doubtful = (cal < CAL_MIN_MPS) | (cal > CAL_MAX_MPS)
+            np.clip(cal, CAL_MIN_MPS, CAL_MAX_MPS, out=cal)
+            np.mod(cal, 1024.0, out=cal)
+            cal += doubtful * float(_CAL_DOUBTFUL)
+            ext += doppler * (cal + float(_FS3_120 << 16))
     v[_COL_CONST] = 0.0
     np.rint(v, out=v)
     np.minimum(xy, 32767.0, out=xy)
@@ -263,11 +314,12 @@ def _cat048_bytes(time_s, range_m, azimuth_rad, *, sac, sic, start_sod_s, snr_db
     vi = v.T.astype(">i8", order="C")
     vi[:, _COL_CONST] = const
     b = vi.view(np.uint8)
-    if in_clutter is None:
+    if variant is None:
         return b.take(plain, axis=1).reshape(-1), None, w
-    # clutter-dominated plots: FSPEC octet 3 (FRN16) and I048/030 code 13 at the end
+    # FSPEC octet 3 and, in FRN order, I048/030 code 13 (clutter-dominated plots) and
+    # I048/120 CAL (plots with a range rate) at the end: one of four layouts per record
     rows = b.take(full, axis=1)
-    return rows[keep[in_clutter.view(np.uint8)]], in_clutter, w
+    return rows[keep[variant]], variant, w
 
 
 def _cat048_refuse(t, r, az, sensor) -> None:
@@ -289,11 +341,11 @@ def _cat048_refuse(t, r, az, sensor) -> None:
         raise AsterixError("time of day (I048/140, I034/030): times must be finite")
 
 
-def _offsets(n: int, in_clutter: np.ndarray | None, w: int) -> np.ndarray:
-    if in_clutter is None:
+def _offsets(n: int, variant: np.ndarray | None, w: int) -> np.ndarray:
+    if variant is None:
         return np.arange(n + 1, dtype=np.int64) * w
     offsets = np.zeros(n + 1, dtype=np.int64)
-    np.cumsum(w + 2 * in_clutter.view(np.uint8).astype(np.int64), out=offsets[1:])
+    np.cumsum(w + _VARIANT_EXTRA[variant], out=offsets[1:])
     return offsets
 
 
@@ -309,6 +361,7 @@ def cat048_records(
     clutter: np.ndarray | None = None,
     prl_deg: float | None = None,
     noise_power_dbm: float | None = None,
+    range_rate_mps: np.ndarray | None = None,
     sensor: str = "?",
 ) -> tuple[np.ndarray, np.ndarray]:
     """CAT048 records of a batch of plots, as one byte buffer and the record offsets.
@@ -336,6 +389,11 @@ def cat048_records(
         Azimuth extent of a plot [deg] -> I048/130 PRL (360°/2^13, at most 11.2°).
     noise_power_dbm : float or None, optional
         Receiver noise power N0' [dBm], the reference of PAM.
+    range_rate_mps : numpy.ndarray or None, optional
+        Measured range rate of each plot, positive receding [m/s] (the stream's
+        ``range_rate_mps``) -> I048/120 subfield CAL (10-bit two's complement, LSB 1 m/s,
+        rounded: error at most 0.5 m/s); a speed outside [-512, 511] m/s is clipped with D =
+        1 ("doubtful"), D = 0 otherwise. NaN (a radar without a Doppler bank): no I048/120.
     sensor : str, optional
         Radar id, for error messages.
 
@@ -356,13 +414,17 @@ def cat048_records(
     -----
     Every record has I048/010, I048/140, I048/020 (single PSR detection, SIM set),
     I048/040 and I048/042; I048/130 when ``prl_deg`` or PAM is known; I048/030 on
-    clutter-dominated plots. I048/170 and the other track items are absent: these are plots.
+    clutter-dominated plots; I048/120 on plots with a finite range rate. So four record
+    layouts (FSPEC ``F3 08``, with I048/030 ``F3 09 40``, with I048/120 ``F3 09 04``, with
+    both ``F3 09 44``). I048/170 and the other track items are absent: these are plots.
+    The standard does not state the sign of CAL; shipradar sends the range rate as it is,
+    positive for a receding target.
     """
-    buf, in_clutter, w = _cat048_bytes(
+    buf, variant, w = _cat048_bytes(
         time_s, range_m, azimuth_rad, sac=sac, sic=sic, start_sod_s=start_sod_s,
         snr_db=snr_db, clutter=clutter, prl_deg=prl_deg, noise_power_dbm=noise_power_dbm,
-        sensor=sensor)
-    return buf, _offsets(int(np.size(range_m)), in_clutter, w)
+        range_rate_mps=range_rate_mps, sensor=sensor)
+    return buf, _offsets(int(np.size(range_m)), variant, w)
 
 
 def pack_blocks(category: int, buf: np.ndarray, offsets: np.ndarray,
@@ -419,7 +481,8 @@ def encode_cat048(plots: Mapping[str, Any], *, sac: int, sic: int, start_sod_s: 
     ----------
     plots : dict
         The payload of a ``plots`` message (docs/protocol.md 4.2): ``time_s``, ``range_m``,
-        ``azimuth_rad``, ``snr_db``, ``interference`` columns and ``sensor``.
+        ``azimuth_rad``, ``snr_db``, ``interference``, ``range_rate_mps`` (optional: NaN or
+        absent, no I048/120) columns and ``sensor``.
     sac, sic : int
         Data source (I048/010).
     start_sod_s : float
@@ -439,17 +502,18 @@ def encode_cat048(plots: Mapping[str, Any], *, sac: int, sic: int, start_sod_s: 
         Data blocks in plot order (see :func:`cat048_records` for the items).
     """
     interference = plots.get("interference")
-    buf, in_clutter, w = _cat048_bytes(
+    buf, variant, w = _cat048_bytes(
         plots["time_s"], plots["range_m"], plots["azimuth_rad"], sac=sac, sic=sic,
         start_sod_s=start_sod_s, snr_db=plots.get("snr_db"),
         clutter=None if interference is None else np.asarray(interference) == clutter_code,
-        prl_deg=prl_deg, noise_power_dbm=noise_power_dbm, sensor=str(plots.get("sensor", "?")))
+        prl_deg=prl_deg, noise_power_dbm=noise_power_dbm,
+        range_rate_mps=plots.get("range_rate_mps"), sensor=str(plots.get("sensor", "?")))
     total = buf.size
     if 0 < total <= max_block_bytes - 3 and max_block_bytes <= MAX_BLOCK_BYTES:
         # the usual sector: one block
         return [bytes((CAT048, (total + 3) >> 8, (total + 3) & 0xFF)) + buf.tobytes()]
-    n = total // w if in_clutter is None else in_clutter.size
-    return pack_blocks(CAT048, buf, _offsets(n, in_clutter, w), max_block_bytes)
+    n = total // w if variant is None else variant.size
+    return pack_blocks(CAT048, buf, _offsets(n, variant, w), max_block_bytes)
 
 
 def encode_cat048_slices(plots: Mapping[str, Any], starts: Sequence[int],
@@ -467,8 +531,9 @@ def encode_cat048_slices(plots: Mapping[str, Any], starts: Sequence[int],
     Parameters
     ----------
     plots : Mapping
-        The columns (``time_s``, ``range_m``, ``azimuth_rad``, optionally ``snr_db`` and
-        ``interference``) and optionally ``sensor``, as in :func:`encode_cat048`.
+        The columns (``time_s``, ``range_m``, ``azimuth_rad``, optionally ``snr_db``,
+        ``interference`` and ``range_rate_mps``) and optionally ``sensor``, as in
+        :func:`encode_cat048`.
     starts, stops : Sequence[int]
         The slice of each message (ascending, not overlapping).
     sac, sic, start_sod_s, prl_deg, noise_power_dbm, max_block_bytes, clutter_code
@@ -496,16 +561,17 @@ def encode_cat048_slices(plots: Mapping[str, Any], starts: Sequence[int],
         return None if col is None else np.asarray(col)[lo:hi]
 
     interference = span("interference")
-    buf, in_clutter, w = _cat048_bytes(
+    buf, variant, w = _cat048_bytes(
         span("time_s"), span("range_m"), span("azimuth_rad"), sac=sac, sic=sic,
         start_sod_s=start_sod_s, snr_db=span("snr_db"),
         clutter=None if interference is None else interference == clutter_code,
-        prl_deg=prl_deg, noise_power_dbm=noise_power_dbm, sensor=str(plots.get("sensor", "?")))
+        prl_deg=prl_deg, noise_power_dbm=noise_power_dbm,
+        range_rate_mps=span("range_rate_mps"), sensor=str(plots.get("sensor", "?")))
     data = buf.tobytes()
-    if in_clutter is None:
+    if variant is None:
         bounds = None
     else:
-        offsets = _offsets(hi - lo, in_clutter, w)
+        offsets = _offsets(hi - lo, variant, w)
         bounds = offsets.tolist()
     room = max_block_bytes - 3
     out: list[list[bytes]] = []

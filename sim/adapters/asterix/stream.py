@@ -51,7 +51,8 @@ __all__ = ["AsterixStream", "datagrams", "scenario_problems"]
 # (shipradar.sim.stream.schema) when the module is imported.
 META.keys_of("sensor", "radar", "sac_sic", "start_time", "interference_codes",
              "scan_period_s", "sectors_per_scan", "noise_power_dbm")
-PLOTS.keys_of("sensor", "time_s", "range_m", "azimuth_rad", "snr_db", "interference")
+PLOTS.keys_of("sensor", "time_s", "range_m", "azimuth_rad", "snr_db", "interference",
+              "range_rate_mps")
 EOS.keys_of("sensor", "time_s", "position", "velocity_enu_mps")
 
 # WGS-84, for dead-reckoning the antenna between an end of scan and a north crossing
@@ -187,7 +188,7 @@ class AsterixStream:
             Radar id (its ``meta`` must have been fed).
         plots : Mapping
             The revolution's plot columns (``time_s``, ``range_m``, ``azimuth_rad``,
-            ``snr_db``, ``interference``).
+            ``snr_db``, ``interference``, ``range_rate_mps``).
         starts, stops : Sequence[int]
             Each message's slice.
 
