@@ -1,0 +1,204 @@
+"""The machine-readable contract (shipradar.sim.stream.contract): the committed files are the
+generator's output, the JSON Schemas hold every message of real recordings (checked with
+``jsonschema``, a validator we did not write), and the AsyncAPI document passes the AsyncAPI
+parser (``@asyncapi/parser`` from npm, installed when missing)."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import tempfile
+from collections import Counter
+from pathlib import Path
+
+import msgpack
+import pytest
+import yaml
+
+from shipradar.sim.engine.simulation import Simulation
+from shipradar.sim.stream import contract, protocol, schema
+from shipradar.sim.stream.bus import Bus
+from shipradar.sim.stream.recording import Recorder, read_recording
+from shipradar.sim.world.scenario import load_scenario
+from tests.helpers import ROOT
+
+jsonschema = pytest.importorskip("jsonschema")
+
+COMMITTED = ROOT / "sim/stream/contract"
+REGENERATE = ".venv/bin/python -m shipradar.sim.stream.contract sim/stream/contract"
+
+
+def test_committed_contract_is_current():
+    """The shipped files are what the generator writes from the schema today."""
+    want = contract.contract_files()
+    have = {p.name: p.read_text(encoding="utf-8") for p in COMMITTED.iterdir() if p.is_file()}
+    stale = sorted(n for n in want if have.get(n) != want[n])
+    extra = sorted(set(have) - set(want))
+    assert not stale and not extra, (
+        f"sim/stream/contract is not current (stale {stale}, not generated {extra}): "
+        f"run `{REGENERATE}` (and delete files it does not write), then commit the files")
+
+
+def test_contract_dir_is_the_package_data():
+    assert contract.contract_dir().resolve() == COMMITTED.resolve()
+    pyproject = (ROOT / "pyproject.toml").read_text(encoding="utf-8")
+    assert '"shipradar.sim.stream" = ["contract/*.json", "contract/*.yaml"]' in pyproject
+
+
+def _schemas() -> dict[str, dict]:
+    return {p.name: json.loads((COMMITTED / contract.schema_file_name(p)).read_text("utf-8"))
+            for p in schema.PAYLOADS}
+
+
+def test_json_schemas_are_valid_and_follow_the_schema_module():
+    for name, s in _schemas().items():
+        jsonschema.Draft202012Validator.check_schema(s)
+        p = next(p for p in schema.PAYLOADS if p.name == name)
+        assert list(s["properties"]) == ["v", "t", *p.keys]
+        for f in p.fields:
+            prop = s["properties"][f.key]
+            assert prop["description"] == f.meaning
+            assert prop.get("x-unit", "") == f.unit
+            if f.dtype is not None:
+                assert prop["x-dtype"] == f.dtype.name and prop["x-length"] == f.length
+            assert (f.key in s["required"]) == f.required
+
+
+def test_unknown_type_is_refused():
+    with pytest.raises(ValueError, match="does not know"):
+        contract.field_schema(schema.Field("x", "complex[n]", "", "?"))
+    assert contract.field_schema(schema.Field("x", "float32[r, s]", "m", "?"))["x-length"] == [
+        "r", "s"]
+
+
+def _ext_hook(code: int, data: bytes):
+    return protocol.decode_array(data) if code == protocol.EXT_NDARRAY else msgpack.ExtType(
+        code, data)
+
+
+def _record(tmp_path: Path, name: str, duration_s: float) -> Path:
+    path = tmp_path / f"{name}.srrec"
+    s = load_scenario(ROOT / f"scenarios/{name}.yaml")
+    with Bus(None, Recorder(path)) as bus:
+        Simulation(s, bus=bus, duration_s=duration_s, seed=7).run()
+    return path
+
+
+@pytest.fixture(scope="module")
+def validators():
+    out = {}
+    for name, s in _schemas().items():
+        p = next(p for p in schema.PAYLOADS if p.name == name)
+        out[(p.topic, p.kind)] = (jsonschema.Draft202012Validator(s), s)
+    return out
+
+
+@pytest.mark.parametrize(("name", "duration_s"), [
+    ("raid", 12.0), ("jammed_squall", 4.0), ("manoeuvres", 4.0)])
+def test_every_recorded_message_is_valid(tmp_path, validators, name, duration_s):
+    """Each message of a real recording, decoded (section 5) and in its JSON form (as
+    ``shipradar tail`` prints it), validates against its payload's JSON Schema; its keys are
+    all declared there, and the columns of one length (``x-length``) have one length."""
+    counts: Counter[str] = Counter()
+    with read_recording(_record(tmp_path, name, duration_s), strict=True) as reader:
+        for _, (topic, body) in reader:
+            msg = msgpack.unpackb(body, ext_hook=_ext_hook, raw=False)
+            kind = msg.get("kind") if topic == b"truth" else None
+            validator, s = validators[(topic, kind)]
+            doc = protocol.to_jsonable(msg)
+            errors = sorted(validator.iter_errors(doc), key=lambda e: list(e.path))
+            assert not errors, f"{name} {topic!r} t={msg['t']}: {errors[0].message} at " \
+                               f"{list(errors[0].path)}"
+            assert set(doc) <= set(s["properties"]), set(doc) - set(s["properties"])
+            lengths: dict[str, set[int]] = {}
+            for key, prop in s["properties"].items():
+                if key in doc and isinstance(prop.get("x-length"), str):
+                    lengths.setdefault(prop["x-length"], set()).add(len(doc[key]))
+            assert all(len(v) == 1 for v in lengths.values()), lengths
+            if "n" in lengths and "n+1" in lengths:
+                assert lengths["n+1"] == {next(iter(lengths["n"])) + 1}
+            counts[f"{topic.decode()}" + (f"[{kind}]" if kind else "")] += 1
+    assert set(counts) == {"meta", "plots", "eos", "truth[plots]", "truth[targets]"}, counts
+    print(f"{name}: {sum(counts.values())} messages valid {dict(counts)}")
+
+
+def test_a_wrong_message_is_refused(validators):
+    validator, _ = validators[(b"plots", None)]
+    good = {"v": protocol.SCHEMA_VERSION, "t": 1.0, "sensor": "r", "scan": 0, "plot_id": [1],
+            "time_s": [0.5], "range_m": [1e3], "azimuth_rad": [0.1], "snr_db": [None],
+            "sigma_range_m": [3.0], "sigma_azimuth_rad": [1e-3], "interference": [0]}
+    assert validator.is_valid(good)
+    for bad in ({**good, "v": 99}, {**good, "interference": [256]},
+                {k: v for k, v in good.items() if k != "range_m"},
+                {**good, "plot_id": [1.5]}, {**good, "scan": "0"}):
+        assert not validator.is_valid(bad)
+
+
+# --------------------------------------------------------------------- the AsyncAPI document
+_VALIDATE_JS = """
+import { Parser } from '@asyncapi/parser';
+import fs from 'node:fs';
+const path = process.argv[2];
+const { document, diagnostics } = await new Parser().parse(fs.readFileSync(path, 'utf8'),
+                                                           { source: path });
+const sev = ['error', 'warning', 'info', 'hint'];
+console.log(JSON.stringify({
+  valid: document !== undefined,
+  diagnostics: diagnostics.map(d => ({ severity: sev[d.severity], code: d.code,
+                                       message: d.message, path: d.path.join('/') })),
+  channels: document ? document.channels().length : 0,
+  messages: document ? document.allMessages().length : 0,
+  operations: document ? document.operations().length : 0 }));
+"""
+
+
+def _asyncapi_parser() -> Path | None:
+    """A directory holding ``validate.mjs`` and ``node_modules/@asyncapi/parser``; npm
+    installs the parser there when it is missing (a directory of the system's temporary
+    directory, kept across runs; ``SHIPRADAR_ASYNCAPI_DIR`` overrides it)."""
+    node, npm = shutil.which("node"), shutil.which("npm")
+    if node is None or npm is None:
+        return None
+    where = Path(os.environ.get("SHIPRADAR_ASYNCAPI_DIR",
+                                Path(tempfile.gettempdir()) / "shipradar-asyncapi-parser"))
+    where.mkdir(parents=True, exist_ok=True)
+    if not (where / "node_modules/@asyncapi/parser/package.json").exists():
+        subprocess.run([npm, "install", "--no-audit", "--no-fund", "--prefix", str(where),
+                        "@asyncapi/parser@3"], capture_output=True, text=True, timeout=600)
+    if not (where / "node_modules/@asyncapi/parser/package.json").exists():
+        return None
+    (where / "validate.mjs").write_text(_VALIDATE_JS, encoding="utf-8")
+    return where
+
+
+def test_asyncapi_document_passes_the_asyncapi_parser():
+    where = _asyncapi_parser()
+    if where is None:
+        message = "node/npm or @asyncapi/parser unavailable (npm install @asyncapi/parser)"
+        if os.environ.get("CI"):
+            pytest.fail(message)
+        pytest.skip(message)
+    proc = subprocess.run(["node", str(where / "validate.mjs"),
+                           str(COMMITTED / contract.ASYNCAPI_FILE)],
+                          capture_output=True, text=True, timeout=120, cwd=where)
+    assert proc.returncode == 0, proc.stderr
+    report = json.loads(proc.stdout)
+    problems = [d for d in report["diagnostics"] if d["severity"] in ("error", "warning")]
+    assert report["valid"] and not problems, problems
+    assert report["channels"] == len({p.topic for p in schema.PAYLOADS})
+    assert report["messages"] == len(schema.PAYLOADS)
+    assert report["operations"] == report["channels"]
+
+
+def test_asyncapi_document_uses_the_json_schemas():
+    doc = yaml.safe_load((COMMITTED / contract.ASYNCAPI_FILE).read_text(encoding="utf-8"))
+    assert doc["asyncapi"] == "3.0.0"
+    for name, s in _schemas().items():
+        ref = name.replace("[", "_").replace("]", "")
+        embedded = doc["components"]["schemas"][ref]["schema"]
+        assert embedded["properties"] == s["properties"]
+        assert embedded["required"] == s["required"]
+        assert doc["components"]["messages"][ref]["x-schema-file"] == \
+            contract.schema_file_name(next(p for p in schema.PAYLOADS if p.name == name))
