@@ -18,6 +18,7 @@ from shipradar.sim.stream.protocol import (
     EXT_NDARRAY,
     MAX_BODY_BYTES,
     SCHEMA_VERSION,
+    TOPIC_END,
     TOPIC_EOS,
     TOPIC_META,
     TOPIC_PLOTS,
@@ -70,7 +71,7 @@ def assert_same(a, b) -> None:
 
 
 def test_topics_are_distinct_and_not_prefixes_of_each_other():
-    assert TOPICS == (TOPIC_META, TOPIC_PLOTS, TOPIC_EOS, TOPIC_TRUTH)
+    assert TOPICS == (TOPIC_META, TOPIC_PLOTS, TOPIC_EOS, TOPIC_TRUTH, TOPIC_END)
     for a in TOPICS:
         for b in TOPICS:
             if a is not b:
@@ -169,7 +170,7 @@ def test_golden_bytes_pin_the_wire_format():
     # Changing these bytes breaks every subscriber: bump SCHEMA_VERSION and update the doc.
     frames = encode(TOPIC_EOS, 2.5, {"scan": 3, "r": np.array([1.0], dtype="<f4")})
     expected = (
-        b"\x84\xa1v\x01\xa1t\xcb\x40\x04\x00\x00\x00\x00\x00\x00"
+        b"\x84\xa1v\x02\xa1t\xcb\x40\x04\x00\x00\x00\x00\x00\x00"
         b"\xa4scan\x03\xa1r"
         b"\xc7\x14\x01"  # ext 8, 20 bytes, type 1
         b"\x01\x03<f4\x00\x00\x00"  # ndim 1, typestr '<f4', padding to 8

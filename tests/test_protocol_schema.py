@@ -58,12 +58,13 @@ def test_columns_have_numpy_dtypes():
     assert schema.TRUTH_TARGETS["active"].dtype == np.bool_
     assert schema.EOS["position"].dtype is None
     assert "plot_id" not in schema.PLOT_COLUMNS
-    assert schema.PLOT_TRUTH_COLUMNS == ("origin", "target")
+    assert schema.PLOT_TRUTH_COLUMNS == ("origin", "target", "true_range_m", "true_azimuth_rad",
+                                         "true_range_rate_mps")
 
 
 def test_message_orders_and_refuses():
     msg = schema.EOS.message(heading_deg=1.0, sensor="a", scan=0, time_s=2.0, position={},
-                             velocity_enu_mps=[0.0, 0.0, 0.0])
+                             velocity_enu_mps=[0.0, 0.0, 0.0], complete=True)
     assert list(msg) == list(schema.EOS.keys)
     with pytest.raises(schema.SchemaError, match="lacks"):
         schema.EOS.message(sensor="a")
@@ -89,7 +90,7 @@ def test_engine_messages_follow_the_schema(name):
         # and the same once encoded and decoded
         _, _, back = protocol.decode(protocol.encode(topic, 0.0, payload))
         p.check(back)
-    assert seen == {"meta", "plots", "eos", "truth[plots]", "truth[targets]"}
+    assert seen == {"meta", "plots", "eos", "end", "truth[plots]", "truth[targets]"}
 
 
 def test_framed_payloads_are_the_framed_bodies():
@@ -99,6 +100,8 @@ def test_framed_payloads_are_the_framed_bodies():
     plots["interference"] = rng.integers(0, 3, n).astype(np.uint8)
     plots["origin"] = rng.integers(0, 3, n).astype(np.uint8)
     plots["target"] = rng.integers(-1, 5, n).astype(np.int32)
+    for c in ("true_range_m", "true_azimuth_rad", "true_range_rate_mps"):
+        plots[c] = rng.normal(size=n)
     counts = rng.integers(0, 3, n)
     plots["contrib_offsets"] = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
     plots["contrib_targets"] = rng.integers(0, 5, int(counts.sum())).astype(np.int32)

@@ -228,6 +228,9 @@ class LookResults:
         Contact index of each target within this call.
     merged : (N,) bool
         True when the target's contact holds several targets.
+    batch : (N,) int or None
+        Revolution of each crossing among those the call processed together (the engine's
+        block of revolutions, ``process_targets(batch=...)``); None when not given.
     """
 
     radar: str
@@ -252,6 +255,7 @@ class LookResults:
     hit: np.ndarray
     contact: np.ndarray
     merged: np.ndarray
+    batch: np.ndarray | None = None
 
     @property
     def size(self) -> int:

@@ -366,6 +366,58 @@ class DwellModel:
             self.tables.pfac, pfa=self.pfa, n_channels=self.radar.n_channels,
             n_pulses=self.n_pulses, h_range=self.radar.h_range, h_azimuth=self.radar.h_azimuth)
 
+    def clutter_false_alarm_density(self, ring_m: float = 250.0
+                                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """Expected sea-clutter false alarms per scan in each slant-range ring and azimuth
+        sector, as the plots report them (seed 7.2, the generator's own sectors).
+
+        The generator (:class:`shipradar.sensors.false_alarms.ClutterFalseAlarms`) draws each
+        P_fac sector's η = P_fac × cells alarms uniform in ground range and azimuth inside
+        it, and reports the slant range of the sea point (the antenna height over the k-earth,
+        :func:`shipradar.sensors.sea_clutter.slant_range_m`) and the azimuth, with no noise
+        added. So each sector's η splits between the cells in proportion to its overlap in
+        ground range (the ring's slant edges mapped to ground range by the inverse of
+        ``slant_range_m``) and in azimuth: the cell values are exact expectations.
+
+        Parameters
+        ----------
+        ring_m : float, optional
+            Ring width in slant range [m], > 0; rings start at 0 and end at the last holding
+            any.
+
+        Returns
+        -------
+        (range_edges_m, azimuth_edges_rad, per_scan) or None
+            Ring edges in slant range [m] (r + 1), sector edges [rad] (a + 1, from 0 to 2π,
+            as many sectors as the P_fac map has azimuths), the expected count per scan in
+            each cell (r, a) [-], summing to the generator's η total. None without a P_fac
+            map.
+        """
+        gen = self._clutter_fa_generator
+        if gen is None:
+            return None
+        if not ring_m > 0.0:
+            raise ValueError("ring_m must be > 0")
+        n_az = len(self.tables.pfac.axes[1])
+        az_edges = np.linspace(0.0, 2.0 * math.pi, n_az + 1)
+        if gen.eta.size == 0:
+            return np.zeros(1), az_edges, np.zeros((0, n_az))
+        h, a_e = gen.antenna_height_m, gen.k_factor * sea_clutter.EARTH_RADIUS_M
+        r_top = float(sea_clutter.slant_range_m(gen.r_max_m.max(), h, gen.k_factor))
+        edges = ring_m * np.arange(int(math.ceil(r_top / ring_m)) + 1, dtype=float)
+        # slant R -> ground d: R² = h² + 4 a_e (a_e + h) sin²(d / 2 a_e), inverted
+        s2 = np.clip((edges**2 - h * h) / (4.0 * a_e * (a_e + h)), 0.0, 1.0)
+        g_edges = 2.0 * a_e * np.arcsin(np.sqrt(s2))
+        frac_r = _overlap_fraction(g_edges, gen.r_min_m, gen.r_max_m)
+        # azimuth intervals may pass 2π (az_max ≤ az_min + 2π): the bins shifted by ±2π too
+        frac_az = np.add.reduce([_overlap_fraction(az_edges + shift, gen.az_min_rad,
+                                                   gen.az_max_rad)
+                                 for shift in (-2.0 * math.pi, 0.0, 2.0 * math.pi)])
+        per_scan = (frac_r * gen.eta) @ frac_az.T
+        last = np.flatnonzero(per_scan.sum(axis=1) > 0.0)
+        n = 0 if last.size == 0 else int(last[-1]) + 1
+        return edges[:n + 1], az_edges, per_scan[:n]
+
     @functools.cached_property
     def _clutter_fa_spectrum(self) -> tuple[np.ndarray, np.ndarray]:
         """(reference, spread) [Hz] of :meth:`_spectrum_reference` at the centre of every
@@ -827,7 +879,8 @@ class DwellModel:
             improvement=contacts.improvement[group], si=d.si[group], si_db=d.si_db[group],
             interference=d.interference[group], n_e=d.n_e[group], pd=d.pd[group],
             hit=d.hit[group], contact=group,
-            merged=np.bincount(group, minlength=contacts.n_groups)[group] > 1)
+            merged=np.bincount(group, minlength=contacts.n_groups)[group] > 1,
+            batch=None if look.batch is None else np.asarray(look.batch))
 
     def _range_rate_columns(self, geom, clutter, lead, platform_vel=None) -> dict:
         """``range_rate_mps`` and ``sigma_range_rate_mps`` of the contacts led by targets
@@ -1054,6 +1107,16 @@ class _TwoRayFallback:
         intermediate = np.exp((1 - w) * np.log(np.maximum(f_lim, tiny))
                               + w * np.log(np.maximum(f_diff_h, tiny)))
         return np.where(inside, f_inter, np.where(beyond, diffraction, intermediate))
+
+
+def _overlap_fraction(edges: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Fraction of each interval [lo_j, hi_j] inside each bin [edges_i, edges_i+1] (bins ×
+    intervals); an interval of zero width counts whole in the bin holding it."""
+    a, b = edges[:-1, None], edges[1:, None]
+    span = hi - lo
+    inside = np.clip(np.minimum(b, hi) - np.maximum(a, lo), 0.0, None)
+    point = ((lo >= a) & (lo < b)).astype(float)
+    return np.where(span > 0.0, inside / np.where(span > 0.0, span, 1.0), point)
 
 
 def _argmax_by_group(group: np.ndarray, value: np.ndarray, n_groups: int) -> np.ndarray:

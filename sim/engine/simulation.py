@@ -38,7 +38,7 @@ import time
 from collections import deque
 from collections.abc import Generator, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 import simpy
@@ -48,6 +48,7 @@ from shipradar.sim.engine.order import EventOrder
 from shipradar.sim.stream import protocol
 from shipradar.sim.stream.framing import sector_columns
 from shipradar.sim.stream.schema import (
+    END,
     EOS,
     META,
     PLOT_COLUMNS,
@@ -65,6 +66,7 @@ from shipradar.sim.stream.sink import (
     takes_frames,
 )
 from shipradar.sim.world.kinematics import (
+    K_FACTOR,
     TWO_PI,
     LocalFrame,
     antenna_azimuth,
@@ -73,6 +75,9 @@ from shipradar.sim.world.kinematics import (
 )
 from shipradar.sim.world.scenario import Platform, Radar, Scenario
 from shipradar.sim.world.trajectory import trajectories
+
+if TYPE_CHECKING:
+    from shipradar.sim.dwell.look import LookResults
 
 #: Plot origin codes on the truth topic.
 ORIGIN_TARGET, ORIGIN_NOISE, ORIGIN_SEA_CLUTTER = 0, 1, 2
@@ -139,6 +144,9 @@ class Simulation:
         self.duration = float(scenario.duration_s if duration_s is None else duration_s)
         self.realtime = realtime
         self.progress = progress
+        #: the radars this instance runs, None for all (a parallel worker runs some and leaves
+        #: the run's ``end`` message to the parent)
+        self.only_radars = only_radars
         self.processes = int(processes)
         if self.processes < 1:
             raise ValueError(f"processes must be >= 1, got {processes}")
@@ -184,7 +192,9 @@ class Simulation:
         if self.processes > 1 and len(self.radars) > 1:
             from shipradar.sim.engine.parallel import run_parallel
 
-            return run_parallel(self)
+            out = run_parallel(self)
+            self._emit_end()
+            return out
         batched = self.batched
         env = None if batched else self._environment()
         bar = None
@@ -204,9 +214,23 @@ class Simulation:
             r.release()
         if bar is not None:
             bar.close()
-        if self.bus is not None:
-            self.bus.flush()
+        self._emit_end()
         return self.summary(wall)
+
+    def _emit_end(self) -> None:
+        """The run's last message, ``end`` (after every radar's last ``eos`` and
+        ``truth``), and the bus flushed; not from a worker that runs some radars only."""
+        if self.bus is None:
+            return
+        if self.only_radars is None:
+            self.bus.emit(protocol.TOPIC_END, self.duration, self._end_payload())
+        self.bus.flush()
+
+    def _end_payload(self) -> dict[str, Any]:
+        return END.message(
+            time_s=self.duration,
+            sensors=[r.radar.id for r in self.radars],
+            scans=[r.scans_in_run for r in self.radars])
 
     @property
     def batched(self) -> bool:
@@ -290,6 +314,7 @@ class Simulation:
             env.run(until=t + 1e-9 if t >= self.duration else t)
             while pending:
                 yield pending.popleft()
+        yield protocol.TOPIC_END.decode(), self.duration, self._end_payload()
 
     def _progress(self, env, bar):
         step = max(self.duration / 200.0, 0.5)
@@ -417,6 +442,15 @@ class _RadarProcess:
         self.target_ids = [t.id for t in sim.scenario.targets]
         # states at the ends of the revolutions computed ahead (_scan_end_states)
         self._eos_states: dict[int, tuple] = {}
+        # the looks of the revolutions computed ahead, by revolution: (target, time, P_d, S/I
+        # [dB], dominant interference) of each (_on_look), folded into the last look of each
+        # target (time, P_d, S/I, interference) at each end of scan for truth[targets]
+        self._looks: dict[int, list[tuple[np.ndarray, ...]]] = {}
+        k_targets = len(self.target_ids)
+        self._last_look = (np.full(k_targets, np.nan), np.full(k_targets, np.nan),
+                           np.full(k_targets, np.nan), np.full(k_targets, -1, np.int8))
+        self._block_scan0 = 0
+        model.on_look.append(self._on_look)
         # revolutions computed ahead (see _compute_block), consumed one per scan
         self._block: list[dict] = []
         self._block_plots: tuple[int, dict, list[int]] | None = None
@@ -438,6 +472,7 @@ class _RadarProcess:
         self._block_plots = self._block_frames = None
         self._scan = _merge_parts([])
         self._eos_states = {}
+        self._looks = {}
 
     # ------------------------------------------------------------------ helpers
     def beam_azimuth(self, t):
@@ -477,6 +512,64 @@ class _RadarProcess:
         geom = antenna_geometry(ppos, pvel, self.radar.antenna_height_m, jpos, jvel,
                                 self.sim.frame)
         return geom, jpos, ppos[0, :2]
+
+    @property
+    def scans_in_run(self) -> int:
+        """Scans the run gives this radar (``eos`` messages): those that start before its
+        end, as :meth:`run` counts them (also in the parent of a parallel run, whose own
+        processes do not run)."""
+        period = self.n_sectors * self.sector_s
+        s = max(int(math.ceil(self.sim.duration / period)), 0)
+        while s > 0 and (s - 1) * self.n_sectors * self.sector_s >= self.sim.duration:
+            s -= 1
+        while s * self.n_sectors * self.sector_s < self.sim.duration:
+            s += 1
+        return s
+
+    def _on_look(self, look: LookResults) -> None:
+        """Keep a call's looks by revolution (the dwell model's ``on_look``: the engine's
+        own observer), for the last look of each target in ``truth[targets]``."""
+        rev = (np.zeros(look.size, np.int64) if look.batch is None
+               else np.asarray(look.batch, np.int64)) + self._block_scan0
+        for r in np.unique(rev).tolist():
+            sel = rev == r
+            self._looks.setdefault(r, []).append(
+                (look.target[sel], look.time_s[sel], look.pd[sel], look.si_db[sel],
+                 look.interference[sel]))
+
+    def _fold_looks(self, scan: int) -> tuple[np.ndarray, ...]:
+        """The last look of every target up to the end of revolution ``scan``: its time,
+        P_d, S/I [dB] and dominant interference (NaN, NaN, NaN, -1 before any)."""
+        last = self._last_look
+        for target, t, pd, si_db, code in self._looks.pop(scan, ()):
+            order = np.argsort(t, kind="stable")  # the latest look of a target wins
+            rows = target[order]
+            last[0][rows], last[1][rows] = t[order], pd[order]
+            last[2][rows], last[3][rows] = si_db[order], code[order].astype(np.int8)
+        return tuple(a.copy() for a in last)
+
+    def antenna_state(self, t: float, pos: np.ndarray | None = None,
+                      vel: np.ndarray | None = None, lat: float | None = None,
+                      lon: float | None = None) -> dict[str, Any]:
+        """The antenna's ``position``, ``velocity_enu_mps`` and ``heading_deg`` at time ``t``
+        [s], as ``meta`` (scan start) and ``eos`` (scan end) carry them; the platform's
+        state and geodetic position are computed unless given."""
+        if pos is None or vel is None:
+            p, v = self.platform_state(np.array([t]))
+            pos, vel = p[0], v[0]
+        if lat is None or lon is None:
+            la, lo, _ = self.sim.frame.geodetic(pos[None, :])
+            lat, lon = float(la[0]), float(lo[0])
+        speed = float(np.hypot(vel[0], vel[1]))
+        heading = (math.degrees(math.atan2(vel[0], vel[1])) % 360.0 if speed > 0
+                   else self.platform.heading_deg)
+        up = float(pos[2] + self.radar.antenna_height_m)
+        return {
+            "position": {"lat_deg": lat, "lon_deg": lon, "alt_m": up,
+                         "east_m": float(pos[0]), "north_m": float(pos[1]), "up_m": up},
+            "velocity_enu_mps": [float(x) for x in vel],
+            "heading_deg": heading,
+        }
 
     # ------------------------------------------------------------------ process
     def run(self, env: _Clock) -> Generator[Any, Any, None]:
@@ -532,48 +625,63 @@ class _RadarProcess:
         from shipradar.tables.pfac import clutter_range_profile
 
         edges, per_scan = clutter_range_profile(pfac)
-        return {"clutter_false_alarms_per_scan": float(per_scan.sum()),
-                "clutter_false_alarm_profile": {"range_edges_m": edges, "per_scan": per_scan}}
+        out: dict[str, Any] = {
+            "clutter_false_alarms_per_scan": float(per_scan.sum()),
+            "clutter_false_alarm_profile": {"range_edges_m": edges, "per_scan": per_scan}}
+        density = self.model.clutter_false_alarm_density()
+        if density is not None:
+            r_edges, az_edges, cells = density
+            out["clutter_false_alarm_density"] = {
+                "range_edges_m": r_edges, "azimuth_edges_rad": az_edges, "per_scan": cells}
+        return out
 
     def _emit_meta(self, t: float, scan: int) -> None:
-        """The sensor metadata of revolution ``scan`` at time ``t``.  To a bus that takes
-        frames (:func:`shipradar.sim.stream.sink.takes_frames`) it goes packed from the items
-        packed once (only ``scan`` changes; :func:`shipradar.sim.stream.protocol.encode_items`,
-        the same bytes as encoding the payload); other buses get the payload."""
+        """The sensor metadata of revolution ``scan``, starting at time ``t``, with the
+        antenna's state at ``t`` (:meth:`antenna_state`).  To a bus that takes frames
+        (:func:`shipradar.sim.stream.sink.takes_frames`) it goes packed from the items
+        packed once (only ``scan`` and the antenna's state change;
+        :func:`shipradar.sim.stream.protocol.encode_items`, the same bytes as encoding the
+        payload); other buses get the payload."""
         sim = self.sim
         bus = sim.bus
         if bus is None:
             return
+        state = {"scan": scan, **self.antenna_state(t)}
         if takes_frames(bus):
-            self._emit_meta_frames(bus, t, scan)
+            self._emit_meta_frames(bus, t, state)
         else:
-            bus.emit(protocol.TOPIC_META, t, self._meta_payload(scan))
+            bus.emit(protocol.TOPIC_META, t, self._meta_payload(state))
 
-    def _emit_meta_frames(self, bus: FrameSink, t: float, scan: int) -> None:
-        """The metadata from its items packed once (:meth:`_emit_meta`)."""
+    def _emit_meta_frames(self, bus: FrameSink, t: float, state: dict[str, Any]) -> None:
+        """The metadata from its items packed once (:meth:`_emit_meta`): the keys before
+        ``scan``, then ``state`` (``scan`` and the antenna's state, the keys that follow it
+        in :data:`shipradar.sim.stream.schema.META`), then the rest."""
         parts = self._meta_items
         if parts is None:
-            payload = self._meta_payload(0)
+            payload = self._meta_payload(state)
             keys = list(payload)
             k = keys.index("scan")
             topic = protocol.TOPIC_META
             parts = self._meta_items = (
                 len(keys), protocol.payload_items(topic, {c: payload[c] for c in keys[:k]}),
-                protocol.payload_items(topic, {c: payload[c] for c in keys[k + 1:]}))
+                protocol.payload_items(topic, {c: payload[c]
+                                               for c in keys[k + len(state):]}))
         n, before, after = parts
         bus.emit_frames(t, protocol.encode_items(
             protocol.TOPIC_META, t, n,
-            (before, protocol.payload_items(protocol.TOPIC_META, {"scan": scan}), after)))
+            (before, protocol.payload_items(protocol.TOPIC_META, state), after)))
 
-    def _meta_payload(self, scan: int) -> dict:
+    def _meta_payload(self, state: dict[str, Any]) -> dict:
+        """``meta`` with ``state``: ``scan`` and the antenna's state at the scan's start."""
         r = self.radar
         return META.message(
             sensor=r.id,
             platform=self.platform.id,
-            scan=scan,
+            **state,
             radar=self._radar_dump,
             scan_period_s=r.scan_period_s,
             sectors_per_scan=self.n_sectors,
+            sector_s=self.sector_s,
             pfa=self.model.pfa,
             noise_false_alarms_per_scan=self.model.noise_false_alarms_per_scan,
             **self._clutter_fa_meta,
@@ -648,6 +756,12 @@ class _RadarProcess:
         sim.stats.merged_targets += res.pop("merged")
         sim.stats.propagation_fallbacks += res.pop("fallbacks", 0)
         nplots = res["range_m"].size
+        if nplots:
+            # the strongest contributor's true geometry at the plot's time (a merged plot's
+            # time is its contributors' power-weighted one): what the plot measures
+            true, _, _ = self.geometry(res["time_s"], res["target"].astype(np.int64))
+            res.update(true_range_m=true.slant_range, true_azimuth_rad=true.azimuth,
+                       true_range_rate_mps=true.radial_velocity)
         sim.stats.target_plots += nplots
         for code, name in enumerate(self.model.INTERFERENCE_NAMES):
             sim.stats.by_interference[name] += int(np.count_nonzero(res["interference"] == code))
@@ -697,6 +811,7 @@ class _RadarProcess:
         """
         sim = self.sim
         period = self.radar.scan_period_s
+        self._block_scan0 = scan0  # the revolution of a look's batch 0 (_on_look)
         bounds = []
         for j in range(self.scans_per_block):
             t_a = (scan0 + j) * self.n_sectors * self.sector_s
@@ -839,25 +954,18 @@ class _RadarProcess:
         sim = self.sim
         sim.stats.scans += 1
         pos, vel, lat, lon, target = self._eos_states.pop(scan)  # at t (_scan_end_states)
-        speed = float(np.hypot(vel[0], vel[1]))
-        heading = (math.degrees(math.atan2(vel[0], vel[1])) % 360.0 if speed > 0
-                   else self.platform.heading_deg)
-        eos = EOS.message(
-            sensor=self.radar.id,
-            scan=scan,
-            time_s=t,
-            position={
-                "lat_deg": lat, "lon_deg": lon,
-                "alt_m": float(pos[2] + self.radar.antenna_height_m),
-                "east_m": float(pos[0]), "north_m": float(pos[1]),
-                "up_m": float(pos[2] + self.radar.antenna_height_m),
-            },
-            velocity_enu_mps=[float(v) for v in vel],
-            heading_deg=heading,
-        )
+        # the run's end inside a revolution cuts it short (the sector loop ends it at t_b =
+        # duration); a revolution ending exactly at the run's end is complete
+        complete = bool(t >= (scan + 1) * self.n_sectors * self.sector_s - 1e-9)
+        eos = EOS.message(sensor=self.radar.id, scan=scan, time_s=t,
+                          **self.antenna_state(t, pos, vel, lat, lon), complete=complete)
         sim.emit(protocol.TOPIC_EOS, t, eos)
+        look_t, pd, si_db, code = self._fold_looks(scan)
         if target is not None:
-            tpos, tvel, tacc, active = target
+            tpos, tvel, tacc, active = (np.array(a) for a in target)
+            # an inactive target has no state (schema 2): NaN, not a frozen one
+            for a in (tpos, tvel, tacc):
+                a[~active] = np.nan
             sim.emit(protocol.TOPIC_TRUTH, t, TRUTH_TARGETS.message(
                 sensor=self.radar.id,
                 scan=scan,
@@ -866,9 +974,30 @@ class _RadarProcess:
                 v_east_mps=tvel[:, 0], v_north_mps=tvel[:, 1], v_up_mps=tvel[:, 2],
                 a_east_mps2=tacc[:, 0], a_north_mps2=tacc[:, 1], a_up_mps2=tacc[:, 2],
                 active=active,
+                in_coverage=self.in_coverage(pos, tpos, active),
+                look_time_s=look_t, pd=pd, snr_db=si_db, interference=code,
             ))
         if sim.bus is not None:
             sim.bus.flush()
+
+    def in_coverage(self, platform_pos: np.ndarray, target_pos: np.ndarray,
+                    active: np.ndarray) -> np.ndarray:
+        """Which targets the radar can see from its platform at ``platform_pos`` (3,) [m]:
+        active, ground range from the antenna within the instrumented range (the engine's
+        own test before a look, :meth:`_dwell`) and inside the radio horizon over the
+        effective earth, √(2 a_e h_a) + √(2 a_e h_t) with a_e = 4/3 the frame's radius and
+        heights above the sea [m] (targets ``target_pos`` (k, 3) [m], NaN when inactive)."""
+        out = np.zeros(active.shape, dtype=bool)
+        if not active.any():
+            return out
+        idx = np.flatnonzero(active)
+        tpos = target_pos[idx]
+        _, ground = antenna_azimuth(platform_pos, tpos, self.sim.frame)
+        a_e = K_FACTOR * self.sim.frame.radius
+        h_a = max(float(platform_pos[2]) + self.radar.antenna_height_m, 0.0)
+        horizon = np.sqrt(2.0 * a_e * h_a) + np.sqrt(2.0 * a_e * np.maximum(tpos[:, 2], 0.0))
+        out[idx] = (ground <= self.radar.instrumented_range_m) & (ground <= horizon)
+        return out
 
 
 #: Margin of the beam-crossing search at the boundary between two revolutions [s].
@@ -889,7 +1018,8 @@ _Revolution = tuple[dict[int, tuple[int, Any, Any]], list[bytes], list[int], lis
 # alarms) has -1
 _PLOT_DTYPES = {c: a.dtype for c, a in empty_plots().items()
                 if c in PLOT_COLUMNS or c in PLOT_TRUTH_COLUMNS}
-_ABSENT = {"target": -1}
+_ABSENT = {"target": -1, "true_range_m": np.nan, "true_azimuth_rad": np.nan,
+           "true_range_rate_mps": np.nan}
 _CONTRIB_DTYPES = (TRUTH_PLOTS["contrib_offsets"].dtype, TRUTH_PLOTS["contrib_targets"].dtype)
 
 

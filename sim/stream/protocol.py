@@ -32,6 +32,7 @@ __all__ = [
     "SCHEMA_VERSION",
     "SUPPORTED_SCHEMA_VERSIONS",
     "TOPICS",
+    "TOPIC_END",
     "TOPIC_EOS",
     "TOPIC_META",
     "TOPIC_PLOTS",
@@ -46,10 +47,12 @@ __all__ = [
 ]
 
 #: Version of the payload schema (topics, keys, units) described in docs/protocol.md.
-#: Bumped on any change a subscriber could notice.
-SCHEMA_VERSION: int = 1
-#: Schema versions :func:`decode` accepts.
-SUPPORTED_SCHEMA_VERSIONS: tuple[int, ...] = (1,)
+#: Bumped when a key changes meaning (new keys and topics alone do not bump it). 2: the
+#: states of an inactive target in ``truth[targets]`` are NaN (1: frozen values).
+SCHEMA_VERSION: int = 2
+#: Schema versions :func:`decode` accepts: a version 1 stream or recording (no key of
+#: version 2 is required of it, :mod:`shipradar.sim.stream.schema`) still reads.
+SUPPORTED_SCHEMA_VERSIONS: tuple[int, ...] = (1, 2)
 
 #: Sensor metadata, sent at start and repeated every scan for late joiners.
 TOPIC_META: bytes = b"meta"
@@ -59,9 +62,12 @@ TOPIC_PLOTS: bytes = b"plots"
 TOPIC_EOS: bytes = b"eos"
 #: Ground truth (target states, origin of each plot); a tracker under test ignores it.
 TOPIC_TRUTH: bytes = b"truth"
+#: The end of the run: one message after every radar's last, for a client to wait for.
+TOPIC_END: bytes = b"end"
 #: The topics the engine publishes. ZeroMQ subscriptions match by prefix, so no topic may be
-#: a prefix of another (a new topic must not start with ``meta``, ``plots``, ``eos``, ``truth``).
-TOPICS: tuple[bytes, ...] = (TOPIC_META, TOPIC_PLOTS, TOPIC_EOS, TOPIC_TRUTH)
+#: a prefix of another (a new topic must not start with ``meta``, ``plots``, ``eos``,
+#: ``truth``, ``end``).
+TOPICS: tuple[bytes, ...] = (TOPIC_META, TOPIC_PLOTS, TOPIC_EOS, TOPIC_TRUTH, TOPIC_END)
 
 #: Largest body :func:`encode` produces and :func:`decode` accepts [bytes] (64 MiB).
 MAX_BODY_BYTES: int = 64 * 1024 * 1024

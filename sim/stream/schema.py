@@ -1,7 +1,7 @@
 """The stream's payloads declared once: every key of every topic, its type, unit and meaning.
 
 One :class:`Field` per key, one :class:`Payload` (fields in the order a message carries them)
-per topic and kind: :data:`META`, :data:`PLOTS`, :data:`EOS`, :data:`TRUTH_PLOTS`,
+per topic and kind: :data:`META`, :data:`PLOTS`, :data:`EOS`, :data:`END`, :data:`TRUTH_PLOTS`,
 :data:`TRUTH_TARGETS`, and :data:`TRACKS` (published back by a tracker). Everything else
 derives from this module (STYLE lesson 12):
 
@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 
 __all__ = [
+    "END",
     "EOS",
     "META",
     "PAYLOADS",
@@ -204,11 +205,19 @@ META = Payload(b"meta", None, (
     _f("sensor", "str", "", "radar id, unique in the scenario (e.g. `sps49`)"),
     _f("platform", "str", "", "id of the platform (ship) carrying it"),
     _f("scan", "int", "", "scan number that starts now (0-based)"),
+    _f("position", "map", "", "antenna position at the start of the scan (`t`), as in `eos`: "
+       "`lat_deg`, `lon_deg`, `alt_m`, `east_m`, `north_m`, `up_m` (below)", required=False),
+    _f("velocity_enu_mps", "list[3] float", "m/s", "platform velocity at `t`, east/north/up",
+       required=False),
+    _f("heading_deg", "float", "deg", "platform heading at `t`, true north, clockwise",
+       required=False),
     _f("radar", "map", "", "every radar parameter of the scenario, by its scenario name and "
        "unit (`peak_power_w`, `frequency_hz`, `beamwidth_az_deg`, `rotation_rpm`, `prf_hz`, "
        "`instrumented_range_m`, …)"),
     _f("scan_period_s", "float", "s", "antenna revolution period"),
     _f("sectors_per_scan", "int", "", "sectors (hence `plots` messages at most) per revolution"),
+    _f("sector_s", "float", "s", "sector length, `scan_period_s / sectors_per_scan`: a `plots` "
+       "message at `t` holds plots with `t − sector_s < time_s ≤ t` (below)", required=False),
     _f("pfa", "float", "", "probability of false alarm per cell from t_fa, [68]-[72]"),
     _f("noise_false_alarms_per_scan", "float", "", "expected noise false alarms per "
        "revolution"),
@@ -219,6 +228,11 @@ META = Payload(b"meta", None, (
        "array, ring edges in ground range from 0, 250 m apart) and `per_scan` (float64 array, "
        "expected sea-clutter false alarms per scan in each ring): what a tracker needs for a "
        "range-dependent clutter density", required=False),
+    _f("clutter_false_alarm_density", "map", "", "with the above, per slant-range ring and "
+       "azimuth sector: `range_edges_m` (float64[r+1], ring edges in slant range, 250 m apart), "
+       "`azimuth_edges_rad` (float64[a+1], sector edges from 0 to 2π, true north), `per_scan` "
+       "(float64[r, a], expected sea-clutter false alarms per scan in each cell; the plots' "
+       "`range_m` and `azimuth_rad` fall in these cells)", required=False),
     _f("target_ids", "list[str]", "", "scenario target ids; `truth` refers to targets by index "
        "in this list"),
     _f("origin_codes", "list[str]", "", "names of the `truth` origin codes: `[\"target\", "
@@ -266,6 +280,17 @@ EOS = Payload(b"eos", None, (
        "frame [m]; `up_m` equals `alt_m`)"),
     _f("velocity_enu_mps", "list[3] float", "m/s", "platform velocity, east/north/up"),
     _f("heading_deg", "float", "deg", "platform heading, true north, clockwise"),
+    _f("complete", "bool", "", "true when the antenna completed the revolution; false on a "
+       "run's last scan cut short by the end of the run (its plots cover the azimuths swept "
+       "until `time_s` only)", required=False),
+))
+
+#: ``end``: the end of the run, once, after every radar's last messages.
+END = Payload(b"end", None, (
+    _f("time_s", "float", "s", "end of the run, the scenario's duration (equal to `t`)"),
+    _f("sensors", "list[str]", "", "the radars of the run, whose messages all came before"),
+    _f("scans", "list[int]", "", "scans each of them sent (its last `eos` `scan` + 1), in "
+       "the order of `sensors`"),
 ))
 
 #: ``truth``, kind ``plots``: the origin of each plot of the ``plots`` message before it.
@@ -278,6 +303,16 @@ TRUTH_PLOTS = Payload(b"truth", "plots", (
        "clutter"),
     _f("target", "int32[n]", "", "index into `meta.target_ids` of the (strongest) target, -1 "
        "for false alarms; the plot's origin reads `\"target:\" + target_ids[target]`"),
+    _f("true_range_m", "float64[n]", "m", "true slant range of the plot's strongest "
+       "contributor (`target`) at the plot's `time_s`, the geometry the plot measures: "
+       "`plots.range_m − true_range_m` is the range error; NaN for false alarms",
+       required=False),
+    _f("true_azimuth_rad", "float64[n]", "rad", "its true azimuth at `time_s`, true north "
+       "(wrap the difference into [−π, π)); NaN for false alarms", required=False),
+    _f("true_range_rate_mps", "float64[n]", "m/s", "its true range rate relative to the "
+       "antenna at "
+       "`time_s`, positive receding, not folded (the measured one is folded by the PRF); NaN "
+       "for false alarms", required=False),
     _f("contrib_offsets", "int64[n+1]", "", "plot i's contributors are "
        "`contrib_targets[contrib_offsets[i]:contrib_offsets[i+1]]`"),
     _f("contrib_targets", "int32[m]", "", "target indices of every target merged into each "
@@ -302,7 +337,19 @@ TRUTH_TARGETS = Payload(b"truth", "targets", (
     _f("a_north_mps2", "float64[k]", "m/s²", "north accelerations"),
     _f("a_up_mps2", "float64[k]", "m/s²", "up accelerations"),
     _f("active", "bool[k]", "", "target exists at that time (between its first and last "
-       "waypoint)"),
+       "waypoint); the states of a target that does not are NaN (schema 2; schema 1 held "
+       "frozen values)"),
+    _f("in_coverage", "bool[k]", "", "the radar `sensor` can see it at `time_s`: active, ground "
+       "range from the antenna within `instrumented_range_m`, and inside the radio horizon "
+       "over the 4/3 earth, √(2 a_e h_a) + √(2 a_e h_t)", required=False),
+    _f("look_time_s", "float64[k]", "s", "time of the target's last look by this radar (the "
+       "beam's crossing, at or before `time_s`); NaN before any look", required=False),
+    _f("pd", "float64[k]", "", "expected probability of detection of that look (of the "
+       "contact it was in when unresolved from others); NaN before any look", required=False),
+    _f("snr_db", "float64[k]", "dB", "S/I of that look (DREV-R-9429 [66]-[67]); NaN before "
+       "any look", required=False),
+    _f("interference", "int8[k]", "", "dominant interference of that look, index into "
+       "`meta.interference_codes`; −1 before any look", required=False),
 ))
 
 #: ``tracks``: a tracker's tracks (published by the tracker, not by shipradar).
@@ -320,7 +367,7 @@ TRACKS = Payload(TOPIC_TRACKS, None, (
 ))
 
 #: Every payload, in the order docs/protocol.md section 4 shows their tables.
-PAYLOADS: tuple[Payload, ...] = (META, PLOTS, EOS, TRUTH_PLOTS, TRUTH_TARGETS, TRACKS)
+PAYLOADS: tuple[Payload, ...] = (META, PLOTS, EOS, END, TRUTH_PLOTS, TRUTH_TARGETS, TRACKS)
 
 #: The per-plot columns the radar model makes (the ``plots`` columns but ``plot_id``, which
 #: the engine numbers when a sector is framed), in message order.
