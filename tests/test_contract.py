@@ -9,6 +9,7 @@ import json
 import os
 import shutil
 import subprocess
+import sys
 import tempfile
 from collections import Counter
 from pathlib import Path
@@ -22,7 +23,7 @@ from shipradar.sim.stream import contract, protocol, schema
 from shipradar.sim.stream.bus import Bus
 from shipradar.sim.stream.recording import Recorder, read_recording
 from shipradar.sim.world.scenario import load_scenario
-from tests.helpers import ROOT
+from tests.helpers import ROOT, free_port
 
 jsonschema = pytest.importorskip("jsonschema")
 
@@ -204,3 +205,36 @@ def test_asyncapi_document_uses_the_json_schemas():
         assert embedded["required"] == s["required"]
         assert doc["components"]["messages"][ref]["x-schema-file"] == \
             contract.schema_file_name(next(p for p in schema.PAYLOADS if p.name == name))
+
+
+# --------------------------------------------------------------------- the run summary
+def _summary_rows() -> list[tuple[str, str]]:
+    """(key, meaning) of each row of docs/protocol.md section 11's table."""
+    text = (ROOT / "docs/protocol.md").read_text(encoding="utf-8")
+    part = text[text.index("\n## 11. Run summary"):]
+    rows = []
+    for line in part.splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if line.startswith("| `") and len(cells) == 4:
+            rows.append((cells[0].strip("`"), cells[3]))
+    return rows
+
+
+def test_run_summary_is_specified(tmp_path):
+    """Every key of ``shipradar run``'s summary line (recording and publishing) is in section 11, in
+    order; every key not marked optional is in the summary; the bus's keys are named."""
+    proc = subprocess.run(
+        [sys.executable, "-m", "shipradar.sim.cli", "run", "--example", "single_missile",
+         "--duration", "2", "--quiet", "--record", str(tmp_path / "run.srrec"),
+         "--publish", f"tcp://127.0.0.1:{free_port()}"],
+        capture_output=True, text=True, timeout=300, cwd=ROOT)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    summary = json.loads(proc.stdout.strip().splitlines()[-1])
+    rows = _summary_rows()
+    documented = [k for k, _ in rows]
+    assert [k for k in documented if k in summary] == list(summary), (documented, summary)
+    assert [k for k, m in rows if "*optional*" not in m and k not in summary] == []
+    bus_row = dict(rows)["bus"]
+    bus = summary["bus"]
+    for key in [*bus, *bus["recorder"], *bus["publisher"]]:
+        assert f"`{key}`" in bus_row, key
