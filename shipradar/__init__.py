@@ -12,9 +12,11 @@ The public API, everything a library user needs::
 
 ``run(scenario, on_message=...)`` runs to the end with a callback and returns the summary;
 ``probability_of_detection`` and ``required_snr_db`` are the detection functions;
-``read_recording`` iterates a recording. The subpackages ``shipradar.sim``,
-``shipradar.sensors`` and ``shipradar.tables`` are importable, but only the names listed in
-``__all__`` are promised to stay.
+``read_recording`` iterates a recording; ``plot_to_local``, ``plot_to_geodetic``,
+``local_to_plot``, ``local_to_geodetic`` and ``geodetic_to_local`` convert between plots
+(slant range, azimuth), the stream's local frame and WGS-84 (docs/protocol.md 4). The
+subpackages ``shipradar.sim``, ``shipradar.sensors`` and ``shipradar.tables`` are
+importable, but only the names listed in ``__all__`` are promised to stay.
 """
 
 from __future__ import annotations
@@ -34,6 +36,11 @@ _EXPORTS = {
     "ScenarioError": "shipradar.sim.world.scenario",
     "load_scenario": "shipradar.sim.world.scenario",
     "parse_scenario": "shipradar.sim.world.scenario",
+    "geodetic_to_local": "shipradar.sim.world.frames",
+    "local_to_geodetic": "shipradar.sim.world.frames",
+    "local_to_plot": "shipradar.sim.world.frames",
+    "plot_to_geodetic": "shipradar.sim.world.frames",
+    "plot_to_local": "shipradar.sim.world.frames",
     "Simulation": "shipradar.sim.engine.simulation",
     "probability_of_detection": "shipradar.sensors.detection",
     "required_snr_db": "shipradar.sensors.detection",
