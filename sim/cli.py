@@ -391,9 +391,9 @@ def cmd_replay(args) -> int:
     finally:
         if asterix is not None:
             asterix.close()
+    summary["insecure_remote"] = insecure_remote  # before asterix, as in run's summary
     if asterix is not None:
         summary["asterix"] = asterix.stats["asterix"]
-    summary["insecure_remote"] = insecure_remote
     if summary["truncated"]:
         print(f"warning: {args.recording} is truncated: {summary['frames']} whole frame(s) "
               f"replayed, {summary['bytes_ignored']} byte(s) of a partial last frame ignored",
