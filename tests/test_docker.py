@@ -25,7 +25,7 @@ def test_compose_services_use_make_targets():
     radar = services["radar"]["command"]
     # inside a container the service must bind all interfaces, and say so explicitly
     assert "ENDPOINT=tcp://0.0.0.0:5556" in radar
-    assert any("--allow-remote" in a for a in radar)
+    assert any("--allow-insecure-remote" in a for a in radar)
     # published on the host's loopback only
     assert services["radar"]["ports"] == ["127.0.0.1:5556:5556"]
     assert "ENDPOINT=tcp://radar:5556" in services["subscriber"]["command"]
