@@ -32,7 +32,6 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from itur.models import itu676, itu838, itu840
 from numpy.typing import ArrayLike, NDArray
 from scipy import constants
 
@@ -123,6 +122,8 @@ def gaseous_specific_attenuation_db_per_km(
     p = _dry_pressure_hpa(pressure_hpa, water_vapour_density_g_m3, temperature_k)
     rho = np.asarray(water_vapour_density_g_m3, dtype=np.float64)
     t = np.asarray(temperature_k, dtype=np.float64)
+    from itur.models import itu676  # imported when used: itur imports astropy and scipy.stats
+
     # itur sums its spectral lines over the whole input array: call it point by point
     # (this runs once per scene, never per dwell).
     go = np.vectorize(lambda f_, p_, r_, t_: float(_plain(itu676.gamma0_exact(f_, p_, r_, t_))))
@@ -162,6 +163,8 @@ def gaseous_equivalent_heights_m(
         P676_HEIGHTS_MIN_FREQ_HZ / _GHZ,
         P676_HEIGHTS_MAX_FREQ_HZ / _GHZ,
     )
+    from itur.models import itu676  # imported when used: itur imports astropy and scipy.stats
+
     # itur 0.4 returns kilometres under a "m" unit label: take the value as km.
     ho_hw = itu676.slant_inclined_path_equivalent_height(
         f,
@@ -384,6 +387,8 @@ def fog_specific_attenuation_db_per_km(
     ndarray
         γ_f/c [dB/km], 0 for M = 0.
     """
+    from itur.models import itu840  # imported when used: itur imports astropy and scipy.stats
+
     t_c = np.asarray(temperature_k, dtype=np.float64) - constants.zero_Celsius
     kl = np.vectorize(
         lambda f_, t_: float(_plain(itu840.specific_attenuation_coefficients(f_, t_)))
@@ -424,6 +429,8 @@ def rain_specific_attenuation_db_per_km(
     """
     if polarization not in POLARIZATION_TILT_DEG:
         raise ValueError(f"polarization must be one of {sorted(POLARIZATION_TILT_DEG)}")
+    from itur.models import itu838  # imported when used: itur imports astropy and scipy.stats
+
     tau = POLARIZATION_TILT_DEG[polarization]
     f = np.maximum(np.asarray(freq_hz, dtype=np.float64), P838_MIN_FREQ_HZ) / _GHZ
     rate = np.asarray(rain_rate_mm_h, dtype=np.float64)

@@ -43,7 +43,6 @@ from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.signal import windows as _windows
 from scipy.special import comb
 
 #: Default system-stability limit of the improvement factor [dB] (see the module docstring).
@@ -599,6 +598,9 @@ def window_weights(
     n_taps = int(n_taps)
     if n_taps < 1:
         raise ValueError("a window needs at least one tap")
+    # imported here: scipy.signal imports scipy.stats (0.3-0.7 s of a run's start-up)
+    from scipy.signal import windows as _windows
+
     window: NDArray[np.float64]  # scipy.signal is untyped
     if name == "rectangular":
         window = np.ones(n_taps)

@@ -46,7 +46,6 @@ import numpy as np
 import scipy.constants as sc
 import scipy.fft as sfft
 from numpy.typing import ArrayLike, NDArray
-from scipy.signal import lfilter
 
 from shipradar.sensors import propagation as prop
 
@@ -275,6 +274,10 @@ class _ImpedanceBoundary:
 
     def _solve(self, w: np.ndarray) -> np.ndarray:
         """Particular solution of T u = w with v_0 = 0 and u_N = 0."""
+        # imported here: scipy.signal imports scipy.stats (0.3-0.7 s), which a run that only
+        # reads the cached tables (and the build estimates' grid rules) never needs
+        from scipy.signal import lfilter
+
         r = self.r
         n = w.size + 1
         x = np.zeros(n + 1, dtype=complex)

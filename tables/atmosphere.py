@@ -7,11 +7,11 @@ depends on the rain cell's geometry and is computed on-line there, not tabulated
 
 from __future__ import annotations
 
+import sys
+from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
-import itur
 import numpy as np
-from itur.models import itu676, itu840
 from numpy.typing import ArrayLike, NDArray
 from scipy import constants
 
@@ -25,6 +25,30 @@ __all__ = ["TABLE_NAME", "TABLE_VERSION", "atmospheric_loss_grid", "atmospheric_
 #: :mod:`shipradar.sensors.atmosphere`).
 TABLE_NAME = "atmospheric_loss"
 TABLE_VERSION = 1
+
+#: The ITU-R recommendation versions each itur release selects by default (P.676, P.840), so
+#: that a table's key is computed without importing itur, which imports astropy, scipy.stats
+#: and scipy.interpolate (0.3-0.6 s of a run's start-up that reads the table from the cache).
+#: Another release, or an itur already imported (whose versions a caller may have changed with
+#: ``change_version``), is asked itself; ``tests/test_atmosphere.py`` checks the entry.
+ITUR_DEFAULT_VERSIONS: dict[str, tuple[int, int]] = {"0.4.0": (12, 7)}
+
+
+def itur_versions() -> dict[str, str | int]:
+    """The itur release and the P.676 and P.840 versions it uses, as keyed into the table."""
+    if "itur" not in sys.modules:
+        try:
+            release = version("itur")
+        except PackageNotFoundError:  # pragma: no cover - itur is a dependency
+            release = ""
+        if release in ITUR_DEFAULT_VERSIONS:
+            p676, p840 = ITUR_DEFAULT_VERSIONS[release]
+            return {"itur": release, "p676": p676, "p840": p840}
+    import itur
+    from itur.models import itu676, itu840
+
+    return {"itur": itur.__version__, "p676": itu676.get_version(),
+            "p840": itu840.get_version()}
 
 
 def _build_grid(freq_hz, ranges_m, elevations_rad, inputs) -> Table:
@@ -155,9 +179,7 @@ def atmospheric_loss_inputs(
         "fog_lwc_g_m3": float(fog_lwc_g_m3),
         "fog_top_m": float(fog_top_m),
         "antenna_height_m": float(antenna_height_m),
-        "itur": itur.__version__,
-        "p676": itu676.get_version(),
-        "p840": itu840.get_version(),
+        **itur_versions(),
     }
 
 

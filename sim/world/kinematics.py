@@ -1,12 +1,13 @@
 """Kinematics and radar geometry, vectorized over objects.
 
 Positions are kept in the scenario origin's local frame: east and north [m] on the tangent
-plane (waypoints given as latitude/longitude are converted once with ``pymap3d``) and the
+plane (waypoints given as latitude/longitude are converted once on the WGS-84 ellipsoid,
+:mod:`shipradar.sim.world.geodesy`: pymap3d's formulas, without its import of astropy) and the
 altitude above the sea [m].  Motion between waypoints is at constant velocity; scenario
 segments (turns, speed changes, weaves, climbs, rounded waypoint corners) are pieces with
 closed forms (:class:`Piece`, :func:`piece_state`), built by :mod:`shipradar.sim.world.trajectory`.
 
-Geometry from an antenna to its targets is computed on the WGS-84 ellipsoid (``pymap3d``):
+Geometry from an antenna to its targets is computed on the WGS-84 ellipsoid:
 true-north azimuth in the antenna's own local frame (so a ship 100 km from the origin still
 reports true north, not grid north), terrestrial range along the earth, and slant range and
 elevation on the 4/3 effective earth used throughout the radar model.
@@ -19,10 +20,10 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-import pymap3d
 from numpy.typing import ArrayLike, NDArray
 from scipy.special import ellipeinc
 
+from shipradar.sim.world import geodesy
 from shipradar.sim.world.scenario import Origin, Platform, Waypoint
 
 #: Mean earth radius [m] (IUGG).
@@ -41,7 +42,7 @@ class LocalFrame:
     the sphere's vertical.  Over a few hundred kilometres the sphere departs from the ellipsoid
     by decimetres, while every geometric quantity becomes a handful of vector operations
     (no iterative geodetic conversion on the hot path).  Latitude/longitude waypoints enter,
-    and reported positions leave, through ``pymap3d`` on the ellipsoid.
+    and reported positions leave, through :mod:`shipradar.sim.world.geodesy` on the ellipsoid.
     """
 
     def __init__(self, origin: Origin):
@@ -51,7 +52,7 @@ class LocalFrame:
         self.up0 = np.array([np.cos(lat) * np.cos(lon), np.cos(lat) * np.sin(lon), np.sin(lat)])
         self.east0 = np.array([-np.sin(lon), np.cos(lon), 0.0])
         self.north0 = np.cross(self.up0, self.east0)
-        o = np.array(pymap3d.geodetic2ecef(origin.lat_deg, origin.lon_deg, 0.0), dtype=float)
+        o = np.array(geodesy.geodetic2ecef(origin.lat_deg, origin.lon_deg, 0.0), dtype=float)
         self.centre = o - self.radius * self.up0
 
     def unit(self, en: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -71,7 +72,7 @@ class LocalFrame:
 
     def en_of_geodetic(self, lat_deg, lon_deg) -> tuple[float, float]:
         """East/north [m] of a latitude/longitude (inverse of the projection)."""
-        x = np.array(pymap3d.geodetic2ecef(lat_deg, lon_deg, 0.0), dtype=float) - self.centre
+        x = np.array(geodesy.geodetic2ecef(lat_deg, lon_deg, 0.0), dtype=float) - self.centre
         u = x / np.linalg.norm(x)
         t = u * self.radius / float(u @ self.up0)
         return float(t @ self.east0), float(t @ self.north0)
@@ -80,7 +81,7 @@ class LocalFrame:
         """Latitude, longitude [deg] and height above the ellipsoid [m] of (N, 3) points."""
         u, _ = self.unit(enu)
         x = self.centre[None, :] + (self.radius + enu[:, 2:3]) * u
-        lat, lon, h = pymap3d.ecef2geodetic(x[:, 0], x[:, 1], x[:, 2])
+        lat, lon, h = geodesy.ecef2geodetic(x[:, 0], x[:, 1], x[:, 2])
         return np.asarray(lat, float), np.asarray(lon, float), np.asarray(h, float)
 
 
