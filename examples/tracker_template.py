@@ -69,7 +69,7 @@ def ext_array(a):
 
 def decode_body(body):
     msg = msgpack.unpackb(body, ext_hook=ext_hook)
-    if msg["v"] != 1:
+    if msg["v"] not in (1, 2):  # docs/protocol.md section 2: 2 since issue 25
         raise ValueError(f"unsupported schema version {msg['v']}")
     return msg
 

@@ -366,7 +366,7 @@ class DwellModel:
             self.tables.pfac, pfa=self.pfa, n_channels=self.radar.n_channels,
             n_pulses=self.n_pulses, h_range=self.radar.h_range, h_azimuth=self.radar.h_azimuth)
 
-    def clutter_false_alarm_density(self, ring_m: float = 250.0
+    def clutter_false_alarm_density(self, ring_m: float = 250.0, azimuth_sectors: int = 36
                                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
         """Expected sea-clutter false alarms per scan in each slant-range ring and azimuth
         sector, as the plots report them (seed 7.2, the generator's own sectors).
@@ -384,21 +384,25 @@ class DwellModel:
         ring_m : float, optional
             Ring width in slant range [m], > 0; rings start at 0 and end at the last holding
             any.
+        azimuth_sectors : int, optional
+            Azimuth sectors, equal, from true north (36: 10° each; a P_fac map's own 1°
+            sectors would make the ``meta`` message ten times larger for a wind dependence
+            that is smooth over tens of degrees).
 
         Returns
         -------
         (range_edges_m, azimuth_edges_rad, per_scan) or None
-            Ring edges in slant range [m] (r + 1), sector edges [rad] (a + 1, from 0 to 2π,
-            as many sectors as the P_fac map has azimuths), the expected count per scan in
+            Ring edges in slant range [m] (r + 1), sector edges [rad] (a + 1, from 0 to 2π),
+            the expected count per scan in
             each cell (r, a) [-], summing to the generator's η total. None without a P_fac
             map.
         """
         gen = self._clutter_fa_generator
         if gen is None:
             return None
-        if not ring_m > 0.0:
-            raise ValueError("ring_m must be > 0")
-        n_az = len(self.tables.pfac.axes[1])
+        if not ring_m > 0.0 or azimuth_sectors < 1:
+            raise ValueError("ring_m must be > 0 and azimuth_sectors >= 1")
+        n_az = int(azimuth_sectors)
         az_edges = np.linspace(0.0, 2.0 * math.pi, n_az + 1)
         if gen.eta.size == 0:
             return np.zeros(1), az_edges, np.zeros((0, n_az))

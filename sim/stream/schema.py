@@ -230,7 +230,8 @@ META = Payload(b"meta", None, (
        "range-dependent clutter density", required=False),
     _f("clutter_false_alarm_density", "map", "", "with the above, per slant-range ring and "
        "azimuth sector: `range_edges_m` (float64[r+1], ring edges in slant range, 250 m apart), "
-       "`azimuth_edges_rad` (float64[a+1], sector edges from 0 to 2π, true north), `per_scan` "
+       "`azimuth_edges_rad` (float64[a+1], 36 sectors of 10° from 0 to 2π, true north), "
+       "`per_scan` "
        "(float64[r, a], expected sea-clutter false alarms per scan in each cell; the plots' "
        "`range_m` and `azimuth_rad` fall in these cells)", required=False),
     _f("target_ids", "list[str]", "", "scenario target ids; `truth` refers to targets by index "

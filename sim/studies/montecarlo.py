@@ -162,6 +162,8 @@ def reduce_run(messages: Sequence[tuple[bytes, float, dict]], scenario, run: int
             "r_max": None})
 
     for topic, _t, p in messages:
+        if topic not in (b"meta", b"eos", b"truth"):  # plots, the run's end
+            continue
         st = sensor_state(p["sensor"])
         if topic == b"meta":
             st["r_max"] = float(p["radar"]["instrumented_range_m"])
