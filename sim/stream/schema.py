@@ -218,7 +218,7 @@ META = Payload(b"meta", None, (
     _f("sectors_per_scan", "int", "", "sectors (hence `plots` messages at most) per revolution"),
     _f("sector_s", "float", "s", "sector length, `scan_period_s / sectors_per_scan`: a `plots` "
        "message at `t` holds plots with `t − sector_s < time_s ≤ t` (below)", required=False),
-    _f("pfa", "float", "", "probability of false alarm per cell from t_fa, [68]-[72]"),
+    _f("pfa", "float", "", "probability of false alarm per cell from t_fa, DREV-R-9429 [68]-[72]"),
     _f("noise_false_alarms_per_scan", "float", "", "expected noise false alarms per "
        "revolution"),
     _f("clutter_false_alarms_per_scan", "float", "", "expected sea-clutter false alarms per "
@@ -245,8 +245,8 @@ META = Payload(b"meta", None, (
     _f("start_time", "str", "", "scenario start, ISO 8601 (simulated time 0)"),
     _f("sac_sic", "list[2] int", "", "the radar's ASTERIX data source (SAC, SIC), defaults "
        "resolved (docs/asterix.md)"),
-    _f("noise_power_dbm", "float", "dBm", "receiver noise power N0' ([19]): S/I + this is the "
-       "plot's power above the noise floor (ASTERIX I048/130 PAM)"),
+    _f("noise_power_dbm", "float", "dBm", "receiver noise power N0' (DREV-R-9429 [19]): S/I + "
+       "this is the plot's power above the noise floor (ASTERIX I048/130 PAM)"),
 ))
 
 #: ``plots``: one message per sensor and sector that has any plot.
@@ -257,9 +257,10 @@ PLOTS = Payload(b"plots", None, (
        "`truth`"),
     _f("time_s", "float64[n]", "s", "time of the plot (when the beam crossed it), since "
        "scenario start"),
-    _f("range_m", "float64[n]", "m", "measured slant range, noisy [84]-[89]"),
+    _f("range_m", "float64[n]", "m", "measured slant range, noisy (DREV-R-9429 [84]-[89])"),
     _f("azimuth_rad", "float64[n]", "rad", "measured azimuth, true north, noisy"),
-    _f("snr_db", "float64[n]", "dB", "signal to interference ratio S/I of the plot [66]"),
+    _f("snr_db", "float64[n]", "dB",
+       "signal to interference ratio S/I of the plot (DREV-R-9429 [66])"),
     _f("sigma_range_m", "float64[n]", "m", "expected 1σ range error"),
     _f("sigma_azimuth_rad", "float64[n]", "rad", "expected 1σ azimuth error"),
     _f("interference", "uint8[n]", "", "dominant interference, index into "
