@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -16,7 +17,7 @@ from shipradar.sensors import antenna, detection, noise
 from shipradar.sim.world.scenario import Radar, Scenario
 
 __all__ = ["RadarConstants", "false_alarm_probability", "pulses_per_beamwidth",
-           "radar_constants"]
+           "radar_constants", "sky_temperature_args"]
 
 
 @dataclass(frozen=True)
@@ -64,9 +65,32 @@ class RadarConstants:
         return (radar.pattern_el.type, self.phi_b, radar.pattern_el.sidelobe_db, self.tilt)
 
 
-def radar_constants(scenario: Scenario, radar: Radar) -> RadarConstants:
-    """The :class:`RadarConstants` of a radar in a scene ([3], [17]-[20], [46], [66]-[67])."""
+def sky_temperature_args(scenario: Scenario, radar: Radar) -> dict[str, Any]:
+    """The arguments of :func:`shipradar.sensors.noise.sky_temperature_k` for a radar's T'_a.
+
+    Blake's T'_a is for the beam axis: the sky model at the beam maximum, at least 0°, in the
+    scene's surface weather.  Frequency [Hz], elevation [rad], temperature [K], pressure
+    [hPa], water vapour [g/m³], antenna height [m].
+    """
     env = scenario.environment
+    phi_b = math.radians(radar.beamwidth_el_deg)
+    pe = radar.pattern_el
+    tilt = math.radians(pe.tilt_deg) if pe.tilt_deg is not None else 0.5 * phi_b
+    return {"freq_hz": radar.frequency_hz, "elevation_rad": max(tilt, 0.0),
+            "surface_temperature_k": env.temperature_c + 273.15,
+            "pressure_hpa": env.pressure_hpa,
+            "water_vapour_density_g_m3": env.water_vapour_g_m3,
+            "antenna_height_m": radar.antenna_height_m}
+
+
+def radar_constants(scenario: Scenario, radar: Radar, *,
+                    sky_temperature_k: float | None = None) -> RadarConstants:
+    """The :class:`RadarConstants` of a radar in a scene ([3], [17]-[20], [46], [66]-[67]).
+
+    ``sky_temperature_k``: T'_a [K] of :func:`sky_temperature_args` when already known (the
+    table store keeps it, :func:`shipradar.tables.sky.scene_radar_constants`: computing it
+    imports itur, 0.3-0.6 s, and runs a nested quadrature); computed here otherwise.
+    """
     wavelength = constants.c / radar.frequency_hz
     gain = float(noise.power_ratio(radar.gain_db))
     l_tr = float(noise.power_ratio(radar.loss_tr_db))
@@ -80,12 +104,8 @@ def radar_constants(scenario: Scenario, radar: Radar) -> RadarConstants:
     if radar.antenna_temperature_k is not None:
         t_a = float(radar.antenna_temperature_k)
     else:
-        # Blake's T'_a is for the beam axis: the sky model at the beam maximum, at least 0°
-        t_sky = noise.sky_temperature_k(
-            radar.frequency_hz, max(tilt, 0.0),
-            surface_temperature_k=env.temperature_c + 273.15, pressure_hpa=env.pressure_hpa,
-            water_vapour_density_g_m3=env.water_vapour_g_m3,
-            antenna_height_m=radar.antenna_height_m)
+        t_sky = (noise.sky_temperature_k(**sky_temperature_args(scenario, radar))
+                 if sky_temperature_k is None else sky_temperature_k)
         t_a = float(noise.antenna_temperature_k(t_sky))
     t_s = float(noise.system_noise_temperature_k(
         t_a, l_r, noise.power_ratio(radar.noise_figure_db)))

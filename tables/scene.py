@@ -214,8 +214,11 @@ def build_scene_tables(scenario: Scenario, *, progress: bool = False,
 
     ``progress`` and ``estimated_s`` as :func:`load_scene_tables`.
     """
+    from shipradar.tables.sky import scene_radar_constants
     from shipradar.tables.store import cache_path
 
+    for _platform, radar in scenario.radars():  # the sky temperatures the runs read
+        scene_radar_constants(scenario, radar)
     rows = []
     for spec, table, dt in _made(scenario, progress, estimated_s):
         rows.append({
@@ -291,12 +294,12 @@ def _clutter_specs(scenario: Scenario, platform: Platform, radar: Radar) -> list
     """Sea-clutter map [21]-[38] (and weather map [39]-[45] only when it rains)."""
     if not scenario.fidelity.clutter:
         return []
-    from shipradar.sensors.radar import radar_constants
     from shipradar.sim.world.kinematics import ship_motion
     from shipradar.tables import clutter as tc
+    from shipradar.tables.sky import scene_radar_constants
 
     env = scenario.environment
-    k = radar_constants(scenario, radar)
+    k = scene_radar_constants(scenario, radar, store=False)  # an estimate writes nothing
     speed, course = ship_motion(platform)
     n_range, n_az = clutter_grid_size(radar)
     duct = 0.0
@@ -444,10 +447,10 @@ def _propagation_specs(scenario: Scenario, platform: Platform, radar: Radar) -> 
     """F(R_t, h) by the split-step PE [5]-[7], only when the scene asks for it."""
     if scenario.fidelity.propagation != "pe":
         return []
-    from shipradar.sensors.radar import radar_constants
     from shipradar.tables import propagation as tp
+    from shipradar.tables.sky import scene_radar_constants
 
-    k = radar_constants(scenario, radar)
+    k = scene_radar_constants(scenario, radar, store=False)  # an estimate writes nothing
     kind, phi_b, sidelobe, tilt = k.pattern_key(radar)
     description = {"kind": kind, "beamwidth_rad": phi_b, "sidelobe_db": sidelobe,
                    "tilt_rad": tilt, "convention": "absolute elevation"}

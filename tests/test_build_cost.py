@@ -95,8 +95,10 @@ def test_a_cached_table_is_not_counted(cache):
     est = estimate_build(s, include_pd=False)
     assert est and all(e.cached for e in est)
     assert announce_builds(est) == []
-    # the keys are the store's: every cached table is a file of the cache
-    assert {e.key for e in est} == {p.stem for p in cache.glob("*.npz")}
+    # the keys are the store's: every cached table is a file of the cache (beside the sky
+    # temperatures of shipradar.tables.sky, a few numbers with no build estimate)
+    assert {e.key for e in est} == {p.stem for p in cache.glob("*.npz")
+                                    if not p.name.startswith("sky_temperature-")}
     # nothing to build: any limit passes
     check_build_time(s, 1e-6, include_pd=False)
 

@@ -55,7 +55,6 @@ from shipradar.sensors import (
 from shipradar.sensors.radar import (
     false_alarm_probability,
     pulses_per_beamwidth,
-    radar_constants,
 )
 from shipradar.sim.dwell.look import (
     Contacts,
@@ -67,6 +66,7 @@ from shipradar.sim.dwell.look import (
     TargetPower,
 )
 from shipradar.sim.world.scenario import Platform, Radar, Scenario
+from shipradar.tables.sky import scene_radar_constants
 from shipradar.tables.store import StackedLookup2D
 
 INTERFERENCE_NAMES = ("noise", "clutter", "jamming")
@@ -123,7 +123,7 @@ class DwellModel:
         #: t_s) -> u`` replaces the detection draw by one uniform per look derived from the
         #: look itself, so two fidelity settings see the same dice per look.
         self.look_uniforms: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None
-        self.k = k = radar_constants(scenario, radar)
+        self.k = k = scene_radar_constants(scenario, radar)  # T'_a from the table store
         self.wavelength, self.gain, self.k_r0 = k.wavelength, k.gain, k.k_r0
         self.l_x, self.l_c, self.l_r = k.l_x, k.l_c, k.l_r
         self.l_cfar, self.l_cd, self.l_b = k.l_cfar, k.l_cd, k.l_b
