@@ -433,6 +433,13 @@ class _RadarProcess:
         self._radar_dump = radar.model_dump(mode="json")
         self._scan = _merge_parts([])
         self._meta_items: tuple[int, bytes, bytes] | None = None
+        # what the bus takes (_bus_caps), found once per bus: a runtime-checkable protocol's
+        # isinstance costs ~20 us, once per sector it was half of a sparse recorded run
+        self._caps_of: tuple[object, FrameSink | None, PlotsAheadSink | None] = (
+            object(), None, None)
+        # the end of the last scan: (time [s], platform position, velocity, lat, lon), which
+        # is the next scan's start (its meta's antenna state)
+        self._last_eos: tuple[float, np.ndarray, np.ndarray, float, float] | None = None
         #: position in scenario.radars(); env.now at each resumption of run() (the order of
         #: the messages between radars in shipradar.sim.engine.parallel), kept only in a parallel
         #: worker: one float per sector would grow with the run (≈5 MB per simulated hour of the
@@ -472,9 +479,22 @@ class _RadarProcess:
         self._block_plots = self._block_frames = None
         self._scan = _merge_parts([])
         self._eos_states = {}
+        self._last_eos = None
         self._looks = {}
 
     # ------------------------------------------------------------------ helpers
+    def _bus_caps(self) -> tuple[FrameSink | None, PlotsAheadSink | None]:
+        """The run's bus if it takes frames (:func:`shipradar.sim.stream.sink.takes_frames`)
+        and if it wants plots ahead (:class:`shipradar.sim.stream.sink.PlotsAheadSink`), else
+        None; checked again only when ``sim.bus`` is another object."""
+        bus = self.sim.bus
+        seen, frames, ahead = self._caps_of
+        if bus is not seen:
+            frames = bus if takes_frames(bus) else None
+            ahead = bus if isinstance(bus, PlotsAheadSink) else None
+            self._caps_of = (bus, frames, ahead)
+        return frames, ahead
+
     def beam_azimuth(self, t):
         """Beam azimuth at times ``t`` [rad], true north (scalar or array)."""
         return (self.beam0 + self.omega * t) % TWO_PI
@@ -593,8 +613,9 @@ class _RadarProcess:
             frames = None
             if self._block_frames is not None:
                 frames, bodies, s0, s1 = self._block_frames.pop(0)
-                if bodies and isinstance(sim.bus, PlotsAheadSink):  # ASTERIX: CAT048 ahead
-                    sim.bus.plots_ahead(self.radar.id, bodies, self._scan, s0, s1)
+                ahead = self._bus_caps()[1] if bodies else None
+                if ahead is not None:  # ASTERIX: CAT048 ahead
+                    ahead.plots_ahead(self.radar.id, bodies, self._scan, s0, s1)
             for sector in range(n):
                 t_a = k * sector_s
                 if t_a >= duration:
@@ -646,9 +667,14 @@ class _RadarProcess:
         bus = sim.bus
         if bus is None:
             return
-        state = {"scan": scan, **self.antenna_state(t)}
-        if takes_frames(bus):
-            self._emit_meta_frames(bus, t, state)
+        last = self._last_eos
+        if last is not None and last[0] == t:  # the previous scan's end: its state
+            state = {"scan": scan, **self.antenna_state(t, *last[1:])}
+        else:
+            state = {"scan": scan, **self.antenna_state(t)}
+        frames = self._bus_caps()[0]
+        if frames is not None:
+            self._emit_meta_frames(frames, t, state)
         else:
             bus.emit(protocol.TOPIC_META, t, self._meta_payload(state))
 
@@ -922,9 +948,10 @@ class _RadarProcess:
         self.plot_counter += rows
         bus = self.sim.bus
         if isinstance(plots, bytes) and isinstance(truth, bytes):
-            assert takes_frames(bus)  # framed for it (_frame_block)
-            bus.emit_frames(t_b, [protocol.TOPIC_PLOTS, plots])
-            bus.emit_frames(t_b, [protocol.TOPIC_TRUTH, truth])
+            frames = self._bus_caps()[0]
+            assert frames is not None  # framed for it (_frame_block)
+            frames.emit_frames(t_b, [protocol.TOPIC_PLOTS, plots])
+            frames.emit_frames(t_b, [protocol.TOPIC_TRUTH, truth])
         elif isinstance(plots, dict) and isinstance(truth, dict) and bus is not None:
             bus.emit(protocol.TOPIC_PLOTS, t_b, plots)
             bus.emit(protocol.TOPIC_TRUTH, t_b, truth)
@@ -954,6 +981,7 @@ class _RadarProcess:
         sim = self.sim
         sim.stats.scans += 1
         pos, vel, lat, lon, target = self._eos_states.pop(scan)  # at t (_scan_end_states)
+        self._last_eos = (t, pos, vel, lat, lon)
         # the run's end inside a revolution cuts it short (the sector loop ends it at t_b =
         # duration); a revolution ending exactly at the run's end is complete
         complete = bool(t >= (scan + 1) * self.n_sectors * self.sector_s - 1e-9)
