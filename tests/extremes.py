@@ -1192,6 +1192,41 @@ DOPPLER_COLUMNS = ("range_rate_mps", "sigma_range_rate_mps")
 NO_BANK = ("none", "mti")
 
 
+#: truth[plots] columns that are NaN by design for a false alarm (docs/protocol.md §4.4).
+TRUE_PLOT_COLUMNS = ("true_range_m", "true_azimuth_rad", "true_range_rate_mps")
+#: truth[targets] columns that are NaN by design: the states of an inactive target, and the
+#: last look's results before any look (docs/protocol.md §4.4).
+STATE_COLUMNS = ("east_m", "north_m", "up_m", "v_east_mps", "v_north_mps", "v_up_mps",
+                 "a_east_mps2", "a_north_mps2", "a_up_mps2")
+LOOK_COLUMNS = ("look_time_s", "pd", "snr_db")
+
+
+def _truth_problems(body: dict[str, Any]) -> list[str]:
+    """Non-finite truth values, except where the protocol makes them NaN: a false alarm's
+    true geometry, an inactive target's state, a target's last look before it had one."""
+    if body.get("kind") == "plots":
+        target = np.asarray(body["origin"]) == 0
+        out = []
+        for key, col in body.items():
+            if key in TRUE_PLOT_COLUMNS:
+                if np.isfinite(np.asarray(col)[~target]).any():
+                    out.append(f".{key}: a false alarm's is not NaN")
+                col = np.asarray(col)[target]
+            out += _nonfinite_numbers(col, f".{key}")
+        return out
+    active = np.asarray(body.get("active", []), dtype=bool)
+    looked = np.isfinite(np.asarray(body.get("look_time_s", np.zeros(active.size)),
+                                    dtype=np.float64))
+    out = []
+    for key, col in body.items():
+        if key in STATE_COLUMNS:
+            col = np.asarray(col)[active]
+        elif key in LOOK_COLUMNS:
+            col = np.asarray(col)[looked]
+        out += _nonfinite_numbers(col, f".{key}")
+    return out
+
+
 def check_recording(path: Path, scene: schema.Scenario) -> tuple[list[str], int, int]:
     """Decode every message of a recording and check it (issue 23, item 2).
 
@@ -1240,6 +1275,8 @@ def check_recording(path: Path, scene: schema.Scenario) -> tuple[list[str], int,
                 t = body["time_s"]
                 if ((t < -1e-6) | (t > scene.duration_s + 1e-6)).any():
                     problems.append("plots.time_s outside the run")
+            elif topic == b"truth":
+                problems += [f"truth{p}" for p in _truth_problems(body)]
             else:
                 problems += [f"{topic.decode()}{p}" for p in _nonfinite_numbers(body)]
     # one line per kind of problem is enough to reproduce it
