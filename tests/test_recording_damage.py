@@ -67,7 +67,7 @@ def real(tmp_path_factory):
         spans.append((pos, pos + REC2_HEADER_BYTES + n))
         pos += REC2_HEADER_BYTES + n
     assert len(spans) == len(records) > 20
-    assert {f[0] for _, f in records} == {b"meta", b"plots", b"truth", b"eos"}
+    assert {f[0] for _, f in records} == {b"meta", b"plots", b"truth", b"eos", b"end"}
     return data, records, spans
 
 
