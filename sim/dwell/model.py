@@ -34,8 +34,8 @@ otherwise noise.  The three cases cover every (N, C, J) exactly once.  Jamming i
 from __future__ import annotations
 
 import functools
+import hashlib
 import math
-import weakref
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -79,12 +79,12 @@ _RCS_TABLE_STEP_DEG = 0.1
 #: at the horizon: Blake's curves are for the beam axis; we use the elevation of the beam
 #: maximum, at least 0.
 _DB_FLOOR = 1e-30
-#: :meth:`DwellModel.clutter_false_alarm_density` by P_fac table (its identity, checked
-#: through a weak reference: the cache keeps no table alive) and generator constants: a pure
-#: function of them, computed once per process, not once per run.  Its matrix product starts
-#: OpenBLAS's threads, whose spinning cost ~0.4 s of CPU per run on a loaded 2-core machine,
-#: five times the demo's own run (docs/performance.md section 10).
-_DENSITY_CACHE: dict[tuple, tuple[weakref.ref, tuple[np.ndarray, np.ndarray, np.ndarray]]] = {}
+#: :meth:`DwellModel.clutter_false_alarm_density` by P_fac table (its inputs hash and a digest
+#: of the arrays the generator reads: a table loaded again for the next run hits too) and
+#: generator constants: a pure function of them, computed once per process, not once per run.
+#: Its matrix product starts OpenBLAS's threads, whose spinning cost ~0.4 s of CPU per run
+#: on a loaded 2-core machine, five times the demo's own run (docs/performance.md section 10).
+_DENSITY_CACHE: dict[tuple, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
 _DENSITY_CACHE_MAX = 16
 
 
@@ -411,17 +411,19 @@ class DwellModel:
         if not ring_m > 0.0 or azimuth_sectors < 1:
             raise ValueError("ring_m must be > 0 and azimuth_sectors >= 1")
         r = self.radar
-        key = (id(pfac), self.pfa, r.n_channels, self.n_pulses, r.h_range, r.h_azimuth,
-               float(ring_m), int(azimuth_sectors))
-        hit = _DENSITY_CACHE.get(key)
-        if hit is not None and hit[0]() is pfac:
-            return hit[1]
-        out = self._clutter_false_alarm_density(ring_m, int(azimuth_sectors))
-        for a in out:
-            a.setflags(write=False)  # shared by every run on these tables
-        if len(_DENSITY_CACHE) >= _DENSITY_CACHE_MAX:
-            _DENSITY_CACHE.pop(next(iter(_DENSITY_CACHE)))
-        _DENSITY_CACHE[key] = (weakref.ref(pfac), out)
+        digest = hashlib.blake2b(digest_size=16)
+        for a in (pfac.values, pfac.extra["cells"], pfac.extra["weibull_a"]):
+            digest.update(np.ascontiguousarray(a).data)
+        key = (pfac.key, digest.digest(), self.pfa, r.n_channels, self.n_pulses, r.h_range,
+               r.h_azimuth, float(ring_m), int(azimuth_sectors))
+        out = _DENSITY_CACHE.get(key)
+        if out is None:
+            out = self._clutter_false_alarm_density(ring_m, int(azimuth_sectors))
+            for a in out:
+                a.setflags(write=False)  # shared by every run on these tables
+            if len(_DENSITY_CACHE) >= _DENSITY_CACHE_MAX:
+                _DENSITY_CACHE.pop(next(iter(_DENSITY_CACHE)))
+            _DENSITY_CACHE[key] = out
         return out
 
     def _clutter_false_alarm_density(self, ring_m: float, n_az: int
