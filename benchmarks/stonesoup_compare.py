@@ -16,9 +16,21 @@ and scaled to a minute. It has no propagation, clutter physics or P_d: every tar
 in the beam is detected.
 
 shipradar side: ``Simulation(...).run()`` of the same scene (full physics, tables from the
-cache), with an in-memory bus that encodes every message (what a publisher would send).
+cache) on three buses, each timed (``--seconds``, best of ``--repeats``):
 
-Both are timed in this process; the output is wall seconds per simulated minute.
+- ``payload``: an in-memory bus with only ``emit``, which encodes every payload the engine
+  hands it (``protocol.encode``): the engine builds a dict per message, as for an in-process
+  consumer; the case this script measured first (issue 27 item 5's "before").
+- ``publisher``: :class:`shipradar.sim.stream.bus.Bus` with an in-memory publisher (it counts
+  what ``shipradar run --publish`` would send): SimPy's loop, a sector's messages encoded
+  ahead, the metadata from items packed once.
+- ``recording``: :class:`shipradar.sim.stream.bus.Bus` with a
+  :class:`shipradar.sim.stream.recording.Recorder` in a temporary directory (``shipradar run
+  --record``): the batched fast path.
+
+Both simulators are timed in this process; the output is wall and CPU seconds per simulated
+minute and the ratios Stone Soup / shipradar for each bus (the CPU ratio is the steadier on
+a shared machine).
 Usage: ``python benchmarks/stonesoup_compare.py [--seconds 110]``.
 """
 
@@ -98,7 +110,7 @@ def stonesoup_run(seconds: float, fa_per_scan: float, seed: int = 1,
     sim = PlatformDetectionSimulator(groundtruth=MissileTruth(), platforms=[ship],
                                      platforms_detectable=False)
     n_det = n_clutter = 0
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     with np.errstate(all="ignore"):  # Stone Soup internals; not our arithmetic
         for _when, dets in sim:
             for d in dets:
@@ -106,11 +118,12 @@ def stonesoup_run(seconds: float, fa_per_scan: float, seed: int = 1,
                     n_clutter += 1
                 else:
                     n_det += 1
-    wall = time.perf_counter() - t0
-    return {"simulated_s": steps * step, "steps": steps, "wall_s": wall,
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    return {"simulated_s": steps * step, "steps": steps, "wall_s": wall, "cpu_s": cpu,
             "clutter_rate_per_scan": fa_per_scan, "clutter_box_m": box_m,
             "target_detections": n_det, "clutter": n_clutter,
-            "wall_s_per_sim_min": wall / (steps * step / 60.0)}
+            "wall_s_per_sim_min": wall / (steps * step / 60.0),
+            "cpu_s_per_sim_min": cpu / (steps * step / 60.0)}
 
 
 class _EncodeBus:
@@ -127,34 +140,68 @@ class _EncodeBus:
         pass
 
 
-def shipradar_run(seconds: float, repeats: int = 3) -> dict:
+class _CountingPublisher:
+    """What :class:`shipradar.sim.stream.bus.Bus` needs of a publisher: ``send``."""
+
+    def __init__(self):
+        self.frames = 0
+
+    def send(self, frames):
+        self.frames += 1
+
+
+def _make_bus(kind: str, tmp: Path):
+    if kind == "payload":
+        return _EncodeBus()
+    from shipradar.sim.stream.bus import Bus
+
+    if kind == "publisher":
+        return Bus(publisher=_CountingPublisher())  # type: ignore[arg-type]
+    from shipradar.sim.stream.recording import Recorder
+
+    return Bus(recorder=Recorder(tmp / "run.rec", overwrite=True))
+
+
+def shipradar_run(seconds: float, repeats: int = 3, bus: str = "payload") -> dict:
+    import tempfile
+
     from shipradar.sim.engine.simulation import Simulation
     from shipradar.sim.world.scenario import load_scenario
     from shipradar.tables.scene import load_scene_tables
 
     sc = load_scenario(ROOT / "scenarios" / "single_missile.yaml")
     tables = load_scene_tables(sc)
-    best = None
+    best = best_cpu = None
     for _ in range(repeats):
-        bus = _EncodeBus()
-        t0 = time.perf_counter()
-        summary = Simulation(sc, bus=bus, duration_s=seconds, tables=tables).run()
-        wall = time.perf_counter() - t0
+        tmp = Path(tempfile.mkdtemp(prefix="ss_compare_"))
+        sink = _make_bus(bus, tmp)
+        t0, c0 = time.perf_counter(), time.process_time()
+        summary = Simulation(sc, bus=sink, duration_s=seconds, tables=tables).run()
+        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
         best = wall if best is None else min(best, wall)
-    return {"simulated_s": seconds, "wall_s": best, "target_plots": summary["target_plots"],
+        best_cpu = cpu if best_cpu is None else min(best_cpu, cpu)
+        for f in tmp.iterdir():
+            f.unlink()
+        tmp.rmdir()
+    return {"bus": bus, "simulated_s": seconds, "wall_s": best, "cpu_s": best_cpu,
+            "target_plots": summary["target_plots"],
             "noise_false_alarms": summary["noise_false_alarms"],
             "clutter_false_alarms": summary["clutter_false_alarms"],
-            "wall_s_per_sim_min": best / (seconds / 60.0)}
+            "wall_s_per_sim_min": best / (seconds / 60.0),
+            "cpu_s_per_sim_min": best_cpu / (seconds / 60.0)}
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seconds", type=float, default=110.0, help="simulated seconds")
+    ap.add_argument("--repeats", type=int, default=3,
+                    help="shipradar runs per bus, the best kept (wall and CPU separately)")
     ap.add_argument("--matched-seconds", type=float, default=2.0,
                     help="simulated seconds of the matched-clutter Stone Soup run (it draws "
                          "the whole scan's clutter at every 5 ms step: slow)")
     a = ap.parse_args(argv)
-    sr = shipradar_run(a.seconds)
+    buses = ("payload", "publisher", "recording")
+    sr = {b: shipradar_run(a.seconds, repeats=a.repeats, bus=b) for b in buses}
     from shipradar.sim.engine.simulation import Simulation
     from shipradar.sim.world.scenario import load_scenario
 
@@ -170,9 +217,14 @@ def main(argv=None) -> int:
     print(json.dumps({"scene": "single_missile", "stonesoup": ss,
                       "stonesoup_matched_clutter": ss_matched, "shipradar": sr,
                       "ratio_stonesoup_over_shipradar":
-                      ss["wall_s_per_sim_min"] / sr["wall_s_per_sim_min"],
+                      {b: ss["wall_s_per_sim_min"] / sr[b]["wall_s_per_sim_min"]
+                       for b in buses},
                       "ratio_matched_clutter":
-                      ss_matched["wall_s_per_sim_min"] / sr["wall_s_per_sim_min"]}, indent=1))
+                      {b: ss_matched["wall_s_per_sim_min"] / sr[b]["wall_s_per_sim_min"]
+                       for b in buses},
+                      "ratio_cpu_stonesoup_over_shipradar":
+                      {b: ss["cpu_s_per_sim_min"] / sr[b]["cpu_s_per_sim_min"]
+                       for b in buses}}, indent=1))
     return 0
 
 
