@@ -36,6 +36,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import math
+import weakref
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -68,7 +69,7 @@ from shipradar.sim.dwell.look import (
 )
 from shipradar.sim.world.scenario import Platform, Radar, Scenario
 from shipradar.tables.sky import scene_radar_constants
-from shipradar.tables.store import StackedLookup2D
+from shipradar.tables.store import StackedLookup2D, Table
 
 INTERFERENCE_NAMES = ("noise", "clutter", "jamming")
 NOISE, CLUTTER, JAMMING = 0, 1, 2
@@ -86,6 +87,31 @@ _DB_FLOOR = 1e-30
 #: on a loaded 2-core machine, five times the demo's own run (docs/performance.md section 10).
 _DENSITY_CACHE: dict[tuple, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
 _DENSITY_CACHE_MAX = 16
+#: The same by table object (its id, checked through a weak reference: nothing kept alive),
+#: in front of the digest (~4 ms a run for the demo's map).
+_DENSITY_BY_TABLE: dict[tuple, tuple[weakref.ref, tuple[np.ndarray, np.ndarray, np.ndarray]]] = {}
+#: The clutter maps' stacked readers by table object, arrays and periodicity: the stack is
+#: a copy of the table's arrays (~5 ms a run for the demo's two) and is only read afterwards.
+_READERS: dict[tuple, tuple[weakref.ref, StackedLookup2D]] = {}
+
+
+def _remember(cache: dict, key: tuple, value: tuple) -> None:
+    if len(cache) >= _DENSITY_CACHE_MAX:
+        cache.pop(next(iter(cache)))
+    cache[key] = value
+
+
+def _stacked_reader(table: Table, arrays: tuple[str | None, ...],
+                    periodic1: bool) -> StackedLookup2D:
+    """A :class:`shipradar.tables.store.StackedLookup2D` of ``table``, made once per process
+    and table object."""
+    key = (id(table), arrays, periodic1)
+    seen = _READERS.get(key)
+    if seen is not None and seen[0]() is table:
+        return seen[1]
+    reader = StackedLookup2D(table, arrays, periodic1=periodic1)
+    _remember(_READERS, key, (weakref.ref(table), reader))
+    return reader
 
 
 def db(x):
@@ -162,21 +188,21 @@ class DwellModel:
         self._prepare_propagation(scenario)
         self._prepare_compensation(platform, radar)
         spectrum = (None, "doppler_mean_hz", "doppler_spread_hz")
-        self._sea_reader = (None if self.tables.sea_clutter is None else StackedLookup2D(
+        self._sea_reader = (None if self.tables.sea_clutter is None else _stacked_reader(
             self.tables.sea_clutter, (*spectrum, "weibull_a"), periodic1=True))
-        self._wx_reader = (None if self.tables.weather_clutter is None else StackedLookup2D(
+        self._wx_reader = (None if self.tables.weather_clutter is None else _stacked_reader(
             self.tables.weather_clutter, spectrum, periodic1=True))
         # a rain region: each trip of the range-folded sum [39]-[41] is weighted by whether
         # its own cell is in the rain, so the one-trip power is read and summed here
         rain = scenario.environment.rain
         self._wx_trip_reader = (
             None if self.tables.weather_clutter is None or rain is None or rain.region is None
-            else StackedLookup2D(self.tables.weather_clutter, ("single_trip_power_w",),
+            else _stacked_reader(self.tables.weather_clutter, ("single_trip_power_w",),
                                  periodic1=True))
         # the spectrum's mean and spread alone, for the Doppler of every one of a scan's
         # thousands of sea-clutter false alarms (half the gathers of the full reader)
         self._sea_spectrum_reader = (None if self.tables.sea_clutter is None else
-                                     StackedLookup2D(self.tables.sea_clutter, spectrum[1:],
+                                     _stacked_reader(self.tables.sea_clutter, spectrum[1:],
                                                      periodic1=True))
         # the false alarms' Doppler draws: a child of the radar's generator, spawned at the
         # first draw so that the parent's stream, hence every other draw, is unchanged
@@ -411,11 +437,15 @@ class DwellModel:
         if not ring_m > 0.0 or azimuth_sectors < 1:
             raise ValueError("ring_m must be > 0 and azimuth_sectors >= 1")
         r = self.radar
+        consts = (self.pfa, r.n_channels, self.n_pulses, r.h_range, r.h_azimuth, float(ring_m),
+                  int(azimuth_sectors))
+        seen = _DENSITY_BY_TABLE.get((id(pfac), *consts))
+        if seen is not None and seen[0]() is pfac:  # this very table: no digest needed
+            return seen[1]
         digest = hashlib.blake2b(digest_size=16)
         for a in (pfac.values, pfac.extra["cells"], pfac.extra["weibull_a"]):
             digest.update(np.ascontiguousarray(a).data)
-        key = (pfac.key, digest.digest(), self.pfa, r.n_channels, self.n_pulses, r.h_range,
-               r.h_azimuth, float(ring_m), int(azimuth_sectors))
+        key = (pfac.key, digest.digest(), *consts)
         out = _DENSITY_CACHE.get(key)
         if out is None:
             out = self._clutter_false_alarm_density(ring_m, int(azimuth_sectors))
@@ -424,6 +454,7 @@ class DwellModel:
             if len(_DENSITY_CACHE) >= _DENSITY_CACHE_MAX:
                 _DENSITY_CACHE.pop(next(iter(_DENSITY_CACHE)))
             _DENSITY_CACHE[key] = out
+        _remember(_DENSITY_BY_TABLE, (id(pfac), *consts), (weakref.ref(pfac), out))
         return out
 
     def _clutter_false_alarm_density(self, ring_m: float, n_az: int
