@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import subprocess
 import sys
 import venv
@@ -34,7 +35,13 @@ def installed(tmp_path_factory):
     """A fresh venv outside the repository with the wheel and PyTables installed."""
     tmp = tmp_path_factory.mktemp("wheel")
     dist = tmp / "dist"
-    _run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "-w", str(dist), str(ROOT)])
+    # built from a copy of the sources: setuptools writes build/ and *.egg-info into the tree
+    # it builds, so two builds of the checkout at once (two test processes) collide there
+    src = tmp / "src"
+    shutil.copytree(ROOT, src, symlinks=True, ignore=shutil.ignore_patterns(
+        ".git", ".venv", "build", "out", "*.egg-info", "__pycache__", ".*_cache",
+        ".hypothesis", "node_modules", "*.rec", "*.so"))
+    _run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "-w", str(dist), str(src)])
     wheels = list(dist.glob("shipradar-*.whl"))
     assert len(wheels) == 1
     env_dir = tmp / "venv"
