@@ -662,9 +662,14 @@ def _add_tables(sub: _Subcommands) -> None:
     tb.set_defaults(func=cmd_tables_build)
 
 
+#: ``--compress``'s choices: :data:`shipradar.sim.stream.recording.COMPRESSIONS`, spelled out so
+#: that building the parser (``--help``) does not import the recording module and numpy behind
+#: it (``tests/test_startup.py`` checks the two equal).
+_COMPRESSIONS: tuple[str, ...] = ("none", "zstd")
+
+
 def _add_run(sub: _Subcommands) -> None:
     """The ``run`` sub-command's parser."""
-    from shipradar.sim.stream.recording import COMPRESSIONS
     from shipradar.sim.stream.security import add_curve_arguments
 
     r = sub.add_parser("run", help="run a scenario headless")
@@ -681,7 +686,7 @@ def _add_run(sub: _Subcommands) -> None:
                    help="longest wait for those subscribers [s]")
     r.add_argument("--on-slow", choices=("pace", "drop"), default="pace",
                    help="slow subscriber: slow the run down (pace) or count dropped frames")
-    r.add_argument("--compress", choices=COMPRESSIONS, default="none",
+    r.add_argument("--compress", choices=_COMPRESSIONS, default="none",
                    help="compress each record of the recording (zstd; docs/protocol.md)")
     r.add_argument("--allow-insecure-remote", "--allow-remote", dest="allow_remote",
                    action=_AllowInsecureRemote,
@@ -762,8 +767,6 @@ def _add_tail(sub: _Subcommands) -> None:
 
 def _add_recording(sub: _Subcommands) -> None:
     """The ``recording`` sub-command's parser."""
-    from shipradar.sim.stream.recording import COMPRESSIONS
-
     rc = sub.add_parser("recording", help="check or salvage a recording (verify, repair)")
     rcsub = rc.add_subparsers(dest="recording_command", required=True)
     rv = rcsub.add_parser("verify", help="report records, time span, sensors, damage, "
@@ -775,7 +778,7 @@ def _add_recording(sub: _Subcommands) -> None:
     rr.add_argument("recording")
     rr.add_argument("out", metavar="OUT")
     rr.add_argument("--overwrite", action="store_true", help="replace an existing OUT")
-    rr.add_argument("--compress", choices=COMPRESSIONS, default="none",
+    rr.add_argument("--compress", choices=_COMPRESSIONS, default="none",
                     help="compression of OUT")
     rr.set_defaults(func=cmd_recording_repair)
 

@@ -32,8 +32,9 @@ print("\\nFORBIDDEN " + json.dumps(bad))
 """
 
 
-def _imported_forbidden(code: str, env: dict[str, str] | None = None) -> list[str]:
-    script = code + _REPORT.format(forbidden=FORBIDDEN)
+def _imported_forbidden(code: str, env: dict[str, str] | None = None,
+                        forbidden: tuple[str, ...] = FORBIDDEN) -> list[str]:
+    script = code + _REPORT.format(forbidden=forbidden)
     proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
                           cwd=ROOT, env=env, timeout=300)
     assert proc.returncode == 0, proc.stderr[-2000:]
@@ -57,6 +58,15 @@ with contextlib.redirect_stdout(io.StringIO()):
         pass
 """
     assert _imported_forbidden(code) == []
+    # nor numpy (the recording module, for --compress's choices) nor zmq
+    assert _imported_forbidden(code, forbidden=("numpy", "zmq")) == []
+
+
+def test_the_parser_s_compressions_are_the_recording_s():
+    from shipradar.sim import cli
+    from shipradar.sim.stream.recording import COMPRESSIONS
+
+    assert cli._COMPRESSIONS == COMPRESSIONS
 
 
 @pytest.fixture(scope="module")
@@ -81,6 +91,8 @@ with contextlib.redirect_stdout(io.StringIO()):
     assert cli.main() == 0
 """
     assert _imported_forbidden(code, env=built_cache) == []
+    # zmq only with --publish
+    assert _imported_forbidden(code, env=built_cache, forbidden=("zmq",)) == []
 
 
 def test_the_library_run_path_imports_nothing_heavy(built_cache):

@@ -15,9 +15,10 @@ import time
 from collections import Counter
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from types import TracebackType
-from typing import Any, TextIO
+from typing import TYPE_CHECKING, Any, TextIO
 
-import zmq
+if TYPE_CHECKING:
+    import zmq
 
 from shipradar.sim.stream.protocol import MAX_BODY_BYTES, ProtocolError, decode, encode, to_jsonable
 from shipradar.sim.stream.recording import Recorder, read_recording
@@ -194,6 +195,7 @@ class Publisher:
         context: zmq.Context | None = None,
         curve: Any = None,
     ) -> None:
+        import zmq  # imported when used: a run without --publish never loads it
         if on_slow not in _ON_SLOW:
             raise ValueError(f"on_slow must be one of {_ON_SLOW}, got {on_slow!r}")
         if wait_subscribers < 0:
@@ -252,6 +254,7 @@ class Publisher:
     # -- subscriptions -------------------------------------------------------------------
     def _drain_subscriptions(self, timeout_ms: int = 0) -> None:
         """Read pending (un)subscription messages, waiting up to ``timeout_ms`` for the first."""
+        import zmq
         sock = self._sock
         if not sock.poll(timeout_ms, zmq.POLLIN):
             return
@@ -350,6 +353,7 @@ class Publisher:
         PublisherStalledError
             In pace mode, if ``stall_timeout_s`` is set and was exceeded.
         """
+        import zmq
         if self._closed:
             raise RuntimeError("publisher is closed")
         if not self._waited:
@@ -390,6 +394,7 @@ class Publisher:
 
     def _send_paced(self, frame: bytes, flags: int) -> None:
         """Blocking send in slices of SNDTIMEO, checking the stall timeout between them."""
+        import zmq
         start = time.monotonic()
         try:
             while True:
@@ -798,6 +803,7 @@ def tail(
         Messages printed. Lines are as :func:`message_json`; an undecodable message gives
         an ``error`` line instead of stopping. A closed output pipe ends the tail quietly.
     """
+    import zmq
     ctx = zmq.Context.instance() if context is None else context
     sock = ctx.socket(zmq.SUB)
     sock.setsockopt(zmq.LINGER, 0)
