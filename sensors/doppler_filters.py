@@ -735,8 +735,19 @@ def doppler_filter_index(fd_hz: ArrayLike, prf_hz: ArrayLike, n_filters: int) ->
         raise ValueError("n_filters must be >= 1")
     if np.any(prf <= 0) or not np.all(np.isfinite(fd)) or not np.all(np.isfinite(prf)):
         raise ValueError("fd_hz must be finite and prf_hz finite and > 0")
-    folded = np.mod(fd / prf, 1.0)
-    return np.mod(np.floor(folded * n + 0.5), n).astype(np.int64)
+    # mod(floor(mod(fd / prf, 1) n + 0.5), n) on one temporary, without np.mod (~16 ns an
+    # element; the clutter false alarms' millions pass here).  For finite q, q - floor(q) is
+    # np.mod(q, 1.0) bit for bit (both the once-rounded exact fraction: fmod is exact, and
+    # for q < 0 numpy adds 1 to it; a zero is +0.0 either way), and the rounded index is an
+    # integer in [0, n], of which only n folds (to 0).
+    q = np.asarray(fd / prf, dtype=np.float64)
+    q -= np.floor(q)
+    q *= n
+    q += 0.5
+    np.floor(q, out=q)
+    index = q.astype(np.int64)
+    index[index == n] = 0
+    return index if index.ndim else index[()]
 
 
 # ----------------------------------------------------------------------------- [63]-[65]

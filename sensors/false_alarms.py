@@ -102,6 +102,23 @@ NORMAL_MIN_ETA = 9.0
 TWO_PI = 2.0 * np.pi
 
 
+def _mod_two_pi(x: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``np.mod(x, TWO_PI)`` bit for bit, without np.mod's fmod (~16 ns an element) when every
+    ``x`` is in [-2π, 4π) (the false alarms' azimuths and their offsets from the beam): there
+    fmod is ``x`` itself or ``x - 2π`` (exact, Sterbenz), and numpy adds 2π to a negative
+    one; a zero is +0.0 either way.  Anything else (NaN included) goes to np.mod."""
+    if x.size == 0:
+        return np.mod(x, TWO_PI)
+    lo, hi = x.min(), x.max()
+    if not (lo >= -TWO_PI and hi < 2.0 * TWO_PI):
+        return np.mod(x, TWO_PI)
+    out = np.where(x < 0.0, TWO_PI, 0.0)
+    if hi >= TWO_PI:
+        out[x >= TWO_PI] = -TWO_PI
+    out += x  # x + 0.0 is x (and -0.0 becomes +0.0, as in np.mod)
+    return out
+
+
 def resolution_cells(
     instrumented_range_m: ArrayLike, beamwidth_rad: ArrayLike, range_cell_m: ArrayLike
 ) -> NDArray[np.float64]:
@@ -1013,7 +1030,7 @@ class ClutterFalseAlarms:
         revolution, sector = np.repeat(revolution, counts), np.repeat(sector, counts)
         r = self.r_min_m[sector] + self._r_span[sector] * rng.random(sector.size)
         az = self.az_min_rad[sector] + self._az_span[sector] * rng.random(sector.size)
-        az = np.mod(az, TWO_PI)
+        az = _mod_two_pi(az)
         per_sector = None
         if counts_per_sector:
             per_sector = np.zeros((revolutions, n), dtype=np.int64)
@@ -1065,7 +1082,7 @@ class ClutterFalseAlarms:
             t_scan, t_end, beam_start_rad))
         _, sector, revolution, ground, az = self._draw(rng, t_scan.size,
                                                        counts_per_sector=False)
-        t = t_scan[revolution] + np.mod(az - beam[revolution], TWO_PI) / omega_rad_s
+        t = t_scan[revolution] + _mod_two_pi(az - beam[revolution]) / omega_rad_s
         keep = t < t_end[revolution]
         ground, az, t, revolution = ground[keep], az[keep], t[keep], revolution[keep]
         sector = sector[keep]
