@@ -1144,15 +1144,17 @@ class _TwoRayFallback:
         if (d < 0).any() or (h2 < 0).any():
             raise ValueError("range and heights must be >= 0")
         cache = self._cache
-        keys = h2.tolist()
-        missing = sorted({h for h in keys if h not in cache})
+        # the distinct heights only (sorted): one dict lookup per height, not per target
+        uniq, inverse = np.unique(h2.ravel(), return_inverse=True)
+        keys = uniq.tolist()
+        missing = [h for h in keys if h not in cache]
         if missing:
             new = self._per_height(missing)
             if len(cache) + len(new) <= self.MAX_HEIGHTS:
                 cache.update(new)
             else:
                 cache = {**cache, **new}
-        per = np.array([cache[h] for h in keys], dtype=float).reshape(d.size, 4)
+        per = np.array([cache[h] for h in keys], dtype=float).reshape(-1, 4)[inverse.ravel()]
         d_h, d_lim, f_lim, f_diff_h = (per[:, i] for i in range(4))
         # each branch is evaluated only when some point needs it (its other values unused)
         beyond = d >= d_h
