@@ -106,7 +106,9 @@ def _mod_two_pi(x: NDArray[np.float64]) -> NDArray[np.float64]:
     """``np.mod(x, TWO_PI)`` bit for bit, without np.mod's fmod (~16 ns an element) when every
     ``x`` is in [-2π, 4π) (the false alarms' azimuths and their offsets from the beam): there
     fmod is ``x`` itself or ``x - 2π`` (exact, Sterbenz), and numpy adds 2π to a negative
-    one; a zero is +0.0 either way.  Anything else (NaN included) goes to np.mod."""
+    one; a zero is +0.0 either way.  Anything else (NaN included) goes to np.mod.  Angles in
+    [rad]; as with np.mod, a tiny negative ``x`` can give exactly 2π (unlike
+    :func:`shipradar.sensors.measurement.wrap_azimuth`, which maps it to 0)."""
     if x.size == 0:
         return np.mod(x, TWO_PI)
     lo, hi = x.min(), x.max()

@@ -283,6 +283,19 @@ def noise_bandwidth_hz(compressed_pulse_width_s: ArrayLike) -> NDArray[np.float6
     return 1.0 / np.asarray(compressed_pulse_width_s, dtype=np.float64)
 
 
+def range_cell_m(compressed_pulse_width_s: ArrayLike) -> NDArray[np.float64]:
+    """Range cell ``C_R = c τ'/2`` [m] (seed 4.1.4).
+
+    Parameters
+    ----------
+    compressed_pulse_width_s : array_like
+        τ', compressed pulse width [s], > 0.
+    """
+    c_r: NDArray[np.float64] = (  # scipy.constants is untyped
+        constants.c * np.asarray(compressed_pulse_width_s, dtype=np.float64) / 2.0)
+    return c_r
+
+
 def noise_power_w(system_temperature_k: ArrayLike, bandwidth_hz: ArrayLike) -> NDArray[np.float64]:
     """Thermal noise power at the IF output, seed [19]: ``N0' = k T_s B_N``.
 

@@ -159,7 +159,7 @@ def pe_top_height(max_height_m: float, max_range_m: float, antenna_height_m: flo
     (R - sqrt(2 a_e h_a))^2 / a_e.
     """
     a_e = prop.STANDARD_K_FACTOR * prop.EARTH_RADIUS_M
-    beyond = max(max_range_m - np.sqrt(2 * a_e * antenna_height_m), 0.0)
+    beyond = max(max_range_m - float(prop.horizon_range(antenna_height_m, 0.0)), 0.0)
     return float(max(max_height_m, SHADOW_MARGIN * beyond**2 / (2 * a_e)))
 
 

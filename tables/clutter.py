@@ -42,6 +42,8 @@ from scipy.constants import c as SPEED_OF_LIGHT_MPS
 
 from shipradar.sensors import sea_clutter as sc
 from shipradar.sensors import weather_clutter as wc
+from shipradar.sensors.measurement import wrap_azimuth
+from shipradar.sensors.noise import range_cell_m
 from shipradar.tables.store import Table, get_or_build
 
 SEA_MAP_NAME = "sea_clutter_map"
@@ -57,27 +59,11 @@ ElevationPattern = tuple[str, float, float, float]
 Directivity = Callable[[NDArray[np.float64]], NDArray[np.float64]]
 
 
-def range_cell_m(pulse_width_s: ArrayLike) -> NDArray[np.float64]:
-    """Range cell C_R = c τ'/2 [m] (seed 4.1.4).
-
-    Parameters
-    ----------
-    pulse_width_s : array_like
-        Compressed pulse width τ' [s].
-    """
-    return SPEED_OF_LIGHT_MPS * np.asarray(pulse_width_s, dtype=float) / 2.0
-
-
 def map_axes(max_range_m: float, n_range: int, n_azimuth: int) -> tuple[np.ndarray, np.ndarray]:
     """Ground-range axis [0, R_max] [m] and azimuth axis [0, 2π] (n_azimuth + 1 points) [rad]."""
     if max_range_m <= 0.0 or n_range < 2 or n_azimuth < 2:
         raise ValueError("need max_range_m > 0, n_range >= 2 and n_azimuth >= 2")
     return np.linspace(0.0, max_range_m, n_range), np.linspace(0.0, 2.0 * np.pi, n_azimuth + 1)
-
-
-def wrap_azimuth(azimuth_rad: ArrayLike) -> NDArray[np.float64]:
-    """Azimuth wrapped into [0, 2π) [rad]."""
-    return np.mod(np.asarray(azimuth_rad, dtype=float), 2.0 * np.pi)
 
 
 def lookup_clutter(

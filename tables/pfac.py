@@ -48,10 +48,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scipy.constants import c as SPEED_OF_LIGHT_MPS
 
 from shipradar.sensors import false_alarms as fa
 from shipradar.sensors import sea_clutter as sc
+from shipradar.sensors.noise import range_cell_m
 from shipradar.tables.store import Table, get_or_build
 
 PFAC_MAP_NAME = "pfac_map"
@@ -244,7 +244,7 @@ def build_pfac_map(
     p = np.clip(sector_mean(p_node), 0.0, 1.0)
     a = np.maximum(sector_mean(sea_map.extra["weibull_a"]), float(si["a_min"]))
     cells = fa.sector_cells(np.diff(r_edges)[:, None], np.diff(az_edges)[None, :],
-                            SPEED_OF_LIGHT_MPS * tau / 2.0, theta_b)
+                            float(range_cell_m(tau)), theta_b)
     cells = np.broadcast_to(cells, p.shape).copy()
     return Table(
         name=PFAC_MAP_NAME,
@@ -347,7 +347,7 @@ def clutter_false_alarm_generator(
         r0, r1, a0, a1, table.values, table.extra["cells"], table.extra["weibull_a"],
         threshold_ratio=float(fa.clutter_threshold_ratio(pfa, float(si["a_min"]), model)),
         n_channels=n_channels, n_pulses=n_pulses,
-        range_cell_m=SPEED_OF_LIGHT_MPS * tau / 2.0,
+        range_cell_m=float(range_cell_m(tau)),
         beamwidth_rad=float(si["beamwidth_az_rad"]),
         antenna_height_m=float(si["antenna_height_m"]), k_factor=float(si["k_factor"]),
         h_range=h_range, h_azimuth=h_azimuth, clutter_fa_model=model)
