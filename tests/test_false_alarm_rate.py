@@ -59,6 +59,14 @@ def test_shipped_radars_expect_one_false_alarm_per_t_fa(sc, platform, radar):
     # so P_fa's gates are the seed's N_rc and only [68]'s 0.69 moves P_fa: x 1/0.69)
     ratio = _seed_letter_rate(radar) * radar.false_alarm_time_s
     assert 0.45 < ratio < 1.16 and abs(ratio - 1.0) > 0.15
+    # the ratio in closed form (review: the band above alone would pass a factor-of-two
+    # slip in either rate): the seed's P_fa = 0.69 t_scan / (t_fa N_ch N_rc 2π/θ_b) with
+    # N_rc = 1/(f_r τ) - 2, and N_cells = 2π R_inst / (θ_b C_R) [90], so
+    # ratio = 0.69 (R_inst / C_R) / (N_ch N_rc), exact up to rounding
+    n_rc = 1.0 / (radar.prf_hz * radar.pulse_width_s) - 2.0
+    c_r = constants.c * radar.pulse_width_s / 2.0
+    assert ratio == pytest.approx(
+        0.69 * (radar.instrumented_range_m / c_r) / (radar.n_channels * n_rc), rel=1e-9)
     assert model.pfa == pytest.approx(float(detection.pfa_from_false_alarm_time(
         radar.false_alarm_time_s, math.radians(radar.beamwidth_az_deg), radar.scan_period_s,
         radar.prf_hz, radar.pulse_width_s, n_channels=radar.n_channels,
