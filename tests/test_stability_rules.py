@@ -115,6 +115,27 @@ def test_fewer_than_one_pulse_per_beamwidth_is_refused(tmp_path, capsys, radar):
 
 
 @pytest.mark.parametrize("radar", [
+    {"rotation_rpm": 120, "beamwidth_az_deg": 1.8, "prf_hz": 400},
+    {"rotation_rpm": 90, "beamwidth_az_deg": 0.9, "prf_hz": 600},
+    {"prf_hz": 50},
+])
+def test_schema_pulses_per_beam_rule_is_the_physics_one(radar):
+    """The schema cannot import sensors (layer rule), so scenario.Radar re-states N_n [73]:
+    its bound must be sensors.detection.pulses_per_beam's N_n >= 1 (to the schema's slack)."""
+    from shipradar.sensors.detection import pulses_per_beam
+    from shipradar.sim.world.scenario import PULSES_PER_BEAM_ULP
+
+    r = {**BASE["platforms"][0]["radars"][0], **radar}
+    n_n = float(pulses_per_beam(math.radians(r["beamwidth_az_deg"]),
+                                60.0 / r["rotation_rpm"], r["prf_hz"]))
+    if n_n >= 1.0 - PULSES_PER_BEAM_ULP:
+        parse_scenario(_scene(radar))
+    else:
+        with pytest.raises(ScenarioError, match="fewer than one pulse per beamwidth"):
+            parse_scenario(_scene(radar))
+
+
+@pytest.mark.parametrize("radar", [
     {"rotation_rpm": 120, "beamwidth_az_deg": 1.8, "prf_hz": 400},  # exactly 1.0
     {"rotation_rpm": 90, "beamwidth_az_deg": 0.9, "prf_hz": 600},  # 1 - 1.1e-16 by rounding
 ])

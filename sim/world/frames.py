@@ -36,11 +36,12 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from shipradar.sim.world import geodesy
 from shipradar.sim.world.kinematics import (
     K_FACTOR,
     LocalFrame,
-    _north_east,
     antenna_geometry,
+    north_east,
 )
 from shipradar.sim.world.scenario import Origin
 
@@ -165,7 +166,7 @@ def plot_to_local(
     gamma = 2.0 * np.arcsin(np.sqrt(np.where(ok, s2, 0.0)))
     sigma = k_factor * gamma
     u_a, _ = frame.unit(ant)
-    north, east = _north_east(u_a)
+    north, east = north_east(u_a)
     heading = np.cos(az)[:, None] * north + np.sin(az)[:, None] * east
     u_t = np.cos(sigma)[:, None] * u_a + np.sin(sigma)[:, None] * heading
     up0 = u_t @ frame.up0
@@ -239,11 +240,12 @@ def local_to_geodetic(enu: ArrayLike, origin: OriginLike
     Returns
     -------
     lat_deg, lon_deg, alt_m : numpy.ndarray, shape (...)
-        The geodetic latitude and longitude of the model's point (``pymap3d`` on WGS-84),
+        The geodetic latitude and longitude of the model's point (WGS-84,
+        :mod:`shipradar.sim.world.geodesy`: pymap3d's formulas bit for bit),
         and its altitude above the sea, ``up`` itself: the convention of ``eos``'s
         ``position`` and ASTERIX I034/120, the model's sea surface being the ellipsoid.
         The model's point sits on the frame's sphere, which departs from the ellipsoid
-        away from the origin (docs/protocol.md 4): ``pymap3d.geodetic2ecef(lat, lon,
+        away from the origin (docs/protocol.md 4): ``geodesy.geodetic2ecef(lat, lon,
         alt)`` is within that departure of it, not exactly on it.
     """
     frame = local_frame(origin)
@@ -278,10 +280,6 @@ def geodetic_to_local(lat_deg: ArrayLike, lon_deg: ArrayLike, alt_m: ArrayLike,
     by a fixed-point iteration: the point of the ellipsoid normal at the sphere point's
     ellipsoidal height gives the next direction (three passes: below 1 µm).
     """
-    # imported here: pymap3d's import is slow (it imports astropy when installed), and only
-    # this function needs the inverse conversion
-    import pymap3d
-
     frame = local_frame(origin)
     lat, lon, h = np.broadcast_arrays(np.asarray(lat_deg, dtype=float),
                                       np.asarray(lon_deg, dtype=float),
@@ -290,10 +288,10 @@ def geodetic_to_local(lat_deg: ArrayLike, lon_deg: ArrayLike, alt_m: ArrayLike,
     lat, lon, h = lat.reshape(-1), lon.reshape(-1), h.reshape(-1)
     h_e = np.zeros_like(h)
     for _ in range(_GEODETIC_ITERATIONS + 1):
-        x = np.stack(pymap3d.geodetic2ecef(lat, lon, h_e), axis=1) - frame.centre
+        x = np.stack(geodesy.geodetic2ecef(lat, lon, h_e), axis=1) - frame.centre
         u = x / np.linalg.norm(x, axis=1)[:, None]
         p = frame.centre + (frame.radius + h)[:, None] * u
-        _, _, h_e = pymap3d.ecef2geodetic(p[:, 0], p[:, 1], p[:, 2])
+        _, _, h_e = geodesy.ecef2geodetic(p[:, 0], p[:, 1], p[:, 2])
         h_e = np.asarray(h_e, dtype=float)
     t = u * (frame.radius / (u @ frame.up0))[:, None]
     out = np.stack([t @ frame.east0, t @ frame.north0, h], axis=1)

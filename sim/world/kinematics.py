@@ -414,7 +414,7 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
                      a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]], axis=1)
 
 
-def _north_east(u_a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def north_east(u_a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Unit east and true-north vectors (ECEF axes) at sphere points ``u_a`` (N, 3).
 
     east = ẑ × up / |ẑ × up| with ẑ the earth's axis; north = up × east.
@@ -431,7 +431,7 @@ def antenna_azimuth(antenna_enu: np.ndarray, obj_enu: np.ndarray, frame: LocalFr
     obj_enu = np.atleast_2d(obj_enu)
     u_a, _ = frame.unit(np.broadcast_to(antenna_enu, obj_enu.shape))
     u_t, _ = frame.unit(obj_enu)
-    north, east = _north_east(u_a)
+    north, east = north_east(u_a)
     chord = u_t - u_a
     az = np.mod(np.arctan2(np.einsum("ij,ij->i", chord, east),
                            np.einsum("ij,ij->i", chord, north)), TWO_PI)
@@ -474,7 +474,7 @@ def antenna_geometry(
     u_t, s_t = frame.unit(obj_enu)
     h_a = ant[:, 2] + antenna_height_m
     h_t = obj_enu[:, 2]
-    north, east = _north_east(u_a)  # local true-north frame at the antenna
+    north, east = north_east(u_a)  # local true-north frame at the antenna
     chord = u_t - u_a
     cross = np.linalg.norm(_cross(u_a, u_t), axis=1)
     ground = r * np.arctan2(cross, np.sum(u_a * u_t, axis=1))

@@ -580,7 +580,8 @@ class Radar(_Model):
                 "noise_figure_db 0 and loss_tr_db 0 give T_s = 0 K [18] and N0' = 0 [19]); "
                 "give one of them > 0, got 0")
         # [73]: N_n = θ_b t_scan f_r / (2π) pulses hit a point target per sweep, computed as
-        # shipradar.sensors.detection.pulses_per_beam does. Below one, the target is lit by a pulse
+        # shipradar.sensors.detection.pulses_per_beam does (the schema cannot import sensors;
+        # tests/test_stability_rules.py ties the two). Below one, the target is lit by a pulse
         # in some sweeps and missed in others, which [73]-[89] (integration, error model) do not
         # describe: refused, with the least PRF that gives one pulse per beamwidth
         n_n = math.radians(self.beamwidth_az_deg) / (2.0 * math.pi) * self.scan_period_s \
@@ -597,6 +598,7 @@ class Radar(_Model):
         # P_fa = 1/n', n' = N_ch N_rep t_fa / t_swp, N_rep = min(N_rc, R_inst / C_R). A t_fa
         # shorter than one sweep's decisions asks for P_fa >= 1: more false alarms than
         # decisions. (N_rc > 0 is the duty-cycle rule below, checked first when it fails.)
+        # tests/test_stability_rules.py ties this bound to pfa_from_false_alarm_time.
         duty = self.prf_hz * self.pulse_width_s
         if duty < 0.5:
             n_rep = min(1.0 / duty - 2.0,

@@ -29,22 +29,19 @@ import numpy as np
 
 from shipradar.sim.stream.protocol import ProtocolError, decode
 from shipradar.sim.stream.recording import read_recording
+from shipradar.sim.stream.schema import EOS, META, PLOTS, TOPIC_TRACKS, TRACKS, TRUTH_TARGETS
 
 __all__ = ["MalformedTracks", "RunData", "TracksMessage", "check_tracks", "load_run",
            "TRACKS_REQUIRED", "TRACKS_COLUMNS"]
 
-#: Topic of the tracker's messages (docs/protocol.md section 4.6).
-try:  # the schema module declares it once when present
-    from shipradar.sim.stream.schema import TOPIC_TRACKS
-except ImportError:  # pragma: no cover - older checkouts
-    TOPIC_TRACKS = b"tracks"
-
 #: Keys a ``tracks`` message must carry to be scored (the 1σ columns are not scored, so
-#: they may be absent).
-TRACKS_REQUIRED: tuple[str, ...] = ("sensor", "scan", "time_s", "track_id", "east_m",
-                                    "north_m", "v_east_mps", "v_north_mps")
+#: they may be absent); checked against the schema's ``tracks`` keys (docs/protocol.md 4.6).
+TRACKS_REQUIRED: tuple[str, ...] = TRACKS.keys_of("sensor", "scan", "time_s", "track_id",
+                                                  "east_m", "north_m", "v_east_mps",
+                                                  "v_north_mps")
 #: The per-track numeric columns that are scored.
-TRACKS_COLUMNS: tuple[str, ...] = ("east_m", "north_m", "v_east_mps", "v_north_mps")
+TRACKS_COLUMNS: tuple[str, ...] = TRACKS.keys_of("east_m", "north_m", "v_east_mps",
+                                                 "v_north_mps")
 
 
 class MalformedTracks(ValueError):
@@ -179,9 +176,9 @@ class _Collect:
 
     def add(self, topic: bytes, t: float, p: Mapping[str, Any], sent_s: float = math.nan
             ) -> None:
-        if topic == b"plots" or topic == b"eos":
+        if topic == PLOTS.topic or topic == EOS.topic:
             self.inputs.setdefault(p["sensor"], []).append((t, sent_s))
-        if topic == b"meta":
+        if topic == META.topic:
             s = p["sensor"]
             if s not in self.radars:
                 self.radars[s] = {
@@ -191,12 +188,13 @@ class _Collect:
                 self.target_ids = list(p.get("target_ids", []))
                 if self.ref is None:
                     self.ref = s
-        elif topic == b"eos":
+        elif topic == EOS.topic:
             q = p["position"]
             self.eos.setdefault(p["sensor"], []).append(
                 (float(p["time_s"]), (float(q["east_m"]), float(q["north_m"]),
                                       float(q["up_m"]))))
-        elif topic == b"truth" and p.get("kind") == "targets" and p["sensor"] == self.ref:
+        elif (topic == TRUTH_TARGETS.topic and p.get("kind") == TRUTH_TARGETS.kind
+              and p["sensor"] == self.ref):
             self.scan_t.append(float(p["time_s"]))
             self.pos.append(np.stack([p["east_m"], p["north_m"], p["up_m"]], axis=-1))
             self.vel.append(np.stack([p["v_east_mps"], p["v_north_mps"], p["v_up_mps"]],
