@@ -3,8 +3,9 @@
 ``python tests/evaluate_trackers.py MODE {plots} {tracks} [--shift-m D] [--after N]``:
 
 - ``oracle``: publishes the truth topic's counted targets (the harness's own definition,
-  :func:`shipradar.sim.studies.evaluate.metrics.detectable`) as its tracks at every end of
-  scan of the first radar, ids ``T<index>``; ``--shift-m D`` moves them D metres east;
+  :func:`shipradar.sim.studies.evaluate.metrics.counted_targets`: active, and ``in_coverage``
+  in some radar's latest ``truth[targets]``) as its tracks at every end of scan of the first
+  radar, ids ``T<index>``; ``--shift-m D`` moves them D metres east;
 - ``silent``: subscribes and reads, never publishes;
 - ``crash``: like the oracle, then exits with code 3 and a message on stderr after
   ``--after`` tracks messages;
@@ -26,7 +27,6 @@ import zmq
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from shipradar.sim.stream.protocol import decode, encode  # noqa: E402
-from shipradar.sim.studies.evaluate.metrics import detectable  # noqa: E402
 
 
 def main() -> int:
@@ -48,8 +48,7 @@ def main() -> int:
     sub.setsockopt(zmq.RCVHWM, 0)
     sub.connect(a.plots)
     sub.setsockopt(zmq.SUBSCRIBE, b"")  # the oracle reads the truth: a test tracker only
-    meta: dict[str, dict] = {}
-    eos: dict[str, np.ndarray] = {}
+    covered: dict[str, np.ndarray] = {}
     first = None
     sent = 0
     while True:
@@ -57,18 +56,14 @@ def main() -> int:
             return 0
         topic, t, p = decode(sub.recv_multipart())
         if topic == b"meta":
-            meta.setdefault(p["sensor"], p)
             first = first or p["sensor"]
-        elif topic == b"eos":
-            q = p["position"]
-            eos[p["sensor"]] = np.array([q["east_m"], q["north_m"], q["up_m"]])
-        elif topic == b"truth" and p["kind"] == "targets" and p["sensor"] == first:
-            if a.mode == "silent":
+        elif topic == b"truth" and p["kind"] == "targets":
+            covered[p["sensor"]] = np.asarray(p["in_coverage"], bool)
+            if p["sensor"] != first or a.mode == "silent":
                 continue
             pos = np.stack([p["east_m"], p["north_m"], p["up_m"]], axis=-1)
-            ant = [(eos[s], float(m["radar"]["instrumented_range_m"]))
-                   for s, m in meta.items() if s in eos]
-            idx = np.flatnonzero(detectable(pos, p["active"], ant))
+            seen = np.logical_or.reduce(list(covered.values()))
+            idx = np.flatnonzero(seen & np.asarray(p["active"], bool))
             tracks = {
                 "sensor": p["sensor"], "scan": p["scan"], "time_s": p["time_s"],
                 "track_id": [f"T{j}" for j in idx],

@@ -32,6 +32,7 @@ from shipradar.sim.studies.evaluate.data import (
 from shipradar.sim.studies.evaluate.metrics import (
     EPOCH,
     MetricConfig,
+    counted_targets,
     detectable,
     score_run,
 )
@@ -206,9 +207,45 @@ def test_detectable_horizon_and_range():
     a_e = 4.0 / 3.0 * 6_371_008.8
     horizon = math.sqrt(2 * a_e * 25.0) + math.sqrt(2 * a_e * 5.0)
     pos = np.array([[horizon - 10.0, 0, 5.0], [horizon + 10.0, 0, 5.0],
-                    [59_000.0, 0, 10_000.0], [0, 61_000.0, 10_000.0], [1000.0, 0, 5.0]])
-    got = detectable(pos, np.array([True, True, True, True, False]), ant)
-    assert got.tolist() == [True, False, True, False, False]
+                    [59_000.0, 0, 10_000.0], [0, 61_000.0, 10_000.0], [1000.0, 0, 5.0],
+                    [59_500.0, 0, 10_000.0]])
+    got = detectable(pos, np.array([True, True, True, True, False, True]), ant)
+    # the last is 60.3 km away in slant but 59.5 km on the ground: the engine looks at it
+    # (its test before a look is the ground range), so it counts
+    assert got.tolist() == [True, False, True, False, False, True]
+
+
+def _with_coverage(data, cover_by_sensor):
+    """``data`` with per-sensor ``in_coverage`` copies: {sensor: (times, (M, k) bool)}."""
+    for s, (t, c) in cover_by_sensor.items():
+        data.radars.setdefault(s, dict(data.radars["r"]))
+        data.coverage[s] = (np.asarray(t, float), np.asarray(c, bool))
+    return data
+
+
+def test_counted_targets_reads_the_streams_in_coverage():
+    """The stream's in_coverage decides, not geometry: a target the geometry puts in coverage
+    is left out when no radar reported it covered; another radar's latest copy at or before
+    the scan counts; a copy after the scan does not; inactive targets never count."""
+    data = _run(n_scans=3, n_targets=3)  # all three in coverage by geometry
+    t = data.scan_t
+    data.truth_active[2, 2] = False
+    ref = np.array([[True, False, False], [True, False, False], [True, False, True]])
+    other_t = [0.5, 1.5, 2.5]  # between the reference scans
+    other = np.array([[False, True, False], [False, False, False], [False, False, True]])
+    _with_coverage(data, {"r": (t, ref), "b": (other_t, other)})
+    got = [counted_targets(data, i).tolist() for i in range(3)]
+    assert got == [[True, True, False],    # b's copy at 0.5 covers target 1
+                   [True, False, False],   # b's copy at 1.5 no longer does
+                   [True, False, False]]   # target 2 covered by both, but inactive
+
+
+def test_counted_targets_falls_back_to_geometry_without_in_coverage():
+    """A version-1 stream (no in_coverage) is scored by detectable at the antennas."""
+    data = _run(n_scans=2, n_targets=2)
+    data.truth_pos[1, 1, 0] = 80_000.0  # beyond the 60 km instrumented range
+    got = [counted_targets(data, i).tolist() for i in range(2)]
+    assert got == [[True, True], [True, False]]
 
 
 @pytest.mark.parametrize(("payload", "reason"), [

@@ -136,8 +136,10 @@ class RunData:
     ``scan_t``: the reference sensor's end-of-scan times (K,), the times at which the run is
     scored; ``truth_pos``/``truth_vel`` (K, k, 3) and ``truth_active`` (K, k) the targets'
     states then; ``radars``: per sensor ``instrumented_range_m``, ``scan_period_s``, and its
-    antenna positions ``eos_t`` (M,) / ``eos_pos`` (M, 3); ``inputs``: per sensor the
-    (simulated t, wall sent) of its ``plots`` and ``eos`` messages, for the latency.
+    antenna positions ``eos_t`` (M,) / ``eos_pos`` (M, 3); ``coverage``: per sensor the times
+    (M,) of its ``truth[targets]`` copies and their ``in_coverage`` (M, k) (schema 2; empty
+    for a version-1 stream, which has no such key); ``inputs``: per sensor the (simulated t,
+    wall sent) of its ``plots`` and ``eos`` messages, for the latency.
     """
 
     info: dict[str, Any]
@@ -150,6 +152,7 @@ class RunData:
     radars: dict[str, dict[str, Any]]
     inputs: dict[str, tuple[np.ndarray, np.ndarray]]
     tracks: list[TracksMessage] = field(default_factory=list)
+    coverage: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
     malformed: Counter = field(default_factory=Counter)
     malformed_examples: dict[str, str] = field(default_factory=dict)
 
@@ -172,6 +175,7 @@ class _Collect:
         self.vel: list[np.ndarray] = []
         self.active: list[np.ndarray] = []
         self.eos: dict[str, list[tuple[float, tuple[float, float, float]]]] = {}
+        self.coverage: dict[str, list[tuple[float, np.ndarray]]] = {}
         self.inputs: dict[str, list[tuple[float, float]]] = {}
 
     def add(self, topic: bytes, t: float, p: Mapping[str, Any], sent_s: float = math.nan
@@ -193,13 +197,16 @@ class _Collect:
             self.eos.setdefault(p["sensor"], []).append(
                 (float(p["time_s"]), (float(q["east_m"]), float(q["north_m"]),
                                       float(q["up_m"]))))
-        elif (topic == TRUTH_TARGETS.topic and p.get("kind") == TRUTH_TARGETS.kind
-              and p["sensor"] == self.ref):
-            self.scan_t.append(float(p["time_s"]))
-            self.pos.append(np.stack([p["east_m"], p["north_m"], p["up_m"]], axis=-1))
-            self.vel.append(np.stack([p["v_east_mps"], p["v_north_mps"], p["v_up_mps"]],
-                                     axis=-1))
-            self.active.append(np.asarray(p["active"], bool))
+        elif topic == TRUTH_TARGETS.topic and p.get("kind") == TRUTH_TARGETS.kind:
+            if "in_coverage" in p:
+                self.coverage.setdefault(p["sensor"], []).append(
+                    (float(p["time_s"]), np.asarray(p["in_coverage"], bool)))
+            if p["sensor"] == self.ref:
+                self.scan_t.append(float(p["time_s"]))
+                self.pos.append(np.stack([p["east_m"], p["north_m"], p["up_m"]], axis=-1))
+                self.vel.append(np.stack([p["v_east_mps"], p["v_north_mps"], p["v_up_mps"]],
+                                         axis=-1))
+                self.active.append(np.asarray(p["active"], bool))
 
     def result(self, info: dict[str, Any]) -> RunData:
         k = len(self.target_ids)
@@ -210,13 +217,15 @@ class _Collect:
                              eos_pos=np.array([e[1] for e in eos]).reshape(-1, 3))
         inputs = {s: (np.array([a for a, _ in v]), np.array([b for _, b in v]))
                   for s, v in self.inputs.items()}
+        coverage = {s: (np.array([a for a, _ in v]), np.array([c for _, c in v], bool)
+                        .reshape(-1, k)) for s, v in self.coverage.items()}
         return RunData(
             info=info, target_ids=self.target_ids, ref_sensor=self.ref or "",
             scan_t=np.array(self.scan_t),
             truth_pos=np.array(self.pos).reshape(-1, k, 3),
             truth_vel=np.array(self.vel).reshape(-1, k, 3),
             truth_active=np.array(self.active, bool).reshape(-1, k),
-            radars=radars, inputs=inputs)
+            radars=radars, inputs=inputs, coverage=coverage)
 
 
 def _add_tracks(data: RunData, frames_or_payload, recv_s: float, *, decoded: bool) -> None:

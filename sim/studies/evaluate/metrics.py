@@ -26,13 +26,16 @@ What is computed and by whom:
 Configured once, in :class:`MetricConfig`. Positions are horizontal (east, north): a
 ``tracks`` message has no altitude (docs/protocol.md section 4.6).
 
-Which truth counts (:func:`detectable`, the one place): at each scored scan, a target that is
-active and *in coverage* of at least one radar: slant range from the antenna within the
-radar's instrumented range, and ground range within the radio horizon over a 4/3 earth,
-``sqrt(2 a_e h_a) + sqrt(2 a_e h_t)`` (:func:`shipradar.sensors.propagation.horizon_range`).
-A target outside it is neither missed nor a reason to call a track false (a track on it is
-not false either: it is left out of the scan's sets). The stream carries no per-radar
-visibility beyond this, so nothing finer is used.
+Which truth counts (:func:`counted_targets`, the one place): at each scored scan, a target
+that is active and *in coverage* of at least one radar, as the stream says it: each radar's
+``in_coverage`` of its latest ``truth[targets]`` copy at or before the scan (the reference
+radar's is at the scan itself; another radar's is at most one of its scans old). That is the
+engine's own test before a look: ground range from the antenna within the instrumented range,
+and within the radio horizon over the 4/3 earth (docs/protocol.md section 4.4). A stream of
+schema version 1 has no ``in_coverage``; it is scored by :func:`detectable`, the same test
+computed from the antennas' positions at the scan. A target outside coverage is neither
+missed nor a reason to call a track false (a track on it is not false either: it is left out
+of the scan's sets).
 
 Time alignment: the run is scored at the reference sensor's ends of scan (the first radar of
 the stream). At each, the tracker's latest valid ``tracks`` message at or before that time,
@@ -52,7 +55,8 @@ import numpy as np
 from shipradar.sensors.propagation import horizon_range
 from shipradar.sim.studies.evaluate.data import RunData, TracksMessage
 
-__all__ = ["DEFAULT_METRICS", "EPOCH", "MetricConfig", "RunScores", "detectable",
+__all__ = ["DEFAULT_METRICS", "EPOCH", "MetricConfig", "RunScores", "counted_targets",
+           "detectable",
            "gospa_metric", "score_run", "siap", "tracks_at"]
 
 #: Timestamps handed to Stone Soup: simulated t [s] after this (any fixed epoch would do).
@@ -111,7 +115,9 @@ DEFAULT_METRICS = MetricConfig()
 
 def detectable(pos_m: np.ndarray, active: np.ndarray, antennas: list[tuple[np.ndarray, float]]
                ) -> np.ndarray:
-    """Which targets count at one time: active and in coverage of at least one radar.
+    """Which targets count at one time, computed from geometry (the fallback of
+    :func:`counted_targets` for a stream without ``in_coverage``): active and in coverage of
+    at least one radar, by the engine's test before a look.
 
     Parameters
     ----------
@@ -126,19 +132,45 @@ def detectable(pos_m: np.ndarray, active: np.ndarray, antennas: list[tuple[np.nd
     Returns
     -------
     ndarray of bool, shape (k,)
-        Active, and for some radar: slant range <= instrumented range and ground range <=
-        the 4/3-earth radio horizon of antenna and target heights (a target below the sea
-        surface is taken at 0 m).
+        Active, and for some radar: ground range <= instrumented range and <= the 4/3-earth
+        radio horizon of antenna and target heights (a target below the sea surface is taken
+        at 0 m). The local plane's ground range and the mean earth radius
+        (:func:`shipradar.sensors.propagation.horizon_range`) stand in for the engine's great
+        circle on the frame's sphere: the two differ by metres at the horizon.
     """
     pos_m = np.asarray(pos_m, float).reshape(-1, 3)
     out = np.zeros(pos_m.shape[0], bool)
     for ant, r_inst in antennas:
         d = pos_m - np.asarray(ant, float)
         ground = np.hypot(d[:, 0], d[:, 1])
-        slant = np.hypot(ground, d[:, 2])
         horizon = horizon_range(max(float(ant[2]), 0.0), np.maximum(pos_m[:, 2], 0.0))
-        out |= (slant <= r_inst) & (ground <= horizon)
+        out |= (ground <= r_inst) & (ground <= horizon)
     return out & np.asarray(active, bool)
+
+
+def counted_targets(data: RunData, i: int) -> np.ndarray:
+    """Which targets count at the scored scan ``i`` (time ``data.scan_t[i]``): active and in
+    coverage of at least one radar, from the stream's ``in_coverage`` (each radar's latest
+    ``truth[targets]`` copy at or before the scan; a radar that has sent none yet covers
+    nothing), or, for a stream without it, :func:`detectable` at the antennas' positions.
+
+    Returns
+    -------
+    ndarray of bool, shape (k,)
+    """
+    t = float(data.scan_t[i])
+    active = np.asarray(data.truth_active[i], bool)
+    if not data.radars or any(s not in data.coverage for s in data.radars):
+        antennas = [(_antenna_at(r, t), r["instrumented_range_m"])
+                    for r in data.radars.values()]
+        return detectable(data.truth_pos[i], active, antennas)
+    out = np.zeros(active.shape, bool)
+    for s in data.radars:
+        times, cover = data.coverage[s]
+        j = int(np.searchsorted(times, t, side="right")) - 1
+        if j >= 0:
+            out |= cover[j]
+    return out & active
 
 
 def _antenna_at(radar: dict[str, Any], t: float) -> np.ndarray:
@@ -350,10 +382,8 @@ def score_run(data: RunData, config: MetricConfig = DEFAULT_METRICS) -> RunScore
     ids_assigned: set[str] = set()
     ref_range = np.full((data.scan_t.size, k_targets), np.nan)
     for i, t in enumerate(data.scan_t):
-        antennas = [(_antenna_at(r, t), r["instrumented_range_m"])
-                    for r in data.radars.values()]
         pos = data.truth_pos[i]
-        counted = detectable(pos, data.truth_active[i], antennas)
+        counted = counted_targets(data, i)
         counted_all.append(counted)
         if ref is not None:
             a = _antenna_at(ref, t)
