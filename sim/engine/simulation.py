@@ -46,7 +46,7 @@ import simpy.rt
 
 from shipradar.sim.engine.order import EventOrder
 from shipradar.sim.stream import protocol
-from shipradar.sim.stream.framing import sector_columns
+from shipradar.sim.stream.framing import Slices, sector_columns, target_columns
 from shipradar.sim.stream.schema import (
     END,
     EOS,
@@ -54,7 +54,6 @@ from shipradar.sim.stream.schema import (
     PLOT_COLUMNS,
     PLOT_TRUTH_COLUMNS,
     TRUTH_PLOTS,
-    TRUTH_TARGETS,
     empty_plots,
 )
 from shipradar.sim.stream.sink import (
@@ -259,7 +258,8 @@ class Simulation:
         real = self.bus
         batch = _BatchingBus(real) if real is not None else None
         clock = _FastClock()
-        procs = [r.run(clock) for r in self.radars]
+        # alone, a radar's resumptions order nothing but its own messages: one per revolution
+        procs = [r.run(clock, per_sector=len(self.radars) > 1) for r in self.radars]
         order = EventOrder(len(procs))
         step = max(self.duration / 200.0, 0.5)
         next_bar = step
@@ -447,8 +447,8 @@ class _RadarProcess:
         self.index = 0
         self.resume_times: list[float] | None = None
         self.target_ids = [t.id for t in sim.scenario.targets]
-        # states at the ends of the revolutions computed ahead (_scan_end_states)
-        self._eos_states: dict[int, tuple] = {}
+        # the ends of the revolutions computed ahead (_scan_end_states)
+        self._ends: _ScanEnds | None = None
         # the looks of the revolutions computed ahead, by revolution: (target, time, P_d, S/I
         # [dB], dominant interference) of each (_on_look), folded into the last look of each
         # target (time, P_d, S/I, interference) at each end of scan for truth[targets]
@@ -478,7 +478,7 @@ class _RadarProcess:
         self._block = []
         self._block_plots = self._block_frames = None
         self._scan = _merge_parts([])
-        self._eos_states = {}
+        self._ends = None
         self._last_eos = None
         self._looks = {}
 
@@ -557,16 +557,23 @@ class _RadarProcess:
                 (look.target[sel], look.time_s[sel], look.pd[sel], look.si_db[sel],
                  look.interference[sel]))
 
-    def _fold_looks(self, scan: int) -> tuple[np.ndarray, ...]:
-        """The last look of every target up to the end of revolution ``scan``: its time,
-        P_d, S/I [dB] and dominant interference (NaN, NaN, NaN, -1 before any)."""
+    def _fold_looks(self, scan0: int, count: int) -> tuple[np.ndarray, ...]:
+        """The last look of every target up to the end of each revolution ``scan0`` to
+        ``scan0 + count - 1``: its time, P_d, S/I [dB] and dominant interference (NaN, NaN,
+        NaN, -1 before any), ``count`` rows of one per target each (the ``truth[targets]``
+        columns of :meth:`_scan_end_states`)."""
         last = self._last_look
-        for target, t, pd, si_db, code in self._looks.pop(scan, ()):
-            order = np.argsort(t, kind="stable")  # the latest look of a target wins
-            rows = target[order]
-            last[0][rows], last[1][rows] = t[order], pd[order]
-            last[2][rows], last[3][rows] = si_db[order], code[order].astype(np.int8)
-        return tuple(a.copy() for a in last)
+        k = last[0].size
+        out = tuple(np.empty(count * k, a.dtype) for a in last)
+        for j in range(count):
+            for target, t, pd, si_db, code in self._looks.pop(scan0 + j, ()):
+                order = np.argsort(t, kind="stable")  # the latest look of a target wins
+                rows = target[order]
+                last[0][rows], last[1][rows] = t[order], pd[order]
+                last[2][rows], last[3][rows] = si_db[order], code[order].astype(np.int8)
+            for o, a in zip(out, last, strict=True):
+                o[j * k:(j + 1) * k] = a
+        return out
 
     def antenna_state(self, t: float, pos: np.ndarray | None = None,
                       vel: np.ndarray | None = None, lat: float | None = None,
@@ -592,7 +599,12 @@ class _RadarProcess:
         }
 
     # ------------------------------------------------------------------ process
-    def run(self, env: _Clock) -> Generator[Any, Any, None]:
+    def run(self, env: _Clock, per_sector: bool = True) -> Generator[Any, Any, None]:
+        """The radar's process: it resumes at the end of every sector (``per_sector``), or
+        only at the end of every revolution, its sectors' messages sent in order at that
+        resumption: for a radar that runs alone on the batched path
+        (:meth:`Simulation._run_batched`), where the resumptions order nothing but its own
+        messages, and every message carries its own time."""
         sim = self.sim
         sim.active_radar = self.index
         resumes = self.resume_times
@@ -623,10 +635,11 @@ class _RadarProcess:
                 t_b = (k + 1) * sector_s
                 if t_b > duration:
                     t_b = duration
-                yield env.timeout(t_b - env.now)
-                sim.active_radar = self.index
-                if resumes is not None:
-                    resumes.append(env.now)
+                if per_sector or sector == n - 1 or t_b >= duration:
+                    yield env.timeout(t_b - env.now)
+                    sim.active_radar = self.index
+                    if resumes is not None:
+                        resumes.append(env.now)
                 if frames is not None:  # the revolution's messages, framed ahead
                     sent = frames.pop(sector, None)
                     if sent is not None:
@@ -880,6 +893,11 @@ class _RadarProcess:
                     target_part["revolution"] = target_part.pop("batch")
         parts = [] if target_part is None else [target_part]
         parts += self._false_alarms(bounds)
+        looks = self._fold_looks(scan0, len(bounds))  # the block's looks are all made
+        assert self._ends is not None
+        if self._ends.columns is not None:
+            self._ends.columns.update(zip(("look_time_s", "pd", "snr_db", "interference"),
+                                          looks, strict=True))
         merged = _merge_parts(parts)
         edges = np.searchsorted(merged["revolution"], np.arange(len(bounds) + 1)).tolist()
         self._block_plots = (scan0, merged, edges)  # for _encode_block
@@ -930,6 +948,7 @@ class _RadarProcess:
         else:
             p_msgs = [plots.message(j) for j in range(len(plots))]
             t_msgs = [truth.message(j) for j in range(len(truth))]
+        self._frame_ends(encoded)
         out: list[_Revolution] = [({}, [], [], []) for _ in scans]
         for r, sector, a, b, p, q in zip(rev.tolist(), sectors.tolist(), i0.tolist(),
                                           i1.tolist(), p_msgs, t_msgs, strict=True):
@@ -957,75 +976,132 @@ class _RadarProcess:
             bus.emit(protocol.TOPIC_TRUTH, t_b, truth)
 
     def _scan_end_states(self, scan0: int, count: int) -> None:
-        """Platform and target states at the ends of revolutions ``scan0`` to ``scan0 +
-        count - 1`` (the end of their last sector, :meth:`sector_end`: the times the run
-        reaches them), computed together and kept by revolution for :meth:`_end_of_scan`:
-        the platform's position, velocity, latitude and longitude (the geodetic conversion
-        is iterative, ``pymap3d``) and every target's position, velocity, acceleration and
-        activity.  Element-wise the same numbers as one call per end of scan."""
+        """The ends of revolutions ``scan0`` to ``scan0 + count - 1`` (the end of their last
+        sector, :meth:`sector_end`: the times the run reaches them), computed together and
+        kept for :meth:`_end_of_scan` (:class:`_ScanEnds`): the platform's position,
+        velocity, latitude and longitude (the geodetic conversion is iterative) and the
+        ``truth[targets]`` columns of every target: position, velocity, acceleration,
+        activity and :meth:`in_coverage` (the last looks follow once the block's dwells are
+        done, :meth:`_fold_looks`).  Element-wise the same numbers as one call per end of
+        scan."""
         sim = self.sim
         t = self.sector_end(self.n_sectors * np.arange(scan0 + 1, scan0 + 1 + count) - 1)
         pos, vel = self.platform_state(t)
         lat, lon, _ = sim.frame.geodetic(pos)
+        columns = None
         n = sim.targets.n
         if n:
             tpos, tvel, tacc, active = sim.targets.state_acc(np.repeat(t, n),
                                                              np.tile(np.arange(n), t.size))
-        for j in range(count):
-            target = None if not n else (tpos[j * n:(j + 1) * n], tvel[j * n:(j + 1) * n],
-                                         tacc[j * n:(j + 1) * n], active[j * n:(j + 1) * n])
-            self._eos_states[scan0 + j] = (pos[j], vel[j], float(lat[j]), float(lon[j]),
-                                           target)
-
-    def _end_of_scan(self, t: float, scan: int) -> None:
-        sim = self.sim
-        sim.stats.scans += 1
-        pos, vel, lat, lon, target = self._eos_states.pop(scan)  # at t (_scan_end_states)
-        self._last_eos = (t, pos, vel, lat, lon)
-        # the run's end inside a revolution cuts it short (the sector loop ends it at t_b =
-        # duration); a revolution ending exactly at the run's end is complete
-        complete = bool(t >= (scan + 1) * self.n_sectors * self.sector_s - 1e-9)
-        eos = EOS.message(sensor=self.radar.id, scan=scan, time_s=t,
-                          **self.antenna_state(t, pos, vel, lat, lon), complete=complete)
-        sim.emit(protocol.TOPIC_EOS, t, eos)
-        look_t, pd, si_db, code = self._fold_looks(scan)
-        if target is not None:
-            tpos, tvel, tacc, active = (np.array(a) for a in target)
+            cover = self.in_coverage(np.repeat(pos, n, axis=0), tpos, active)
             # an inactive target has no state (schema 2): NaN, not a frozen one
             for a in (tpos, tvel, tacc):
                 a[~active] = np.nan
-            sim.emit(protocol.TOPIC_TRUTH, t, TRUTH_TARGETS.message(
-                sensor=self.radar.id,
-                scan=scan,
-                time_s=t,
-                east_m=tpos[:, 0], north_m=tpos[:, 1], up_m=tpos[:, 2],
-                v_east_mps=tvel[:, 0], v_north_mps=tvel[:, 1], v_up_mps=tvel[:, 2],
-                a_east_mps2=tacc[:, 0], a_north_mps2=tacc[:, 1], a_up_mps2=tacc[:, 2],
-                active=active,
-                in_coverage=self.in_coverage(pos, tpos, active),
-                look_time_s=look_t, pd=pd, snr_db=si_db, interference=code,
-            ))
-        if sim.bus is not None:
-            sim.bus.flush()
+            columns = {"east_m": tpos[:, 0], "north_m": tpos[:, 1], "up_m": tpos[:, 2],
+                       "v_east_mps": tvel[:, 0], "v_north_mps": tvel[:, 1],
+                       "v_up_mps": tvel[:, 2], "a_east_mps2": tacc[:, 0],
+                       "a_north_mps2": tacc[:, 1], "a_up_mps2": tacc[:, 2],
+                       "active": active, "in_coverage": cover}
+        self._ends = _ScanEnds(scan0, t.tolist(), pos, vel, lat.tolist(), lon.tolist(),
+                               columns)
+
+    def _eos_payload(self, j: int) -> dict[str, Any]:
+        """``eos`` of the ``j``-th revolution of :attr:`_ends`."""
+        ends = self._ends
+        assert ends is not None
+        t, scan = ends.t[j], ends.scan0 + j
+        # the run's end inside a revolution cuts it short (the sector loop ends it at t_b =
+        # duration); a revolution ending exactly at the run's end is complete
+        complete = bool(t >= (scan + 1) * self.n_sectors * self.sector_s - 1e-9)
+        return EOS.message(sensor=self.radar.id, scan=scan, time_s=t,
+                           **self.antenna_state(t, ends.pos[j], ends.vel[j], ends.lat[j],
+                                                ends.lon[j]),
+                           complete=complete)
+
+    def _frame_ends(self, encoded: bool) -> None:
+        """The ``eos`` and ``truth[targets]`` messages of the revolutions computed last
+        (:attr:`_ends`): the latter as :class:`shipradar.sim.stream.framing.Slices`, one
+        message per revolution; for a bus that takes frames, both encoded at once."""
+        ends = self._ends
+        assert ends is not None
+        scans = range(ends.scan0, ends.scan0 + len(ends.t))
+        if ends.columns is not None:
+            ends.targets = target_columns(self.radar.id, scans, ends.t, ends.columns,
+                                          len(self.target_ids))
+        if encoded:
+            eos = [protocol.encode(protocol.TOPIC_EOS, t, self._eos_payload(j))[1]
+                   for j, t in enumerate(ends.t)]
+            truth = (ends.targets.encode(np.asarray(ends.t)) if ends.targets is not None
+                     else [None] * len(eos))
+            ends.frames = list(zip(eos, truth, strict=True))
+
+    def _end_of_scan(self, t: float, scan: int) -> None:
+        """The end of revolution ``scan`` at time ``t`` (its ``eos`` and ``truth[targets]``,
+        :meth:`_frame_ends`), and the bus flushed: each scan's records are written at its
+        end."""
+        sim = self.sim
+        sim.stats.scans += 1
+        ends = self._ends
+        assert ends is not None
+        j = scan - ends.scan0  # ends.t[j] == t (_scan_end_states)
+        self._last_eos = (t, ends.pos[j], ends.vel[j], ends.lat[j], ends.lon[j])
+        bus = sim.bus
+        if bus is None:
+            return
+        if ends.frames is not None:
+            eos, truth = ends.frames[j]
+            frames = self._bus_caps()[0]
+            assert frames is not None  # framed for it (_frame_ends)
+            frames.emit_frames(t, [protocol.TOPIC_EOS, eos])
+            if truth is not None:
+                frames.emit_frames(t, [protocol.TOPIC_TRUTH, truth])
+        else:
+            bus.emit(protocol.TOPIC_EOS, t, self._eos_payload(j))
+            if ends.targets is not None:
+                bus.emit(protocol.TOPIC_TRUTH, t, ends.targets.message(j))
+        bus.flush()
 
     def in_coverage(self, platform_pos: np.ndarray, target_pos: np.ndarray,
                     active: np.ndarray) -> np.ndarray:
-        """Which targets the radar can see from its platform at ``platform_pos`` (3,) [m]:
-        active, ground range from the antenna within the instrumented range (the engine's
-        own test before a look, :meth:`_dwell`) and inside the radio horizon over the
-        effective earth, √(2 a_e h_a) + √(2 a_e h_t) with a_e = 4/3 the frame's radius and
-        heights above the sea [m] (targets ``target_pos`` (k, 3) [m], NaN when inactive)."""
+        """Which targets the radar can see from its platform at ``platform_pos`` [m], (3,)
+        or one (k, 3) row per target: active, ground range from the antenna within the
+        instrumented range (the engine's own test before a look, :meth:`_dwell`) and inside
+        the radio horizon over the effective earth, √(2 a_e h_a) + √(2 a_e h_t) with a_e =
+        4/3 the frame's radius and heights above the sea [m] (targets ``target_pos`` (k, 3)
+        [m], NaN when inactive)."""
         out = np.zeros(active.shape, dtype=bool)
         if not active.any():
             return out
         idx = np.flatnonzero(active)
         tpos = target_pos[idx]
-        _, ground = antenna_azimuth(platform_pos, tpos, self.sim.frame)
+        ppos = platform_pos if platform_pos.ndim == 1 else platform_pos[idx]
+        _, ground = antenna_azimuth(ppos, tpos, self.sim.frame)
         a_e = K_FACTOR * self.sim.frame.radius
-        h_a = max(float(platform_pos[2]) + self.radar.antenna_height_m, 0.0)
+        h_a = np.maximum(ppos[..., 2] + self.radar.antenna_height_m, 0.0)
         horizon = np.sqrt(2.0 * a_e * h_a) + np.sqrt(2.0 * a_e * np.maximum(tpos[:, 2], 0.0))
         out[idx] = (ground <= self.radar.instrumented_range_m) & (ground <= horizon)
         return out
+
+
+@dataclass
+class _ScanEnds:
+    """The ends of a block's revolutions (:meth:`_RadarProcess._scan_end_states`): revolution
+    ``scan0 + j`` ends at ``t[j]`` [s]."""
+
+    scan0: int
+    t: list[float]
+    #: the platform's position and velocity (m, 3) [m, m/s], latitude and longitude [deg]
+    pos: np.ndarray
+    vel: np.ndarray
+    lat: list[float]
+    lon: list[float]
+    #: the ``truth[targets]`` columns, revolution j in rows j k:(j + 1) k; None without targets
+    columns: dict[str, np.ndarray] | None
+    #: their messages (:meth:`_RadarProcess._frame_ends`)
+    targets: Slices | None = None
+    #: the bodies of each revolution's ``eos`` and ``truth[targets]``, for a bus that takes
+    #: frames
+    frames: list[tuple[bytes, bytes | None]] | None = None
 
 
 #: Margin of the beam-crossing search at the boundary between two revolutions [s].

@@ -19,9 +19,9 @@ from typing import Any
 import numpy as np
 
 from shipradar.sim.stream import protocol
-from shipradar.sim.stream.schema import PLOTS, TRUTH_PLOTS, Payload, SchemaError
+from shipradar.sim.stream.schema import PLOTS, TRUTH_PLOTS, TRUTH_TARGETS, Payload, SchemaError
 
-__all__ = ["Slices", "sector_columns"]
+__all__ = ["Slices", "sector_columns", "target_columns"]
 
 #: (array, start of each message's slice, stop of each message's slice)
 Column = tuple[np.ndarray, np.ndarray, np.ndarray]
@@ -64,12 +64,14 @@ class Slices:
                                       self.index)
 
 
-def _fixed(payload: Payload, **values: Any) -> dict[str, Any]:
-    """The keys of ``payload`` that are not columns, in its order (all of them given)."""
+def _fixed(payload: Payload, **values: Sequence[Any]) -> list[dict[str, Any]]:
+    """The keys of ``payload`` that are not columns, in its order (all of them given), one
+    mapping per message: message ``j``'s value of ``key`` is ``values[key][j]``."""
     keys = tuple(f.key for f in payload.fields if f.length is None)
     if set(values) != set(keys):
         raise SchemaError(f"{payload.name}: fixed keys {sorted(values)}, declared {keys}")
-    return {k: values[k] for k in keys}
+    return [dict(zip(keys, row, strict=True))
+            for row in zip(*(values[k] for k in keys), strict=True)]
 
 
 def sector_columns(sensor: str, scans: Sequence[int], plots: Mapping[str, np.ndarray],
@@ -101,7 +103,8 @@ def sector_columns(sensor: str, scans: Sequence[int], plots: Mapping[str, np.nda
         The ``plots`` messages and their ``truth[plots]`` messages.
     """
     rows = {"plot_id": plot_id, **plots}
-    plot_msgs = Slices(PLOTS, [_fixed(PLOTS, sensor=sensor, scan=k) for k in scans], which,
+    sensors = [sensor] * len(scans)
+    plot_msgs = Slices(PLOTS, _fixed(PLOTS, sensor=sensors, scan=scans), which,
                        {key: (rows[key], start, stop) for key in PLOTS.columns()})
     # each message's contributor offsets start at 0: one array of every message's rebased
     # offsets (n + 1 per message), sliced per message
@@ -115,6 +118,32 @@ def sector_columns(sensor: str, scans: Sequence[int], plots: Mapping[str, np.nda
                                      for key in TRUTH_PLOTS.columns("n")}
     truth_cols["contrib_offsets"] = (rebased, first, first + length)
     truth_cols["contrib_targets"] = (plots["contrib_targets"], off[start], off[stop])
-    truth_msgs = Slices(TRUTH_PLOTS, [_fixed(TRUTH_PLOTS, sensor=sensor, scan=k, kind="plots")
-                                      for k in scans], which, truth_cols)
+    truth_msgs = Slices(TRUTH_PLOTS, _fixed(TRUTH_PLOTS, sensor=sensors, scan=scans,
+                                            kind=["plots"] * len(scans)), which, truth_cols)
     return plot_msgs, truth_msgs
+
+
+def target_columns(sensor: str, scans: Sequence[int], times: Sequence[float],
+                   columns: Mapping[str, np.ndarray], targets: int) -> Slices:
+    """The ``truth[targets]`` messages of a block of ends of scan, one per revolution.
+
+    Parameters
+    ----------
+    sensor : str
+        The radar id.
+    scans : Sequence[int]
+        Scan numbers of the revolutions that end.
+    times : Sequence[float]
+        Their ends [s] (each message's ``time_s``).
+    columns : Mapping[str, numpy.ndarray]
+        Every column of :data:`shipradar.sim.stream.schema.TRUTH_TARGETS`, ``targets`` rows
+        per revolution: revolution ``j``'s in rows ``j targets:(j + 1) targets``.
+    targets : int
+        Targets of the scene.
+    """
+    start = np.arange(len(scans), dtype=np.int64) * targets
+    stop = start + targets
+    fixed = _fixed(TRUTH_TARGETS, sensor=[sensor] * len(scans), scan=scans,
+                   kind=["targets"] * len(scans), time_s=times)
+    return Slices(TRUTH_TARGETS, fixed, np.arange(len(scans)),
+                  {key: (columns[key], start, stop) for key in TRUTH_TARGETS.columns()})
