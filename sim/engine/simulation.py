@@ -30,6 +30,7 @@ that takes payloads alike.
 
 from __future__ import annotations
 
+import bisect
 import functools
 import itertools
 import math
@@ -622,12 +623,28 @@ class _RadarProcess:
                 self._block = self._compute_block(scan)
                 self._block_frames = self._frame_block() if sim.bus is not None else None
             self._scan = self._block.pop(0)
-            frames = None
-            if self._block_frames is not None:
-                frames, bodies, s0, s1 = self._block_frames.pop(0)
-                ahead = self._bus_caps()[1] if bodies else None
+            rev = self._block_frames.pop(0) if self._block_frames is not None else None
+            if rev is not None and rev.encoded and rev.sectors:
+                ahead = self._bus_caps()[1]
                 if ahead is not None:  # ASTERIX: CAT048 ahead
-                    ahead.plots_ahead(self.radar.id, bodies, self._scan, s0, s1)
+                    ahead.plots_ahead(self.radar.id, rev.plots, self._scan, rev.starts,
+                                      rev.stops)
+            if not per_sector:
+                # alone: one resumption at the revolution's end (the run's end at the
+                # latest), where its sectors' messages leave in order, each at its own time
+                reached = n
+                t_end = (k + n) * sector_s
+                if t_end >= duration:  # the run ends in this revolution: t_b ≥ duration
+                    reached = next(s for s in range(1, n + 1) if (k + s) * sector_s >= duration)
+                    t_end = duration
+                yield env.timeout(t_end - env.now)
+                if rev is not None:
+                    self._send_sectors(rev, bisect.bisect_left(rev.sectors, reached))
+                stats.sectors += reached
+                k += reached
+                self._end_of_scan(t_end, scan)
+                continue
+            i = 0  # the revolution's next message
             for sector in range(n):
                 t_a = k * sector_s
                 if t_a >= duration:
@@ -635,15 +652,13 @@ class _RadarProcess:
                 t_b = (k + 1) * sector_s
                 if t_b > duration:
                     t_b = duration
-                if per_sector or sector == n - 1 or t_b >= duration:
-                    yield env.timeout(t_b - env.now)
-                    sim.active_radar = self.index
-                    if resumes is not None:
-                        resumes.append(env.now)
-                if frames is not None:  # the revolution's messages, framed ahead
-                    sent = frames.pop(sector, None)
-                    if sent is not None:
-                        self._send_sector(t_b, *sent)
+                yield env.timeout(t_b - env.now)
+                sim.active_radar = self.index
+                if resumes is not None:
+                    resumes.append(env.now)
+                if rev is not None and i < len(rev.sectors) and rev.sectors[i] == sector:
+                    self._send_sector(t_b, rev.rows[i], rev.plots[i], rev.truth[i])
+                    i += 1
                 stats.sectors += 1
                 k += 1
                 if sector == n - 1 or t_b >= duration:
@@ -916,9 +931,7 @@ class _RadarProcess:
         """The ``plots`` and ``truth`` messages of every non-empty sector of the revolutions
         :meth:`_compute_block` computed last (:func:`shipradar.sim.stream.framing.sector_columns`):
         for a bus that takes frames, their bodies encoded at once; for another, their
-        payloads.  Per revolution, its messages by sector ``{sector: (rows, plots, truth)}``
-        and (frames only) the plot bodies with their slices of the revolution's plots (for
-        the ASTERIX bus's ``plots_ahead``).
+        payloads (:class:`_Revolution`).
 
         Sectors the run does not reach (its end inside a revolution) are framed but never
         sent.  Plot ids run on through the block: its plots are sent in their order.
@@ -940,25 +953,22 @@ class _RadarProcess:
         plot_id = np.arange(self.plot_counter, self.plot_counter + total, dtype=np.int64)
         scans = range(scan0, scan0 + len(edges) - 1)
         plots, truth = sector_columns(self.radar.id, scans, merged, plot_id, i0, i1, rev)
+        times = self.sector_end((scan0 + rev) * n + sectors)
         encoded = self.sim.encodes_ahead
         if encoded:
-            times = self.sector_end((scan0 + rev) * n + sectors)
-            p_msgs: Sequence[bytes | dict] = plots.encode(times)
-            t_msgs: Sequence[bytes | dict] = truth.encode(times)
+            p_msgs: list[bytes] | list[dict] = plots.encode(times)
+            t_msgs: list[bytes] | list[dict] = truth.encode(times)
         else:
             p_msgs = [plots.message(j) for j in range(len(plots))]
             t_msgs = [truth.message(j) for j in range(len(truth))]
         self._frame_ends(encoded)
-        out: list[_Revolution] = [({}, [], [], []) for _ in scans]
-        for r, sector, a, b, p, q in zip(rev.tolist(), sectors.tolist(), i0.tolist(),
-                                          i1.tolist(), p_msgs, t_msgs, strict=True):
-            frames, bodies, s0, s1 = out[r]
-            frames[sector] = (b - a, p, q)
-            if encoded:
-                bodies.append(p)
-                s0.append(a - edges[r])
-                s1.append(b - edges[r])
-        return out
+        # the messages are in revolution order: each revolution's are a run of them
+        first = np.asarray(edges)[rev]
+        sec, tim, rows = sectors.tolist(), times.tolist(), (i1 - i0).tolist()
+        s0, s1 = (i0 - first).tolist(), (i1 - first).tolist()
+        m = np.searchsorted(rev, np.arange(len(scans) + 1)).tolist()
+        return [_Revolution(encoded, sec[a:b], tim[a:b], rows[a:b], p_msgs[a:b], t_msgs[a:b],
+                            s0[a:b], s1[a:b]) for a, b in zip(m[:-1], m[1:], strict=True)]
 
     def _send_sector(self, t_b: float, rows: int, plots: bytes | dict, truth: bytes | dict
                      ) -> None:
@@ -974,6 +984,20 @@ class _RadarProcess:
         elif isinstance(plots, dict) and isinstance(truth, dict) and bus is not None:
             bus.emit(protocol.TOPIC_PLOTS, t_b, plots)
             bus.emit(protocol.TOPIC_TRUTH, t_b, truth)
+
+    def _send_sectors(self, rev: _Revolution, count: int) -> None:
+        """Publish the first ``count`` messages of revolution ``rev`` (:meth:`_send_sector`
+        each; to the batched path's bus, all at once)."""
+        bus = self.sim.bus
+        if rev.encoded and isinstance(bus, _BatchingBus):
+            self.plot_counter += sum(rev.rows[:count])
+            plots, truth = protocol.TOPIC_PLOTS, protocol.TOPIC_TRUTH
+            bus.pending += [msg for t, p, q in zip(rev.times[:count], rev.plots[:count],
+                                                   rev.truth[:count], strict=True)
+                            for msg in ((t, [plots, p]), (t, [truth, q]))]
+            return
+        for j in range(count):
+            self._send_sector(rev.times[j], rev.rows[j], rev.plots[j], rev.truth[j])
 
     def _scan_end_states(self, scan0: int, count: int) -> None:
         """The ends of revolutions ``scan0`` to ``scan0 + count - 1`` (the end of their last
@@ -1112,10 +1136,24 @@ _BLOCK_S = 64.0
 #: one, when a scan has many: ≈ 200 bytes each while the block is computed).
 _BLOCK_PLOTS = 250_000
 
-#: One revolution's messages framed ahead (:meth:`_RadarProcess._frame_block`): by sector,
-#: ``(rows, plots, truth)`` (bodies or payloads); the plot bodies and, for each, its first and
-#: last row + 1 in the revolution's plots (empty for payloads).
-_Revolution = tuple[dict[int, tuple[int, Any, Any]], list[bytes], list[int], list[int]]
+@dataclass
+class _Revolution:
+    """One revolution's ``plots`` and ``truth[plots]`` messages framed ahead
+    (:meth:`_RadarProcess._frame_block`), one pair per non-empty sector, in sector order."""
+
+    #: bodies (for a bus that takes frames) or payloads
+    encoded: bool
+    #: each message's sector (0 to sectors_per_scan - 1) and its end [s] (the message's time)
+    sectors: list[int]
+    times: list[float]
+    #: its plots
+    rows: list[int]
+    plots: list[Any]
+    truth: list[Any]
+    #: its first and last row + 1 in the revolution's plots (the ASTERIX bus's
+    #: ``plots_ahead``)
+    starts: list[int]
+    stops: list[int]
 
 
 # every per-plot column the engine carries, with its dtype; a batch without ``target`` (false
