@@ -82,3 +82,55 @@ def test_a_radar_alone_resumes_per_revolution_with_simpys_bytes(tmp_path, durati
                                          duration_s=duration, seed=3)
     assert not sim.batched
     assert (fast, sectors_fast) == (slow, sectors_slow)
+
+
+def _reference_merge(parts):
+    """The merge written plainly: concatenate, then a stable sort by (revolution, time)."""
+    from shipradar.sim.engine.simulation import _ABSENT, _PLOT_DTYPES
+
+    cat = {c: np.concatenate([p[c] if c in p else np.full(p["range_m"].size, _ABSENT[c])
+                              for p in parts]).astype(dt) for c, dt in _PLOT_DTYPES.items()}
+    rev = np.concatenate([p["revolution"] for p in parts])
+    order = np.lexsort((cat["time_s"], rev))
+    counts = np.concatenate([np.diff(p["contrib_offsets"]) if "contrib_offsets" in p
+                             else np.zeros(p["range_m"].size, int) for p in parts])
+    pool = [list(p["contrib_targets"][a:b]) for p in parts if "contrib_offsets" in p
+            for a, b in zip(p["contrib_offsets"][:-1], p["contrib_offsets"][1:], strict=True)]
+    lists, it = [], iter(pool)
+    for p in parts:
+        lists += ([next(it) for _ in range(p["range_m"].size)] if "contrib_offsets" in p
+                  else [[] for _ in range(p["range_m"].size)])
+    out = {c: a[order] for c, a in cat.items()}
+    out["revolution"] = rev[order]
+    out["contrib_offsets"] = np.concatenate([[0], np.cumsum(counts[order])])
+    out["contrib_targets"] = np.array([x for i in order for x in lists[i]], dtype=np.int32)
+    return out
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_merge_parts_is_a_stable_sort_by_revolution_and_time(seed):
+    from shipradar.sim.engine.simulation import _PLOT_DTYPES, _merge_parts
+
+    rng = np.random.default_rng(seed)
+
+    def part(n, targets):
+        rev = np.sort(rng.integers(0, 3, n))
+        p = {c: rng.normal(size=n).astype(dt) for c, dt in _PLOT_DTYPES.items()}
+        # times on a coarse grid (ties between and within batches); a plot may sort a hair
+        # before its revolution's start (below the previous revolution's last ones)
+        p["time_s"] = rev + rng.integers(0, 8, n) / 8.0 - (seed % 2) * 0.2
+        p["revolution"] = rev
+        if targets:
+            off = np.concatenate([[0], np.cumsum(rng.integers(1, 3, n))])
+            p.update(contrib_offsets=off, contrib_targets=rng.integers(0, 9, off[-1]))
+        else:
+            for c in ("target", "true_range_m", "true_azimuth_rad", "true_range_rate_mps"):
+                del p[c]
+        return p
+
+    parts = [part(40, True), part(300, False), part(7, False)]
+    got, want = _merge_parts(parts), _reference_merge(parts)
+    assert got.keys() == want.keys()
+    for c in got:
+        np.testing.assert_array_equal(got[c], want[c])
+        assert got[c].dtype == (_PLOT_DTYPES.get(c) or got[c].dtype)

@@ -1181,17 +1181,32 @@ def _merge_parts(parts: list[dict]) -> dict:
     first = np.cumsum([0, *sizes])
     time_s = np.concatenate([p["time_s"] for p in parts])
     order = np.argsort(time_s)  # introsort: a stable sort only when two times are equal
-    if np.any(np.diff(time_s[order]) == 0.0):
+    t_sorted = time_s.take(order)
+    if np.any(t_sorted[1:] == t_sorted[:-1]):
         order = np.argsort(time_s, kind="stable")
+        t_sorted = time_s.take(order)
     rev = np.concatenate([p["revolution"] for p in parts])
-    if np.any(np.diff(rev[order]) < 0):
+    rev_sorted = rev.take(order)
+    if np.any(rev_sorted[1:] < rev_sorted[:-1]):
         # a plot a hair before its revolution's start (a target crossing the start
         # azimuth) sorts before the previous revolution's last plots: by revolution first
         order = np.lexsort((time_s, rev))
-    out = {c: np.concatenate([p[c] if c in p else np.full(p["range_m"].size, _ABSENT[c], dtype)
-                              for p in parts])[order].astype(dtype, copy=False)
-           for c, dtype in _PLOT_DTYPES.items()}
-    out["revolution"] = rev[order]
+        t_sorted, rev_sorted = time_s.take(order), rev.take(order)
+    # every other column gathered through one buffer per dtype (not a new array per
+    # concatenation); the schema's dtypes whatever a batch's (as astype)
+    out = {}
+    buffers: dict[np.dtype, np.ndarray] = {}
+    for c, dtype in _PLOT_DTYPES.items():
+        if c == "time_s":
+            out[c] = t_sorted.astype(dtype, copy=False)
+            continue
+        buf = buffers.get(dtype)
+        if buf is None:
+            buf = buffers[dtype] = np.empty(time_s.size, dtype)
+        np.concatenate([p[c] if c in p else np.full(p["range_m"].size, _ABSENT[c], dtype)
+                        for p in parts], out=buf, casting="unsafe")
+        out[c] = buf.take(order)
+    out["revolution"] = rev_sorted
     # contributors: only some batches have them (the targets'); the others count none
     counts = np.zeros(time_s.size, dtype=np.int64)
     starts = np.zeros(time_s.size, dtype=np.int64)
