@@ -441,6 +441,9 @@ class _RadarProcess:
         # the end of the last scan: (time [s], platform position, velocity, lat, lon), which
         # is the next scan's start (its meta's antenna state)
         self._last_eos: tuple[float, np.ndarray, np.ndarray, float, float] | None = None
+        # the next scan's meta items of scan and antenna state, packed with the last end of
+        # scan's eos (_frame_ends), for a bus that takes frames
+        self._next_meta: tuple[float, bytes] | None = None
         #: position in scenario.radars(); env.now at each resumption of run() (the order of
         #: the messages between radars in shipradar.sim.engine.parallel), kept only in a parallel
         #: worker: one float per sector would grow with the run (≈5 MB per simulated hour of the
@@ -480,7 +483,7 @@ class _RadarProcess:
         self._block_plots = self._block_frames = None
         self._scan = _merge_parts([])
         self._ends = None
-        self._last_eos = None
+        self._last_eos = self._next_meta = None
         self._looks = {}
 
     # ------------------------------------------------------------------ helpers
@@ -695,12 +698,19 @@ class _RadarProcess:
         bus = sim.bus
         if bus is None:
             return
+        frames = self._bus_caps()[0]
+        packed = self._next_meta
+        if frames is not None and self._meta_items is not None and packed is not None \
+                and packed[0] == t:  # packed with the previous scan's end (_frame_ends)
+            n, before, after = self._meta_items
+            frames.emit_frames(t, protocol.encode_items(protocol.TOPIC_META, t, n,
+                                                        (before, packed[1], after)))
+            return
         last = self._last_eos
         if last is not None and last[0] == t:  # the previous scan's end: its state
             state = {"scan": scan, **self.antenna_state(t, *last[1:])}
         else:
             state = {"scan": scan, **self.antenna_state(t)}
-        frames = self._bus_caps()[0]
         if frames is not None:
             self._emit_meta_frames(frames, t, state)
         else:
@@ -1029,23 +1039,26 @@ class _RadarProcess:
         self._ends = _ScanEnds(scan0, t.tolist(), pos, vel, lat.tolist(), lon.tolist(),
                                columns)
 
-    def _eos_payload(self, j: int) -> dict[str, Any]:
-        """``eos`` of the ``j``-th revolution of :attr:`_ends`."""
+    def _eos_payload(self, j: int, state: dict[str, Any] | None = None) -> dict[str, Any]:
+        """``eos`` of the ``j``-th revolution of :attr:`_ends`, with the antenna's ``state``
+        at its end (:meth:`antenna_state`, computed unless given)."""
         ends = self._ends
         assert ends is not None
         t, scan = ends.t[j], ends.scan0 + j
         # the run's end inside a revolution cuts it short (the sector loop ends it at t_b =
         # duration); a revolution ending exactly at the run's end is complete
         complete = bool(t >= (scan + 1) * self.n_sectors * self.sector_s - 1e-9)
-        return EOS.message(sensor=self.radar.id, scan=scan, time_s=t,
-                           **self.antenna_state(t, ends.pos[j], ends.vel[j], ends.lat[j],
-                                                ends.lon[j]),
+        if state is None:
+            state = self.antenna_state(t, ends.pos[j], ends.vel[j], ends.lat[j], ends.lon[j])
+        return EOS.message(sensor=self.radar.id, scan=scan, time_s=t, **state,
                            complete=complete)
 
     def _frame_ends(self, encoded: bool) -> None:
         """The ``eos`` and ``truth[targets]`` messages of the revolutions computed last
         (:attr:`_ends`): the latter as :class:`shipradar.sim.stream.framing.Slices`, one
-        message per revolution; for a bus that takes frames, both encoded at once."""
+        message per revolution; for a bus that takes frames, both encoded at once, and the
+        next scan's ``meta`` items of its scan number and antenna state (that of this end,
+        :meth:`_emit_meta`)."""
         ends = self._ends
         assert ends is not None
         scans = range(ends.scan0, ends.scan0 + len(ends.t))
@@ -1053,11 +1066,16 @@ class _RadarProcess:
             ends.targets = target_columns(self.radar.id, scans, ends.t, ends.columns,
                                           len(self.target_ids))
         if encoded:
-            eos = [protocol.encode(protocol.TOPIC_EOS, t, self._eos_payload(j))[1]
-                   for j, t in enumerate(ends.t)]
+            eos, meta = [], []
+            for j, t in enumerate(ends.t):
+                state = self.antenna_state(t, ends.pos[j], ends.vel[j], ends.lat[j],
+                                           ends.lon[j])
+                eos.append(protocol.encode(protocol.TOPIC_EOS, t, self._eos_payload(j, state))[1])
+                meta.append(protocol.payload_items(protocol.TOPIC_META,
+                                                   {"scan": scans[j] + 1, **state}))
             truth = (ends.targets.encode(np.asarray(ends.t)) if ends.targets is not None
                      else [None] * len(eos))
-            ends.frames = list(zip(eos, truth, strict=True))
+            ends.frames = list(zip(eos, truth, meta, strict=True))
 
     def _end_of_scan(self, t: float, scan: int) -> None:
         """The end of revolution ``scan`` at time ``t`` (its ``eos`` and ``truth[targets]``,
@@ -1072,8 +1090,10 @@ class _RadarProcess:
         bus = sim.bus
         if bus is None:
             return
+        self._next_meta = None
         if ends.frames is not None:
-            eos, truth = ends.frames[j]
+            eos, truth, meta = ends.frames[j]
+            self._next_meta = (t, meta)
             frames = self._bus_caps()[0]
             assert frames is not None  # framed for it (_frame_ends)
             frames.emit_frames(t, [protocol.TOPIC_EOS, eos])
@@ -1123,9 +1143,9 @@ class _ScanEnds:
     columns: dict[str, np.ndarray] | None
     #: their messages (:meth:`_RadarProcess._frame_ends`)
     targets: Slices | None = None
-    #: the bodies of each revolution's ``eos`` and ``truth[targets]``, for a bus that takes
-    #: frames
-    frames: list[tuple[bytes, bytes | None]] | None = None
+    #: the bodies of each revolution's ``eos`` and ``truth[targets]`` and the next scan's
+    #: ``meta`` items of its scan and antenna state, for a bus that takes frames
+    frames: list[tuple[bytes, bytes | None, bytes]] | None = None
 
 
 #: Margin of the beam-crossing search at the boundary between two revolutions [s].
