@@ -134,3 +134,32 @@ def test_merge_parts_is_a_stable_sort_by_revolution_and_time(seed):
     for c in got:
         np.testing.assert_array_equal(got[c], want[c])
         assert got[c].dtype == (_PLOT_DTYPES.get(c) or got[c].dtype)
+
+
+@pytest.mark.parametrize("dip", [False, True])
+def test_sector_cuts_of_a_block_are_each_revolutions_own(dip):
+    # a block's plots sorted by (revolution, time); with ``dip`` a plot a hair before its
+    # revolution's start sorts below the previous revolution's last plots
+    s = load_scenario(ROOT / "scenarios/single_missile.yaml")
+    radar = Simulation(s, duration_s=30.0).radars[0]
+    n, period = radar.n_sectors, radar.radar.scan_period_s
+    rng = np.random.default_rng(2)
+    scan0, times, edges = 4, [], [0]
+    for r in range(5):
+        t_a = (scan0 + r) * period
+        t = np.sort(rng.uniform(t_a, t_a + period, 200))
+        t[:3] = t_a + np.arange(3) * radar.sector_s  # on sector boundaries
+        t = np.sort(t)
+        if dip and r == 1:
+            t[-1] = t_a + period - 1e-8
+        if dip and r == 2:
+            t = np.sort(np.concatenate([[t_a - 1e-7], t]))
+        times.append(t)
+        edges.append(edges[-1] + t.size)
+    block = np.concatenate(times)
+    assert bool(np.all(np.diff(block) >= 0)) is not dip
+    cuts = radar._sector_cuts(scan0, block, edges)
+    for r, t in enumerate(times):
+        ends = radar.sector_end((scan0 + r) * n + np.arange(n - 1))
+        want = edges[r] + np.append(np.searchsorted(t, ends, side="left"), t.size)
+        np.testing.assert_array_equal(cuts[r], want)

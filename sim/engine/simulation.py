@@ -928,13 +928,25 @@ class _RadarProcess:
         self._block_plots = (scan0, merged, edges)  # for _encode_block
         return [_slice_plots(merged, a, b) for a, b in zip(edges[:-1], edges[1:], strict=True)]
 
-    def _sector_cuts(self, scan: int, times: np.ndarray) -> np.ndarray:
-        """Index in revolution ``scan``'s plot ``times`` where each sector's plots end: times
-        before the sector's end (:meth:`sector_end`), everything left in the last."""
-        ends = self.sector_end(scan * self.n_sectors + np.arange(self.n_sectors - 1))
-        cuts = np.empty(self.n_sectors, dtype=np.int64)
-        cuts[:-1] = np.searchsorted(times, ends, side="left")
-        cuts[-1] = times.size
+    def _sector_cuts(self, scan0: int, times: np.ndarray, edges: list[int]) -> np.ndarray:
+        """Where each sector's plots end in a block's plot ``times`` (revolution ``scan0 +
+        r`` in rows ``edges[r]:edges[r + 1]``, sorted by time within each): the revolution's
+        times before the sector's end (:meth:`sector_end`), everything left in the last
+        sector; one row per revolution."""
+        n = self.n_sectors
+        first = (scan0 + np.arange(len(edges) - 1))[:, None] * n
+        ends = self.sector_end(first + np.arange(n - 1))
+        e = np.asarray(edges, dtype=np.int64)
+        cuts = np.empty((len(edges) - 1, n), dtype=np.int64)
+        cuts[:, -1] = e[1:]
+        if np.all(times[1:] >= times[:-1]):
+            # sorted through the block: the count of a revolution's times before an end is
+            # the block's count clipped to the revolution's rows
+            cuts[:, :-1] = np.clip(np.searchsorted(times, ends, side="left"), e[:-1, None],
+                                   e[1:, None])
+        else:  # a plot a hair before its revolution's start
+            for r, (a, b) in enumerate(zip(edges[:-1], edges[1:], strict=True)):
+                cuts[r, :-1] = a + np.searchsorted(times[a:b], ends[r], side="left")
         return cuts
 
     def _frame_block(self) -> list[_Revolution]:
@@ -949,13 +961,10 @@ class _RadarProcess:
         assert self._block_plots is not None
         scan0, merged, edges = self._block_plots
         n = self.n_sectors
-        starts, cuts = [], []
-        for r in range(len(edges) - 1):
-            a, b = edges[r], edges[r + 1]
-            c = a + self._sector_cuts(scan0 + r, merged["time_s"][a:b])
-            cuts.append(c)
-            starts.append(np.concatenate(([a], c[:-1])))
-        i1, i0 = np.concatenate(cuts), np.concatenate(starts)
+        cuts = self._sector_cuts(scan0, merged["time_s"], edges)
+        i1 = cuts.ravel()
+        i0 = np.concatenate([np.asarray(edges[:-1], dtype=np.int64)[:, None], cuts[:, :-1]],
+                            axis=1).ravel()
         msg = np.flatnonzero(i1 > i0)  # non-empty sectors, sector k of the block
         rev, sectors = np.divmod(msg, n)
         i0, i1 = i0[msg], i1[msg]
