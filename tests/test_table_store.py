@@ -141,3 +141,23 @@ def test_a_file_whose_key_does_not_match_its_inputs_is_rebuilt(table_cache):
         got, built = get_or_build(t.name, t.version, t.inputs, lambda: t)
     assert built
     _assert_same(t, got)
+
+
+def test_the_stacked_reader_interpolates_each_array_in_place():
+    """StackedLookup2D: per point and array (real, complex, Fortran-ordered), the bilinear
+    value Table.lookup gives (another formula: the same to rounding), NaN outside the grid,
+    the azimuth wrapped; it reads the table's own arrays (no stacked copy, issue 27)."""
+    t = _table()
+    reader = store.StackedLookup2D(t, (None, "weibull_a", "field"), periodic1=True)
+    r = np.array([0.0, 700.0, 1.5e3, 9.9e3, 1.0e4, -1.0, 2.0e4, np.nan])
+    az = np.array([0.0, 1.0, 7.5, -0.3, 2 * np.pi, 0.5, 0.5, 0.5])
+    got = reader(r, az)
+    assert got.shape == (8, 3) and got.dtype == np.complex128
+    wrapped = np.mod(az, 2 * np.pi)
+    for k, name in enumerate(reader.names):
+        want = t.lookup(r, wrapped, array=name)
+        inside = np.isfinite(want)
+        assert inside.tolist() == [True] * 5 + [False] * 3
+        np.testing.assert_allclose(got[inside, k], want[inside], rtol=1e-12, atol=1e-12)
+        assert np.isnan(got[~inside, k]).all()
+    assert np.shares_memory(reader._flat[0], t.values)  # C-ordered: read in place
