@@ -400,12 +400,18 @@ def _pfac_specs(scenario: Scenario, platform: Platform, radar: Radar) -> list[Ta
                           "p_fac_max": radar.p_fac_max,
                           "clutter_fa_model": scenario.fidelity.clutter_fa_model}
 
-    def make() -> Table:
-        return tp.pfac_map(sea_spec.make(), **kw)[0]
-
     def key():
         return (tp.PFAC_MAP_NAME, tp.PFAC_MAP_VERSION,
                 tp.pfac_map_inputs(sea_spec.key()[2], **kw))
+
+    def make() -> Table:
+        # keyed by the sea map's inputs, so the sea map (17-43 MB) is read only to build
+        # (tp.pfac_map would read it first, a second time in every run)
+        from shipradar.tables.store import get_or_build
+
+        name, version, inputs = key()
+        return get_or_build(name, version, inputs,
+                            lambda: tp.build_pfac_map(sea_spec.make(), **kw))[0]
 
     return [TableSpec(radar.id, "pfac", "sea-clutter false-alarm probability P_fac per sector",
                       make, key)]

@@ -9,6 +9,7 @@ hash of their inputs like any table (issue 27): a run that finds them never impo
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -17,7 +18,7 @@ from shipradar.sensors import noise
 from shipradar.sensors.radar import RadarConstants, radar_constants, sky_temperature_args
 from shipradar.sim.world.scenario import Radar, Scenario
 from shipradar.tables.atmosphere import itur_versions
-from shipradar.tables.store import Table, get_or_build, load_cached
+from shipradar.tables.store import Table, cache_path, inputs_hash, load_cached
 
 #: Table builder name and version (bump on any change of :func:`noise.sky_temperature_k`).
 TABLE_NAME = "sky_temperature"
@@ -25,6 +26,29 @@ TABLE_VERSION = 1
 #: The table's second elevation node above the beam maximum [rad] (a table axis has two
 #: nodes at least; only the first, the beam maximum, is read).
 SECOND_NODE_ABOVE_RAD = 0.5
+
+#: The tables read in this process, by file, with the (inode, size, mtime) they were read at:
+#: a run asks for each radar's T'_a a dozen times (the scene's table keys, the build
+#: estimates, the dwell model), a file read and CRC check each (~1 ms) before issue 27.
+_READ: dict[Path, tuple[tuple[int, int, int], Table]] = {}
+
+
+def _read_cached(inputs: dict[str, Any]) -> Table | None:
+    """The cached table of these inputs (None: not in the cache, or damaged: then warned
+    about by :func:`load_cached`), read once per process and file version."""
+    path = cache_path(TABLE_NAME, inputs_hash(TABLE_NAME, TABLE_VERSION, inputs))
+    try:
+        st = path.stat()
+    except OSError:
+        return None
+    stamp = (st.st_ino, st.st_size, st.st_mtime_ns)
+    seen = _READ.get(path)
+    if seen is not None and seen[0] == stamp:
+        return seen[1]
+    table = load_cached(TABLE_NAME, TABLE_VERSION, inputs)
+    if table is not None:
+        _READ[path] = (stamp, table)
+    return table
 
 
 def sky_temperature_table(args: dict[str, Any], store: bool = True) -> Table:
@@ -45,9 +69,11 @@ def sky_temperature_table(args: dict[str, Any], store: bool = True) -> Table:
                      axis_names=("elevation_rad",), axis_units=("rad",), values=values,
                      value_name="sky_temperature_k", value_unit="K", inputs=inputs)
 
-    if not store:
-        return load_cached(TABLE_NAME, TABLE_VERSION, inputs) or build()
-    table, _ = get_or_build(TABLE_NAME, TABLE_VERSION, inputs, build)
+    table = _read_cached(inputs)
+    if table is None:
+        table = build()
+        if store:
+            table.save(cache_path(TABLE_NAME, table.key))
     return table
 
 
