@@ -102,23 +102,27 @@ NORMAL_MIN_ETA = 9.0
 TWO_PI = 2.0 * np.pi
 
 
-def _mod_two_pi(x: NDArray[np.float64]) -> NDArray[np.float64]:
+def _mod_two_pi(x: NDArray[np.float64], out: NDArray[np.float64] | None = None
+                ) -> NDArray[np.float64]:
     """``np.mod(x, TWO_PI)`` bit for bit, without np.mod's fmod (~16 ns an element) when every
     ``x`` is in [-2π, 4π) (the false alarms' azimuths and their offsets from the beam): there
     fmod is ``x`` itself or ``x - 2π`` (exact, Sterbenz), and numpy adds 2π to a negative
     one; a zero is +0.0 either way.  Anything else (NaN included) goes to np.mod.  Angles in
     [rad]; as with np.mod, a tiny negative ``x`` can give exactly 2π (unlike
-    :func:`shipradar.sensors.measurement.wrap_azimuth`, which maps it to 0)."""
+    :func:`shipradar.sensors.measurement.wrap_azimuth`, which maps it to 0).  ``out`` (may be
+    ``x``): where to write it, as a ufunc's."""
     if x.size == 0:
-        return np.mod(x, TWO_PI)
+        return np.mod(x, TWO_PI, out=out)
     lo, hi = x.min(), x.max()
     if not (lo >= -TWO_PI and hi < 2.0 * TWO_PI):
-        return np.mod(x, TWO_PI)
-    out = np.where(x < 0.0, TWO_PI, 0.0)
+        return np.mod(x, TWO_PI, out=out)
+    # the shift 2π, 0.0 (+0.0: x + 0.0 turns -0.0 into +0.0, as np.mod) or -2π; a mask times
+    # 2π is 7x cheaper than np.where(x < 0, 2π, 0.0) on a random mask
+    shift = (x < 0.0) * TWO_PI
     if hi >= TWO_PI:
-        out[x >= TWO_PI] = -TWO_PI
-    out += x  # x + 0.0 is x (and -0.0 becomes +0.0, as in np.mod)
-    return out
+        shift[x >= TWO_PI] = -TWO_PI
+    wrapped: NDArray[np.float64] = np.add(x, shift, out=out)
+    return wrapped
 
 
 def resolution_cells(
@@ -937,6 +941,15 @@ class ClutterFalseAlarms:
                                 np.where(normal, _REGIME_NORMAL, _REGIME_POISSON))
         self._pois_cdf = poisson_cdf_table(self.eta[pois])  # no rows if no Poisson sector
         self._pois_row = np.cumsum(pois) - 1  # the CDF row of each Poisson sector
+        # _draw_block's forms of the same: the CDF column by column (CDF(k) of every row,
+        # contiguous), the row of each sector or -1, whether any sector is normal, and the
+        # runs [a, b) of consecutive Poisson sectors (the only ones a uniform hits from above)
+        self._pois_cdf_cols = np.ascontiguousarray(self._pois_cdf.T)
+        self._pois_row_or_none = np.where(pois, self._pois_row, -1)
+        self._any_normal = bool(normal.any())
+        edges = np.flatnonzero(np.diff(np.concatenate(([0], pois.astype(np.int8), [0]))))
+        self._pois_runs: list[tuple[int, int]] = [
+            (int(a), int(b)) for a, b in edges.reshape(-1, 2)]
         # a sector draws one alarm or more when U < _hit_below or U > _hit_above: U < η
         # (Bernoulli), U > P(0) = e^-η (Poisson), always (normal); see _draw
         self._hit_below = np.where(bern, self.eta, np.where(normal, 2.0, -1.0))
@@ -959,8 +972,14 @@ class ClutterFalseAlarms:
         depend on the sector alone and are computed once per sector."""
         base, ln_m = self._spike_terms
         e = rng.standard_exponential(sector.shape)
-        return _spike_from_terms(base[sector], None if ln_m is None else ln_m[sector],
-                                 self.weibull_a[sector], e)
+        if ln_m is None:
+            # _spike_from_terms' (base + e / ln 2) ** a, written in place on e (the same
+            # operations: a sum and a product are the same whichever operand comes first)
+            e /= np.log(2.0)
+            e += base.take(sector)
+            np.power(e, self.weibull_a.take(sector), out=e)
+            return e
+        return _spike_from_terms(base[sector], ln_m[sector], self.weibull_a[sector], e)
 
     def _scratch(self, revolutions: int) -> tuple[_Floats, NDArray[np.bool_], NDArray[np.bool_]]:
         """The uniforms and two masks of :meth:`_draw`, one per sector and revolution, kept
@@ -996,48 +1015,89 @@ class ClutterFalseAlarms:
         and the revolution index of every false alarm (revolution after revolution, sector
         after sector: one revolution draws the same numbers as :meth:`draw`); the counts per
         sector (a revolutions × sectors array) only when ``counts_per_sector``."""
+        hit, counts, sector, per_revolution, r, az = self._draw_block(rng, revolutions)
+        per_sector = None
+        if counts_per_sector:
+            per_sector = np.zeros((revolutions, self.eta.size), dtype=np.int64)
+            per_sector.ravel()[hit] = 1 if counts is None else counts
+        revolution = np.repeat(np.arange(revolutions, dtype=np.int64), per_revolution)
+        return per_sector, sector, revolution, r, az
+
+    def _hit_mask(self, u: _Floats, below: NDArray[np.bool_], above: NDArray[np.bool_]
+                  ) -> NDArray[np.bool_]:
+        """Which sector uniforms ``u`` (revolutions × sectors) give one alarm or more: U < η
+        (Bernoulli), U > P(0) = e^-η (Poisson's inverse CDF), always (normal, η ≥ 9);
+        ``below`` and ``above`` are scratch masks of ``u``'s shape (the result is ``below``)."""
+        # _hit_below is -1 in the Poisson sectors and _hit_above 2 elsewhere: "below" alone,
+        # then the Poisson sectors' "above" written over it run by run (a strided slice of
+        # the block per run), unless the runs are so many that their calls cost more
+        np.less(u, self._hit_below, out=below)
+        if len(self._pois_runs) * 4096 <= u.size:
+            for a, b in self._pois_runs:
+                np.greater(u[:, a:b], self._hit_above[a:b], out=below[:, a:b])
+            return below
+        np.greater(u, self._hit_above, out=above)
+        return np.logical_or(below, above, out=below)
+
+    def _draw_block(self, rng: np.random.Generator, revolutions: int
+                    ) -> tuple[_Ints, _Ints | None, _Ints, _Ints, _Floats, _Floats]:
+        """The draws of :meth:`_draw`: the flat index (revolution × sectors + sector) of every
+        sector with one alarm or more, their counts (None: every count is 1), the sector of
+        every alarm, the alarms of each revolution, and their ground ranges and azimuths."""
         # false_alarm_count's draw (one uniform per sector and revolution, same counts) with
         # the regimes and the Poisson CDF rows prepared in the constructor.  Most sectors
-        # draw no alarm: a sector has one or more exactly when U < η (Bernoulli) or
-        # U > P(0) (Poisson's inverse CDF), or always (normal, η ≥ 9: counted below), so
-        # the counts are worked out only where that holds
+        # draw no alarm: the counts are worked out only where one is drawn (_hit_mask)
         n = self.eta.size
         u, below, above = self._scratch(revolutions)
         rng.random(out=u)
-        np.less(u, self._hit_below, out=below)
-        np.greater(u, self._hit_above, out=above)
-        hit = np.flatnonzero(np.logical_or(below, above, out=below))
-        revolution, sector = np.divmod(hit, n)
-        u = u.ravel()[hit]
+        hit = np.flatnonzero(self._hit_mask(u, below, above))
+        # the hits come revolution after revolution: each revolution's first by bisection,
+        # and the sector is the flat index less its revolution's (np.divmod costs 5 times a
+        # subtraction an element)
+        first = np.searchsorted(hit, n * np.arange(revolutions + 1, dtype=np.int64))
+        sector = hit - np.repeat(n * np.arange(revolutions, dtype=np.int64), np.diff(first))
+        counts = None
+        per_revolution = np.diff(first)
+        if self._any_normal or self._pois_cdf.shape[0]:
+            counts = self._hit_counts(u.ravel(), hit, sector)
+            per_revolution = np.diff(np.concatenate(([0], np.cumsum(counts)))[first])
+            sector = np.repeat(sector, counts)
+        # uniform_positions of these counts (same draws, same numbers), with the sector of
+        # every plot found once instead of repeating each bound array over the counts;
+        # r0 + (r1 - r0) U formed in place on U
+        r = rng.random(sector.size)
+        r *= self._r_span.take(sector)
+        r += self.r_min_m.take(sector)
+        az = rng.random(sector.size)
+        az *= self._az_span.take(sector)
+        az += self.az_min_rad.take(sector)
+        az = _mod_two_pi(az, out=az)
+        az[az >= TWO_PI] = 0.0
+        return hit, counts, sector, per_revolution, r, az
+
+    def _hit_counts(self, u: _Floats, hit: _Ints, sector: _Ints) -> _Ints:
+        """Counts ([91]-[93]) of the sectors ``sector`` hit at flat indices ``hit`` of the
+        block's uniforms ``u`` (raveled): 1 in the Bernoulli regime."""
         counts = np.ones(hit.size, dtype=np.int64)
-        regime = self._regime[sector]
-        normal = regime == _REGIME_NORMAL
-        if normal.any():
-            e = self.eta[sector[normal]]
-            x = e + np.sqrt(e) * special.ndtri(u[normal])
-            counts[normal] = np.rint(np.maximum(x, 0.0)).astype(np.int64)
-        pois = np.flatnonzero(regime == _REGIME_POISSON)
+        if self._any_normal:
+            normal = self._regime.take(sector) == _REGIME_NORMAL
+            if normal.any():
+                e = self.eta[sector[normal]]
+                x = e + np.sqrt(e) * special.ndtri(u[hit[normal]])
+                counts[normal] = np.rint(np.maximum(x, 0.0)).astype(np.int64)
+        rows = self._pois_row_or_none.take(sector)
+        pois = np.flatnonzero(rows >= 0)
         if pois.size:
             # the inverse CDF, count = #{k: CDF(k) < U} (≥ 1 here), one column at a time
             # over the sectors still above it (most stop at 1 or 2)
-            rows, up = self._pois_row[sector[pois]], u[pois]
-            for k in range(1, self._pois_cdf.shape[1]):
-                more = up > self._pois_cdf[rows, k]
+            rows, up = rows.take(pois), u.take(hit.take(pois))
+            for column in self._pois_cdf_cols[1:]:
+                more = up > column.take(rows)
                 if not more.any():
                     break
                 pois, rows, up = pois[more], rows[more], up[more]
                 counts[pois] += 1
-        # uniform_positions of these counts (same draws, same numbers), with the sector of
-        # every plot found once instead of repeating each bound array over the counts
-        revolution, sector = np.repeat(revolution, counts), np.repeat(sector, counts)
-        r = self.r_min_m[sector] + self._r_span[sector] * rng.random(sector.size)
-        az = self.az_min_rad[sector] + self._az_span[sector] * rng.random(sector.size)
-        az = _mod_two_pi(az)
-        per_sector = None
-        if counts_per_sector:
-            per_sector = np.zeros((revolutions, n), dtype=np.int64)
-            per_sector.ravel()[hit] = counts
-        return per_sector, sector, revolution, r, np.where(az >= TWO_PI, 0.0, az)
+        return counts
 
     def scan(self, t_scan: float, t_end: float, beam_start_rad: float, omega_rad_s: float,
              rng: np.random.Generator) -> dict[str, NDArray] | None:
@@ -1082,30 +1142,50 @@ class ClutterFalseAlarms:
             return None
         t_scan, t_end, beam = (np.atleast_1d(np.asarray(v, dtype=np.float64)) for v in (
             t_scan, t_end, beam_start_rad))
-        _, sector, revolution, ground, az = self._draw(rng, t_scan.size,
-                                                       counts_per_sector=False)
-        t = t_scan[revolution] + _mod_two_pi(az - beam[revolution]) / omega_rad_s
-        keep = t < t_end[revolution]
-        ground, az, t, revolution = ground[keep], az[keep], t[keep], revolution[keep]
-        sector = sector[keep]
+        _, _, sector, per_revolution, ground, az = self._draw_block(rng, t_scan.size)
+        # the alarms come revolution after revolution: each revolution's start, beam and end
+        # repeated over its alarms (a gather by revolution gives the same numbers); the
+        # time t_scan + mod(θ - θ_start, 2π)/ω formed in place
+        t = az - np.repeat(beam, per_revolution)
+        t = _mod_two_pi(t, out=t)
+        t /= omega_rad_s
+        t += np.repeat(t_scan, per_revolution)
+        keep = t < np.repeat(t_end, per_revolution)
+        revolution = np.repeat(np.arange(t_scan.size, dtype=np.int64), per_revolution)
+        if not keep.all():  # only the run's last revolution ends early
+            ground, az, t = ground[keep], az[keep], t[keep]
+            revolution, sector = revolution[keep], sector[keep]
         x = self.spike_excess(sector, rng)
-        si = np.maximum(x - 1.0, 1e-3)
+        x -= 1.0
+        si = np.maximum(x, 1e-3, out=x)
         eps_r, eps_t = expected_errors(si, self.n_pulses, self.range_cell_m, self.beamwidth_rad,
                                        h_range=self.h_range, h_azimuth=self.h_azimuth)
         slant = slant_range_m(ground, self.antenna_height_m, self.k_factor)
         n = t.size
+        snr_db = np.log10(si)
+        snr_db *= 10.0
         return {
             "time_s": t,
             "range_m": slant,
             "azimuth_rad": az,
-            "snr_db": 10.0 * np.log10(si),
-            "sigma_range_m": np.broadcast_to(eps_r / 3.0, (n,)).copy(),
-            "sigma_azimuth_rad": np.broadcast_to(eps_t / 3.0, (n,)).copy(),
+            "snr_db": snr_db,
+            "sigma_range_m": _divided(eps_r, 3.0, n),
+            "sigma_azimuth_rad": _divided(eps_t, 3.0, n),
             "interference": np.ones(n, dtype=np.uint8),
             "ground_range_m": ground,
             "revolution": revolution,
             "sector": sector,
         }
+
+
+def _divided(x: _Floats, by: float, n: int) -> _Floats:
+    """``x / by`` as a column of ``n`` values: in place when ``x`` is already one (a fresh
+    array of that shape), else broadcast and copied."""
+    if isinstance(x, np.ndarray) and x.shape == (n,) and x.flags.writeable and x.base is None:
+        x /= by
+        return x
+    column: _Floats = np.broadcast_to(x / by, (n,)).copy()
+    return column
 
 
 __all__ = [

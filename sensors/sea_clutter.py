@@ -286,6 +286,13 @@ def slant_range_m(
     a = _effective_radius(k_factor)
     d, h = _f(ground_range_m), _f(antenna_height_m)
     s = np.sin(d / (2.0 * a))
+    if isinstance(s, np.ndarray) and s.ndim and np.broadcast_shapes(s.shape, h.shape) == s.shape:
+        # the same products and sum, in place on a copy of the first (the sea-clutter false
+        # alarms' millions of points pass here): ((4 a (a + h)) s) s + h², sum in either order
+        r2 = 4.0 * a * (a + h) * s
+        r2 *= s
+        r2 += h * h
+        return np.sqrt(r2, out=r2)
     return np.sqrt(h * h + 4.0 * a * (a + h) * s * s)
 
 

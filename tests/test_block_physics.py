@@ -55,3 +55,196 @@ def test_shipped_windows_do_not_import_scipy_signal():
                           cwd=ROOT, timeout=300)
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert proc.stdout.strip().splitlines()[-1] == "[]"
+
+
+# ----------------------------------------------------------------------------- false alarms
+from scipy import special  # noqa: E402
+
+from shipradar.sensors import false_alarms as fa  # noqa: E402
+from shipradar.sensors import sea_clutter as sc  # noqa: E402
+from shipradar.sensors.measurement import expected_errors  # noqa: E402
+
+TWO_PI = 2.0 * np.pi
+
+
+def _mod_reference(x):
+    """The first bit-exact form of np.mod(x, 2π) on [-2π, 4π) (the code before issue 27
+    item 4's second pass)."""
+    lo, hi = x.min(), x.max()
+    if not (lo >= -TWO_PI and hi < 2.0 * TWO_PI):
+        return np.mod(x, TWO_PI)
+    out = np.where(x < 0.0, TWO_PI, 0.0)
+    if hi >= TWO_PI:
+        out[x >= TWO_PI] = -TWO_PI
+    out += x
+    return out
+
+
+def _draw_reference(gen, rng, revolutions):
+    """ClutterFalseAlarms._draw as it was: divmod, masks by regime, repeat, np.where."""
+    n = gen.eta.size
+    u = rng.random((revolutions, n))
+    hit = np.flatnonzero((u < gen._hit_below) | (u > gen._hit_above))
+    revolution, sector = np.divmod(hit, n)
+    u = u.ravel()[hit]
+    counts = np.ones(hit.size, dtype=np.int64)
+    regime = gen._regime[sector]
+    normal = regime == 2
+    if normal.any():
+        e = gen.eta[sector[normal]]
+        x = e + np.sqrt(e) * special.ndtri(u[normal])
+        counts[normal] = np.rint(np.maximum(x, 0.0)).astype(np.int64)
+    pois = np.flatnonzero(regime == 1)
+    if pois.size:
+        rows, up = gen._pois_row[sector[pois]], u[pois]
+        for k in range(1, gen._pois_cdf.shape[1]):
+            more = up > gen._pois_cdf[rows, k]
+            if not more.any():
+                break
+            pois, rows, up = pois[more], rows[more], up[more]
+            counts[pois] += 1
+    revolution, sector = np.repeat(revolution, counts), np.repeat(sector, counts)
+    r = gen.r_min_m[sector] + gen._r_span[sector] * rng.random(sector.size)
+    az = gen.az_min_rad[sector] + gen._az_span[sector] * rng.random(sector.size)
+    az = _mod_reference(az) if az.size else az
+    per_sector = np.zeros((revolutions, n), dtype=np.int64)
+    per_sector.ravel()[hit] = counts
+    return per_sector, sector, revolution, r, np.where(az >= TWO_PI, 0.0, az)
+
+
+def _scans_reference(gen, t_scan, t_end, beam, omega, rng):
+    """ClutterFalseAlarms.scans as it was: gathers by revolution, a temporary per step."""
+    t_scan, t_end, beam = (np.atleast_1d(np.asarray(v, dtype=np.float64))
+                           for v in (t_scan, t_end, beam))
+    _, sector, revolution, ground, az = _draw_reference(gen, rng, t_scan.size)
+    off = az - beam[revolution]
+    t = t_scan[revolution] + (_mod_reference(off) if off.size else off) / omega
+    keep = t < t_end[revolution]
+    ground, az, t, revolution = ground[keep], az[keep], t[keep], revolution[keep]
+    sector = sector[keep]
+    base, ln_m = gen._spike_terms
+    e = rng.standard_exponential(sector.shape)
+    x = fa._spike_from_terms(base[sector], None if ln_m is None else ln_m[sector],
+                             gen.weibull_a[sector], e)
+    si = np.maximum(x - 1.0, 1e-3)
+    eps_r, eps_t = expected_errors(si, gen.n_pulses, gen.range_cell_m, gen.beamwidth_rad,
+                                   h_range=gen.h_range, h_azimuth=gen.h_azimuth)
+    d = ground
+    a = gen.k_factor * sc.EARTH_RADIUS_M
+    h = gen.antenna_height_m
+    s = np.sin(d / (2.0 * a))
+    slant = np.sqrt(h * h + 4.0 * a * (a + h) * s * s)
+    n = t.size
+    return {"time_s": t, "range_m": slant, "azimuth_rad": az, "snr_db": 10.0 * np.log10(si),
+            "sigma_range_m": np.broadcast_to(eps_r / 3.0, (n,)).copy(),
+            "sigma_azimuth_rad": np.broadcast_to(eps_t / 3.0, (n,)).copy(),
+            "interference": np.ones(n, dtype=np.uint8), "ground_range_m": ground,
+            "revolution": revolution, "sector": sector}
+
+
+def _generator(eta, *, contiguous: bool, model="seed", seed=0):
+    """Sectors of all three regimes of [91]-[93], interleaved at random or in long runs
+    (the two ways ClutterFalseAlarms finds the hits), azimuths across north."""
+    rng = np.random.default_rng(seed)
+    eta = np.sort(eta) if contiguous else rng.permutation(eta)
+    n = eta.size
+    r0 = rng.uniform(0.0, 5e4, n)
+    a0 = rng.uniform(-0.5, TWO_PI, n)
+    return fa.ClutterFalseAlarms(
+        r0, r0 + rng.uniform(0.0, 2e3, n), a0, a0 + rng.uniform(0.0, 0.2, n), np.ones(n), eta,
+        rng.uniform(0.5, 4.0, n), threshold_ratio=12.0, n_channels=2, n_pulses=10.0,
+        range_cell_m=30.0, beamwidth_rad=0.03, antenna_height_m=25.0, clutter_fa_model=model)
+
+
+def _etas(n, seed=1):
+    rng = np.random.default_rng(seed)
+    # Bernoulli (< 0.1725 for 2 channels), Poisson, a few normal (>= 9), and zeros dropped
+    return np.concatenate([rng.uniform(0.0, 0.17, n // 2), rng.uniform(0.18, 8.9, n // 3),
+                           rng.uniform(9.0, 30.0, 5), np.zeros(7)])
+
+
+@pytest.mark.parametrize("contiguous", [True, False])
+@pytest.mark.parametrize("model", ["seed", "weibull_median"])
+def test_block_draws_are_the_plain_codes(contiguous, model):
+    gen = _generator(_etas(3000), contiguous=contiguous, model=model)
+    # the runs path needs few runs per uniform: sorted etas give 3, shuffled ones thousands
+    assert (len(gen._pois_runs) * 4096 <= 40 * gen.eta.size) == contiguous
+    for seed, revolutions in ((1, 40), (2, 1), (3, 7)):
+        got = gen._draw(np.random.default_rng(seed), revolutions)
+        ref = _draw_reference(gen, np.random.default_rng(seed), revolutions)
+        for g, r in zip(got, ref, strict=True):
+            _same_bits(g, r)
+        period, k = 2.0, 40
+        t_a = np.arange(k) * period
+        t_b = t_a + period
+        t_b[-1] = t_a[-1] + 0.7  # the run ends inside its last revolution
+        beam = np.random.default_rng(seed).uniform(0.0, TWO_PI, k)
+        rng_a, rng_b = np.random.default_rng(seed), np.random.default_rng(seed)
+        got = gen.scans(t_a, t_b, beam, TWO_PI / period, rng_a)
+        ref = _scans_reference(gen, t_a, t_b, beam, TWO_PI / period, rng_b)
+        assert got is not None and list(got) == list(ref)
+        for c in ref:
+            _same_bits(got[c], ref[c])
+        assert rng_a.bit_generator.state == rng_b.bit_generator.state
+
+
+def test_block_draws_with_no_hit_and_bernoulli_only():
+    gen = _generator(np.full(50, 1e-9), contiguous=True)
+    got = gen.scans([0.0, 2.0], [2.0, 4.0], [0.1, 0.2], np.pi, np.random.default_rng(4))
+    ref = _scans_reference(gen, [0.0, 2.0], [2.0, 4.0], [0.1, 0.2], np.pi,
+                           np.random.default_rng(4))
+    assert got is not None and got["time_s"].size == 0
+    for c in ref:
+        _same_bits(got[c], ref[c])
+    gen = _generator(np.random.default_rng(5).uniform(0.0, 0.17, 500), contiguous=False)
+    assert gen._pois_cdf.shape[0] == 0 and not gen._any_normal
+    for seed in range(3):
+        got = gen._draw(np.random.default_rng(seed), 9)
+        ref = _draw_reference(gen, np.random.default_rng(seed), 9)
+        for g, r in zip(got, ref, strict=True):
+            _same_bits(g, r)
+
+
+def test_mod_two_pi_in_place_is_np_mod():
+    rng = np.random.default_rng(6)
+    near = np.pi / 32 * np.arange(-64, 128)
+    x = np.concatenate([rng.uniform(-TWO_PI, 2 * TWO_PI, 10_000), near,
+                        np.nextafter(near, np.inf), np.nextafter(near, -np.inf),
+                        [0.0, -0.0, TWO_PI, -TWO_PI, 5e-324, -5e-324]])
+    x = x[(x >= -TWO_PI) & (x < 2 * TWO_PI)]
+    for v in (x, x[x >= 0.0], x[x < TWO_PI], np.append(x, np.nan), np.append(x, 20.0)):
+        ref = np.mod(v, TWO_PI)
+        _same_bits(fa._mod_two_pi(v), ref)
+        w = v.copy()
+        assert fa._mod_two_pi(w, out=w) is w
+        _same_bits(w, ref)
+
+
+@pytest.mark.parametrize("shape", [(), (1,), (1000,)])
+def test_slant_range_in_place_is_the_formula(shape):
+    rng = np.random.default_rng(7)
+    d = rng.uniform(0.0, 2e5, shape)
+    for h, k in ((25.0, 4.0 / 3.0), (rng.uniform(1.0, 50.0, shape), 1.0),
+                 (np.array(12.0), np.array([1.2, 4.0 / 3.0])[:1] if shape else 1.2)):
+        a = np.asarray(k, dtype=float) * sc.EARTH_RADIUS_M
+        hh = np.asarray(h, dtype=float)
+        s = np.sin(d / (2.0 * a))
+        ref = np.sqrt(hh * hh + 4.0 * a * (a + hh) * s * s)
+        got = sc.slant_range_m(d, h, k)
+        assert type(got) is type(ref)
+        _same_bits(got, ref)
+
+
+def test_doppler_filter_index_is_the_plain_formula():
+    rng = np.random.default_rng(8)
+    fd = np.concatenate([rng.normal(0.0, 50.0, 20_000), rng.uniform(-5e3, 5e3, 20_000),
+                         [0.0, -0.0, -1e-300, 1e3, -1e3, 999.9999999]])
+    for n in (1, 7, 16):
+        ref = np.mod(np.floor(np.mod(fd / 1e3, 1.0) * n + 0.5), n).astype(np.int64)
+        _same_bits(df.doppler_filter_index(fd, 1e3, n), ref)
+        _same_bits(df.doppler_filter_index(fd.reshape(2, -1), 1e3, n), ref.reshape(2, -1))
+        assert int(df.doppler_filter_index(-1e-9, 1e3, n)) == 0
+    with pytest.raises(ValueError):
+        df.doppler_filter_index(np.array([1.0, np.nan]), 1e3, 7)
+    with pytest.raises(ValueError):
+        df.doppler_filter_index(np.array([np.inf, 1.0]), 1e3, 7)

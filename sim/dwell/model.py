@@ -326,9 +326,13 @@ class DwellModel:
         n = self.n_doppler_filters
         if (index.dtype == np.int64 and index.size > n and index.min() >= 0
                 and index.max() < n):
-            centre = self._filter_centres_hz[index]  # the formula below, once per filter
-        else:
-            centre = self._filter_centre_hz(index)
+            # the formula below, once per filter; -λ/2 (centre + reference) formed in place
+            # (a sum and a product are the same whichever operand comes first)
+            rate = self._filter_centres_hz.take(index)
+            rate += reference_hz
+            rate *= -0.5 * self.wavelength
+            return rate
+        centre = self._filter_centre_hz(index)
         return -0.5 * self.wavelength * (centre + reference_hz)
 
     def _filter_centre_hz(self, filter_index):
@@ -367,7 +371,11 @@ class DwellModel:
             reference, spread = self._spectrum_reference(np.asarray(range_m),
                                                          np.asarray(azimuth_rad))
         if clutter:
-            index = self._doppler_filter(draw.normal(0.0, 1.0, n) * spread)
+            # standard_normal: normal(0, 1)'s draws (0 + 1 z is z, but for the sign of a zero,
+            # which no filter index sees), without its loc + scale z per element
+            doppler = draw.standard_normal(n)
+            doppler *= spread
+            index = self._doppler_filter(doppler)
         else:
             index = draw.integers(0, self.n_doppler_filters, n)
         return {"range_rate_mps": self.range_rate_from_filter(index, reference),
@@ -1077,7 +1085,7 @@ class DwellModel:
         if out is not None:
             spectrum = None
             if self.has_doppler_bank:
-                spectrum = tuple(v[out["sector"]] for v in self._clutter_fa_spectrum)
+                spectrum = tuple(v.take(out["sector"]) for v in self._clutter_fa_spectrum)
             out.update(self._false_alarm_range_rate(out["range_m"], out["azimuth_rad"], rng,
                                                     clutter=True, spectrum=spectrum))
         return out
