@@ -248,3 +248,35 @@ def test_doppler_filter_index_is_the_plain_formula():
         df.doppler_filter_index(np.array([1.0, np.nan]), 1e3, 7)
     with pytest.raises(ValueError):
         df.doppler_filter_index(np.array([np.inf, 1.0]), 1e3, 7)
+
+
+# ----------------------------------------------------------------------------- the looks
+def test_threshold_once_per_distinct_n_is_gammainccinv():
+    from shipradar.sensors import detection
+
+    rng = np.random.default_rng(9)
+    few = rng.choice([1.0, 7.5, 12.0, 12.000000000000002], 5000)
+    many = rng.uniform(1.0, 30.0, 5000)
+    for n in (few, many, few[:63], np.append(few, np.nan)):
+        for pfa in (np.full(n.size, 1e-6), rng.uniform(1e-8, 1e-3, n.size)):
+            with np.errstate(invalid="ignore"):
+                _same_bits(detection._threshold(n, pfa), special.gammainccinv(n, pfa))
+
+
+def test_argmax_by_group_is_the_full_sort():
+    from shipradar.sim.dwell.model import _argmax_by_group
+
+    def reference(group, value, n_groups):
+        order = np.lexsort((-value, group))
+        first = np.ones(order.size, dtype=bool)
+        first[1:] = group[order][1:] != group[order][:-1]
+        out = np.empty(n_groups, dtype=np.int64)
+        out[group[order][first]] = order[first]
+        return out
+
+    rng = np.random.default_rng(10)
+    for n, n_groups in ((1, 1), (500, 500), (500, 480), (500, 40), (3, 1)):
+        group = np.concatenate([np.arange(n_groups), rng.integers(0, n_groups, n - n_groups)])
+        group = rng.permutation(group)
+        value = rng.choice([0.0, 1.0, 2.5, np.nan], n) * rng.choice([1.0, 1e-30], n)
+        _same_bits(_argmax_by_group(group, value, n_groups), reference(group, value, n_groups))

@@ -905,8 +905,12 @@ class DwellModel:
             r_true[sel], az_true[sel], si[sel], decision.n_e[sel], self.range_cell,
             self.theta_b, rng, h_range=self.radar.h_range, h_azimuth=self.radar.h_azimuth)
         # contributors of each reported contact
-        order = np.argsort(group, kind="stable")
         counts = np.bincount(group, minlength=n_groups)
+        if group.size == n_groups:  # one target per contact: the sort is the inverse
+            order = np.empty(group.size, dtype=np.int64)
+            order[group] = np.arange(group.size)
+        else:
+            order = np.argsort(group, kind="stable")
         starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
         c_counts = counts[sel]
         c_off = np.concatenate([[0], np.cumsum(c_counts)]).astype(np.int64)
@@ -1192,12 +1196,24 @@ def _overlap_fraction(edges: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.n
 
 
 def _argmax_by_group(group: np.ndarray, value: np.ndarray, n_groups: int) -> np.ndarray:
-    """Index of the largest ``value`` in each group."""
-    order = np.lexsort((-value, group))
-    first = np.ones(order.size, dtype=bool)
-    first[1:] = group[order][1:] != group[order][:-1]
+    """Index of the largest ``value`` in each group (the first of equals; groups numbered
+    0 .. n_groups - 1, each with a member)."""
     out = np.empty(n_groups, dtype=np.int64)
-    out[group[order][first]] = order[first]
+    counts = np.bincount(group, minlength=n_groups)
+    alone = counts.take(group) == 1
+    if alone.all():  # every target its own contact (nothing unresolved): no sort
+        out[group] = np.arange(group.size)
+        return out
+    # the sort by (group, -value) only over the members of shared groups: a group's order,
+    # hence its first, is the same among its own members as among all targets
+    single = np.flatnonzero(alone)
+    out[group.take(single)] = single
+    shared = np.flatnonzero(~alone)
+    order = shared.take(np.lexsort((-value.take(shared), group.take(shared))))
+    g = group.take(order)
+    first = np.ones(order.size, dtype=bool)
+    first[1:] = g[1:] != g[:-1]
+    out[g[first]] = order[first]
     return out
 
 
