@@ -185,22 +185,24 @@ def _insecure_remote(args, curve) -> bool:
     ``--allow-insecure-remote`` or ``--allow-remote``; each such destination, and the
     deprecated alias, is warned about on stderr.  The value goes into the run summary as
     ``insecure_remote`` (issue 25: an insecure remote bind is never silent)."""
-    from shipradar.sim.adapters.asterix.encode import AsterixError
-    from shipradar.sim.adapters.asterix.udp import parse_udp_url
-    from shipradar.sim.stream.bus import check_bind_endpoint
-
     if getattr(args, "allow_remote_alias", False):
         print("warning: --allow-remote is deprecated; use --allow-insecure-remote (the same "
               "permission, named for what it allows)", file=sys.stderr)
     insecure = False
-    if args.publish and check_bind_endpoint(args.publish, allow_remote=args.allow_remote,
-                                            secured=curve is not None):
-        insecure = True
+    if args.publish:
+        from shipradar.sim.stream.bus import check_bind_endpoint
+
+        insecure = check_bind_endpoint(args.publish, allow_remote=args.allow_remote,
+                                       secured=curve is not None)
+    if insecure:
         print(f"warning: INSECURE: publishing on {args.publish} without CURVE: the stream is "
               "unauthenticated and unencrypted, anyone who can reach this machine can "
               "subscribe (secure it with --curve-secret-key and --curve-authorized, "
               "docs/protocol.md section 9, or bind a loopback address)", file=sys.stderr)
     if args.asterix:
+        from shipradar.sim.adapters.asterix.encode import AsterixError
+        from shipradar.sim.adapters.asterix.udp import parse_udp_url
+
         try:
             parse_udp_url(args.asterix)
         except AsterixError:  # off this machine (the caller checked it with allow_remote)
@@ -885,6 +887,33 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+#: The errors of the commands' modules that mean bad input (exit 2), by module and name.
+_BAD_INPUT_ERRORS = (
+    ("shipradar.sim.stream.bus", "EndpointError"),
+    ("shipradar.sim.stream.recording", "RecordingError"),
+    ("shipradar.sim.stream.recording", "RecordingExistsError"),
+    ("shipradar.sim.adapters.asterix.encode", "AsterixError"),
+    ("shipradar.sim.stream.security", "CurveKeyError"),
+    ("shipradar.tables.budget", "MemoryBudgetError"),
+    ("shipradar.tables.budget", "BuildTimeError"),
+)
+#: The errors that mean a subscriber or publisher let the command down (exit 1).
+_PEER_ERRORS = (
+    ("shipradar.sim.stream.bus", "SubscriberTimeoutError"),
+    ("shipradar.sim.stream.bus", "PublisherStalledError"),
+)
+
+
+def _imported(errors: tuple[tuple[str, str], ...]) -> tuple[type[BaseException], ...]:
+    """The error classes of those modules that are imported.
+
+    An exception's class is imported when it is raised, so an error is recognised without
+    importing every command's modules up front (a run without ``--asterix`` or CURVE keys
+    never loads the ASTERIX adapter or the key handling).
+    """
+    return tuple(getattr(sys.modules[m], name) for m, name in errors if m in sys.modules)
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     if argv and argv[0] in ("montecarlo", "report", "fidelity"):
@@ -895,28 +924,19 @@ def main(argv: list[str] | None = None) -> int:
                                                        "fidelity": cmd_fidelity}[argv[0]])
     else:
         args = build_parser().parse_args(argv)  # argparse exits with 2 on bad options
-    from shipradar.sim.adapters.asterix.encode import AsterixError
-    from shipradar.sim.stream.bus import (
-        EndpointError,
-        PublisherStalledError,
-        SubscriberTimeoutError,
-    )
-    from shipradar.sim.stream.recording import RecordingError, RecordingExistsError
-    from shipradar.sim.stream.security import CurveKeyError
-    from shipradar.tables.budget import BuildTimeError, MemoryBudgetError
-
     try:
         return args.func(args)
-    except (BadInput, EndpointError, RecordingError, RecordingExistsError,
-            AsterixError, CurveKeyError, MemoryBudgetError, BuildTimeError) as exc:
-        print(str(exc), file=sys.stderr)
-        return EXIT_BAD_INPUT
-    except (SubscriberTimeoutError, PublisherStalledError) as exc:
-        print(str(exc), file=sys.stderr)
-        return EXIT_FAILURE
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
+    except Exception as exc:
+        if isinstance(exc, (BadInput, *_imported(_BAD_INPUT_ERRORS))):
+            print(str(exc), file=sys.stderr)
+            return EXIT_BAD_INPUT
+        if isinstance(exc, _imported(_PEER_ERRORS)):
+            print(str(exc), file=sys.stderr)
+            return EXIT_FAILURE
+        raise
 
 
 if __name__ == "__main__":

@@ -91,8 +91,9 @@ with contextlib.redirect_stdout(io.StringIO()):
     assert cli.main() == 0
 """
     assert _imported_forbidden(code, env=built_cache) == []
-    # zmq only with --publish
-    assert _imported_forbidden(code, env=built_cache, forbidden=("zmq",)) == []
+    # zmq only with --publish, the ASTERIX adapter only with --asterix
+    assert _imported_forbidden(code, env=built_cache,
+                               forbidden=("zmq", "shipradar.sim.adapters.asterix")) == []
 
 
 def test_the_library_run_path_imports_nothing_heavy(built_cache):
