@@ -280,3 +280,30 @@ def test_argmax_by_group_is_the_full_sort():
         group = rng.permutation(group)
         value = rng.choice([0.0, 1.0, 2.5, np.nan], n) * rng.choice([1.0, 1e-30], n)
         _same_bits(_argmax_by_group(group, value, n_groups), reference(group, value, n_groups))
+
+
+def test_propagation_lookup_field_is_the_expression():
+    from shipradar.tables import propagation as tp
+
+    class _Table:  # the parts of a Table PropagationLookup reads
+        axes = (np.linspace(1e3, 1e5, 40), np.concatenate([np.linspace(0.0, 1e-3, 31),
+                                                          1e-3 + 2e-3 * np.arange(1, 20)]))
+        inputs: dict = {"max_height_m": 1e4}
+        values = None
+        extra: dict = {}
+
+    rng = np.random.default_rng(11)
+    re = rng.normal(size=(40, 50)).astype(np.float32)
+    im = rng.normal(size=(40, 50)).astype(np.float32)
+    for a, frac in ((re, 0.1), (im, 0.1)):
+        a[rng.random(a.shape) < frac] = np.nan
+    re[rng.random(re.shape) < 0.05] = -0.0
+    im[rng.random(im.shape) < 0.05] = -0.0
+    re[0, :3] = [np.inf, -np.inf, 0.0]
+    im[0, :3] = [0.0, np.inf, -np.inf]
+    _Table.extra = {"field_re": re, "field_im": im}
+    with np.errstate(invalid="ignore"):  # 0 x inf in the imaginary unit's product
+        v = re + 1j * im
+        ref = np.where(np.isnan(v), np.complex64(tp._SENTINEL), v).astype(np.complex64).ravel()
+        got = tp.PropagationLookup(_Table()).flat  # type: ignore[arg-type]
+    _same_bits(got, ref)
