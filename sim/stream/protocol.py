@@ -232,15 +232,21 @@ def _default(obj: Any) -> Any:
     )
 
 
+# Value types that hold no map (nothing to check inside them): most values of a payload.
+_LEAVES: frozenset[type] = frozenset((float, int, str, bool, type(None), bytes, np.ndarray))
+
+
 def _check_keys(mapping: Mapping[Any, Any], depth: int = 0) -> None:
     """Require str keys in every map (portable to JSON and every msgpack library)."""
     if depth > _MAX_DEPTH:
         raise ProtocolError(f"payload nested deeper than {_MAX_DEPTH} levels")
-    # Exact-type tests on purpose: this runs for every message, and msgpack itself packs only
-    # dict and list/tuple (and their subclasses) as containers.
+    # msgpack itself packs only dict and list/tuple (and their subclasses) as containers;
+    # a value of a leaf type is passed over at the cost of one set lookup
     for key, value in mapping.items():
-        if not isinstance(key, str):
+        if type(key) is not str and not isinstance(key, str):
             raise ProtocolError(f"payload map keys must be str, got {key!r}")
+        if type(value) in _LEAVES:
+            continue
         if isinstance(value, dict):
             _check_keys(value, depth + 1)
         elif isinstance(value, (list, tuple)):
@@ -251,6 +257,8 @@ def _check_items(items: Sequence[Any], depth: int) -> None:
     if depth > _MAX_DEPTH:
         raise ProtocolError(f"payload nested deeper than {_MAX_DEPTH} levels")
     for value in items:
+        if type(value) in _LEAVES:
+            continue
         if isinstance(value, dict):
             _check_keys(value, depth + 1)
         elif isinstance(value, (list, tuple)):
@@ -291,6 +299,12 @@ _U64 = struct.Struct("<Q")
 _COLUMN_HEADS: dict[np.dtype, bytes] = {
     dt: _array_head(dt, 1)[0] for dt in _WIRE_DTYPES.values() if _array_head(dt, 1)[1] == dt
 }
+
+
+# A column's extension header, array head and element count, by (array head, elements):
+# columns of a given dtype and length recur message after message.
+_COLUMN_PREFIXES: dict[tuple[bytes, int], bytes] = {}
+_COLUMN_PREFIXES_MAX = 1 << 14
 
 
 def _map_header(n: int) -> bytes:
@@ -388,7 +402,7 @@ def encode(topic: bytes, t_sim: float, payload: Mapping[str, Any]) -> list[bytes
     t = float(t_sim)
     if not math.isfinite(t):
         raise ProtocolError(f"t_sim must be finite, got {t_sim!r}")
-    if not isinstance(payload, Mapping):
+    if type(payload) is not dict and not isinstance(payload, Mapping):
         raise ProtocolError(f"payload must be a mapping, got {type(payload).__name__}")
     parts = [_map_header(len(payload) + 2), _ENVELOPE_V, _ENVELOPE_T_KEY,
              _FLOAT64.pack(0xCB, t)]
@@ -401,18 +415,25 @@ def encode(topic: bytes, t_sim: float, payload: Mapping[str, Any]) -> list[bytes
             head = _COLUMN_HEADS.get(value.dtype) if value.ndim == 1 else None
             if head is not None:
                 # the usual column: 1-d, already little-endian (same bytes as encode_array;
-                # tobytes gives the elements in order whatever the strides)
-                data = value.tobytes()
-                append(_ext_header(16 + len(data)))
-                append(head)
-                append(_U64.pack(len(value)))
-                append(data)
+                # tobytes gives the elements in order whatever the strides), after its
+                # extension header, array head and element count
+                n = len(value)
+                prefix = _COLUMN_PREFIXES.get((head, n))
+                if prefix is None:
+                    prefix = _ext_header(16 + n * value.itemsize) + head + _U64.pack(n)
+                    if len(_COLUMN_PREFIXES) < _COLUMN_PREFIXES_MAX:
+                        _COLUMN_PREFIXES[head, n] = prefix
+                append(prefix)
+                append(value.tobytes())
                 continue
             data = encode_array(value)
             append(_ext_header(len(data)))
             append(data)
             continue
         vtype = type(value)
+        if vtype is float:  # msgpack's float 64, as every packer writes a Python float
+            append(_FLOAT64.pack(0xCB, value))
+            continue
         if vtype is int and 0 <= value < 128:
             append(_FIXINTS[value])
             continue
