@@ -10,6 +10,7 @@ Every bad-input message names the field or option, the value and what is allowed
 from __future__ import annotations
 
 import argparse
+import gc
 import json
 import signal
 import sys
@@ -330,6 +331,8 @@ def cmd_run(args) -> int:
             print(f"note: {line}", file=sys.stderr)
         if publisher is not None and args.wait_subscribers:
             publisher.wait_for_subscribers()
+        if getattr(args, "gc_off_until_run", False):
+            _objects_so_far_kept()
         wall0 = time.perf_counter()
         with _StopOnSignal(core_bus) as stop:
             try:
@@ -914,7 +917,30 @@ def _imported(errors: tuple[tuple[str, str], ...]) -> tuple[type[BaseException],
     return tuple(getattr(sys.modules[m], name) for m, name in errors if m in sys.modules)
 
 
+def _objects_so_far_kept() -> None:
+    """Move every object made so far out of the garbage collector's sight, and collect again.
+
+    What a command imports and builds before its work (numpy, scipy, pydantic's schemas, the
+    tables: about a million objects) lives until the process ends; each full collection walks
+    all of it again.  ``gc.freeze`` keeps them out of every later collection.  Only for the
+    process's own command (:func:`main` without ``argv``): the cycles among them that become
+    garbage later are never collected, which only a process about to end can afford.
+    """
+    gc.freeze()
+    gc.enable()
+
+
 def main(argv: list[str] | None = None) -> int:
+    """The ``shipradar`` command; ``argv`` defaults to the process's own arguments.
+
+    Called without ``argv`` (the console script, ``python -m shipradar.sim.cli``) it is the
+    process's whole work, and the garbage collector is told so: ``run`` imports and builds
+    its set-up with the collector off (~40 ms of collections over the imports) and freezes
+    that set-up before the loop (:func:`_objects_so_far_kept`), and every command freezes
+    what is left at its end, so that the interpreter's exit does not walk every object once
+    more (60-100 ms).  Neither changes what a command computes or writes.
+    """
+    command_line = argv is None
     argv = sys.argv[1:] if argv is None else list(argv)
     if argv and argv[0] in ("montecarlo", "report", "fidelity"):
         # these commands own their argument parsing (shipradar.sim.studies.montecarlo,
@@ -924,6 +950,9 @@ def main(argv: list[str] | None = None) -> int:
                                                        "fidelity": cmd_fidelity}[argv[0]])
     else:
         args = build_parser().parse_args(argv)  # argparse exits with 2 on bad options
+    if command_line and args.func is cmd_run:
+        gc.disable()
+        args.gc_off_until_run = True
     try:
         return args.func(args)
     except KeyboardInterrupt:
@@ -937,6 +966,9 @@ def main(argv: list[str] | None = None) -> int:
             print(str(exc), file=sys.stderr)
             return EXIT_FAILURE
         raise
+    finally:
+        if command_line:  # the process ends now: its exit need not collect
+            _objects_so_far_kept()
 
 
 if __name__ == "__main__":

@@ -126,3 +126,34 @@ print(json.dumps([without, {"itur": itur.__version__, "p676": itu676.get_version
     assert proc.returncode == 0, proc.stderr[-2000:]
     without, own = json.loads(proc.stdout.splitlines()[-1])
     assert without == own
+
+
+def test_the_command_line_run_collects_garbage_in_its_loop(built_cache):
+    """``main()`` as the process's command: the collector is off over the imports and set-up,
+    on (with the set-up frozen) during the loop, and what is left is frozen at the end; a
+    library call ``main(argv)`` leaves the collector alone."""
+    code = """
+import contextlib, gc, io, json, sys
+import shipradar.sim.engine.simulation as engine
+from shipradar.sim import cli
+seen = []
+run = engine.Simulation.run
+def watched(self, *a, **k):
+    seen.append((gc.isenabled(), gc.get_freeze_count() > 0))
+    return run(self, *a, **k)
+engine.Simulation.run = watched
+argv = ["run", "scenarios/single_missile.yaml", "--duration", "12", "--quiet"]
+with contextlib.redirect_stdout(io.StringIO()):
+    assert cli.main(argv) == 0
+    library = (gc.isenabled(), gc.get_freeze_count())
+    sys.argv = ["shipradar", *argv]
+    assert cli.main() == 0
+print(json.dumps([seen, library, gc.isenabled(), gc.get_freeze_count() > 0]))
+"""
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          cwd=ROOT, env=built_cache, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    seen, library, enabled_after, frozen_after = json.loads(proc.stdout.splitlines()[-1])
+    assert seen == [[True, False], [True, True]]
+    assert library == [True, 0]
+    assert enabled_after and frozen_after
