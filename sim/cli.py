@@ -297,6 +297,8 @@ def cmd_run(args) -> int:
     # the tables the scene reads: from the cache, built now if missing (announced with their
     # estimated time, shown on stderr)
     _announce(args.build_estimates)
+    if any(not e.cached for e in args.build_estimates):
+        gc.enable()  # tables to build (seconds to minutes of work): the collector on for it
     tables = load_scene_tables(s, progress=sys.stderr.isatty() and not args.quiet,
                                log=sys.stderr, estimated_s=build_seconds(args.build_estimates))
     if args.record and hasattr(signal, "SIGXFSZ"):

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -128,32 +129,52 @@ print(json.dumps([without, {"itur": itur.__version__, "p676": itu676.get_version
     assert without == own
 
 
-def test_the_command_line_run_collects_garbage_in_its_loop(built_cache):
-    """``main()`` as the process's command: the collector is off over the imports and set-up,
-    on (with the set-up frozen) during the loop, and what is left is frozen at the end; a
-    library call ``main(argv)`` leaves the collector alone."""
-    code = """
+_GC_WATCH = """
 import contextlib, gc, io, json, sys
 import shipradar.sim.engine.simulation as engine
+import shipradar.tables.scene as scene
 from shipradar.sim import cli
 seen = []
-run = engine.Simulation.run
-def watched(self, *a, **k):
-    seen.append((gc.isenabled(), gc.get_freeze_count() > 0))
-    return run(self, *a, **k)
-engine.Simulation.run = watched
+def watch(cls, name, what):
+    f = getattr(cls, name)
+    def watched(*a, **k):
+        seen.append([what, gc.isenabled(), gc.get_freeze_count() > 0])
+        return f(*a, **k)
+    setattr(cls, name, watched)
+watch(scene, "load_scene_tables", "tables")
+watch(engine.Simulation, "run", "loop")
 argv = ["run", "scenarios/single_missile.yaml", "--duration", "12", "--quiet"]
 with contextlib.redirect_stdout(io.StringIO()):
-    assert cli.main(argv) == 0
-    library = (gc.isenabled(), gc.get_freeze_count())
-    sys.argv = ["shipradar", *argv]
-    assert cli.main() == 0
-print(json.dumps([seen, library, gc.isenabled(), gc.get_freeze_count() > 0]))
+    if {library}:
+        assert cli.main(argv) == 0
+    else:
+        sys.argv = ["shipradar", *argv]
+        assert cli.main() == 0
+print(json.dumps([seen, gc.isenabled(), gc.get_freeze_count() > 0]))
 """
-    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                          cwd=ROOT, env=built_cache, timeout=300)
+
+
+def _gc_seen(env: dict[str, str], library: bool) -> list:
+    proc = subprocess.run([sys.executable, "-c", _GC_WATCH.format(library=library)],
+                          capture_output=True, text=True, cwd=ROOT, env=env, timeout=300)
     assert proc.returncode == 0, proc.stderr[-2000:]
-    seen, library, enabled_after, frozen_after = json.loads(proc.stdout.splitlines()[-1])
-    assert seen == [[True, False], [True, True]]
-    assert library == [True, 0]
-    assert enabled_after and frozen_after
+    return json.loads(proc.stdout.splitlines()[-1])
+
+
+def test_the_command_line_run_collects_garbage_in_its_loop(built_cache, tmp_path):
+    """``main()`` as the process's command: the collector is off over the imports and the
+    tables read from the cache, on (with the set-up frozen) during the loop, and what is
+    left is frozen at the end; on while tables are built; a library call ``main(argv)``
+    leaves it alone."""
+    enabled, frozen = True, True
+    assert _gc_seen(built_cache, library=False) == [
+        [["tables", not enabled, not frozen], ["loop", enabled, frozen]], enabled, frozen]
+    assert _gc_seen(built_cache, library=True) == [
+        [["tables", enabled, not frozen], ["loop", enabled, not frozen]], enabled, not frozen]
+    # one table to build (a copy of the cache without the atmosphere tables)
+    cache = tmp_path / "tables"
+    shutil.copytree(built_cache["SHIPRADAR_TABLES"], cache)
+    for f in cache.glob("atmospheric_loss-*.npz"):
+        f.unlink()
+    env = dict(built_cache, SHIPRADAR_TABLES=str(cache))
+    assert _gc_seen(env, library=False)[0][0] == ["tables", enabled, not frozen]
