@@ -307,3 +307,22 @@ def test_propagation_lookup_field_is_the_expression():
         ref = np.where(np.isnan(v), np.complex64(tp._SENTINEL), v).astype(np.complex64).ravel()
         got = tp.PropagationLookup(_Table()).flat  # type: ignore[arg-type]
     _same_bits(got, ref)
+
+
+def test_range_rate_from_filter_fast_path_is_the_formula():
+    from shipradar.sim.dwell.model import DwellModel
+
+    class _Bank(DwellModel):  # the parts range_rate_from_filter reads, no scene needed
+        def __init__(self):
+            self.wavelength = 0.0583
+
+        n_doppler_filters = 7
+        radar = type("R", (), {"prf_hz": 1234.5})()
+
+    m = _Bank()
+    rng = np.random.default_rng(12)
+    index = rng.integers(0, 7, 5000)
+    for reference in (rng.normal(0.0, 80.0, 5000), 12.5, rng.normal(0.0, 80.0, (3, 1))):
+        centre = (np.mod(index / 7 + 0.5, 1.0) - 0.5) * 1234.5
+        _same_bits(m.range_rate_from_filter(index, reference),
+                   -0.5 * 0.0583 * (centre + reference))

@@ -329,9 +329,11 @@ class DwellModel:
             # the formula below, once per filter; -λ/2 (centre + reference) formed in place
             # (a sum and a product are the same whichever operand comes first)
             rate = self._filter_centres_hz.take(index)
-            rate += reference_hz
-            rate *= -0.5 * self.wavelength
-            return rate
+            if np.broadcast_shapes(rate.shape, np.shape(reference_hz)) == rate.shape:
+                rate += reference_hz
+                rate *= -0.5 * self.wavelength
+                return rate
+            return -0.5 * self.wavelength * (rate + reference_hz)
         centre = self._filter_centre_hz(index)
         return -0.5 * self.wavelength * (centre + reference_hz)
 
