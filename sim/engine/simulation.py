@@ -995,11 +995,11 @@ class _RadarProcess:
         (:meth:`_frame_block`): their bodies to a bus that takes frames, or their payloads."""
         self.plot_counter += rows
         bus = self.sim.bus
-        if type(bus) is _BatchingBus:  # the batched path: kept until the end of scan
-            bus.pending += ((t_b, [protocol.TOPIC_PLOTS, plots]),
-                            (t_b, [protocol.TOPIC_TRUTH, truth]))
-            return
         if isinstance(plots, bytes) and isinstance(truth, bytes):
+            if type(bus) is _BatchingBus:  # the batched path: kept until the end of scan
+                bus.pending += ((t_b, [protocol.TOPIC_PLOTS, plots]),
+                                (t_b, [protocol.TOPIC_TRUTH, truth]))
+                return
             frames = self._bus_caps()[0]
             assert frames is not None  # framed for it (_frame_block)
             frames.emit_frames(t_b, [protocol.TOPIC_PLOTS, plots])
