@@ -251,10 +251,11 @@ class Simulation:
         The processes resume in SimPy's own order (:class:`shipradar.sim.engine.order.EventOrder`:
         started in radar order, each resumption scheduling the next at ``now + delay``,
         nothing at or after ``duration + 1e-9``); so the radars' messages interleave exactly
-        as under :class:`simpy.Environment` (``tests/test_engine_batched.py``).  The messages
-        go to a :class:`_BatchingBus` that passes them on to the run's bus at each end of
-        scan (the flush the engine does there), in one
-        :meth:`shipradar.sim.stream.bus.Bus.emit_many`.
+        as under :class:`simpy.Environment` (``tests/test_engine_batched.py``); a radar that
+        runs alone resumes once per revolution (nothing to interleave with,
+        ``tests/test_engine_scan_ends.py``).  The messages go to a :class:`_BatchingBus`
+        that passes them on to the run's bus at each end of scan (the flush the engine does
+        there), in one :meth:`shipradar.sim.stream.bus.Bus.emit_many`.
         """
         real = self.bus
         batch = _BatchingBus(real) if real is not None else None
