@@ -8,6 +8,13 @@ Prints, each the median (and min) of ``--repeat`` runs, interleaved:
 - ``shipradar run SCENE --duration D --quiet`` (tables from the cache): the process's wall and
   CPU measured from outside, the summary's ``process_wall_s`` and the loop's ``wall_s``, the
   ratio process / loop and the process's wall minus the loop's (the start-up a user pays);
+  and its main thread's CPU time outside ``Simulation.run`` (``time.thread_time``: without
+  the CPU numpy's and scipy's OpenBLAS threads spin away, and without the waits of a loaded
+  machine: the steadiest measure of the start-up's own work);
+- the same run with the modules' bytecode cached (``--bytecode both``, the default):
+  ``PYTHONDONTWRITEBYTECODE=1`` (set in these sessions, and an editable install has no
+  bytecode of its own) compiles every shipradar module from source at each start, which a
+  normal install does not (pip compiles the wheel's modules);
 - the import time of that command (``python -X importtime``: the sum of every module's own
   time) and the modules above 20 ms;
 - the scene's tables loaded from the cache (``load_scene_tables`` in this process, warm).
@@ -22,21 +29,55 @@ import json
 import os
 import re
 import resource
+import shutil
 import statistics
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 CLI = [sys.executable, "-m", "shipradar.sim.cli"]
+#: ``python -m shipradar.sim.cli``, printing on stderr at exit its main thread's CPU time and
+#: that thread's CPU time inside ``Simulation.run`` (wrapped when the engine is imported, so
+#: the command's own imports are left as they are).
+_MAIN_THREAD_CPU = """
+import atexit, importlib.abc, importlib.machinery, runpy, sys, time
+loop = [0.0]
+class Wrap(importlib.abc.MetaPathFinder):
+    def find_spec(self, name, path, target=None):
+        if name != "shipradar.sim.engine.simulation":
+            return None
+        sys.meta_path.remove(self)
+        spec = importlib.machinery.PathFinder.find_spec(name, path)
+        exec_module = spec.loader.exec_module
+        def exec_and_wrap(module):
+            exec_module(module)
+            run = module.Simulation.run
+            def timed(self, *a, **k):
+                c = time.thread_time()
+                try:
+                    return run(self, *a, **k)
+                finally:
+                    loop[0] += time.thread_time() - c
+            module.Simulation.run = timed
+        spec.loader.exec_module = exec_and_wrap
+        return spec
+sys.meta_path.insert(0, Wrap())
+atexit.register(lambda: sys.stderr.write(
+    f"\\nMAIN_THREAD_CPU {time.thread_time()} {loop[0]}\\n"))
+sys.argv[0] = "shipradar"
+runpy.run_module("shipradar.sim.cli", run_name="__main__", alter_sys=True)
+"""
+CLI_TIMED = [sys.executable, "-c", _MAIN_THREAD_CPU]
 
 
-def _timed(cmd: list[str]) -> tuple[float, float, str, str]:
+def _timed(cmd: list[str], env: dict[str, str] | None = None) -> tuple[float, float, str, str]:
     """Wall [s], CPU of the child [s], stdout and stderr of one process."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
-    proc = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, check=True)
+    proc = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, check=True, env=env)
     wall = time.perf_counter() - t0
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
@@ -76,46 +117,73 @@ def table_load_s(scenario: str, repeat: int) -> list[float]:
     return out
 
 
+def _environments(bytecode: str, pycache: str) -> dict[str, dict[str, str]]:
+    """The environments of the timed runs: as this one (``env``) and/or with bytecode
+    cached in ``pycache`` (``cached``)."""
+    out = {}
+    if bytecode in ("env", "both"):
+        out["env"] = dict(os.environ)
+    if bytecode in ("cached", "both"):
+        env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+        out["cached"] = dict(env, PYTHONPYCACHEPREFIX=pycache)
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scenario", default="scenarios/raid.yaml")
     ap.add_argument("--duration", type=float, default=600.0)
     ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--bytecode", choices=("env", "cached", "both"), default="both",
+                    help="run as this environment says (these sessions: no bytecode written), "
+                         "with the bytecode cached in a temporary directory, or both")
     args = ap.parse_args(argv)
-    run = [*CLI, "run", args.scenario, "--duration", str(args.duration), "--quiet"]
+    run = ["run", args.scenario, "--duration", str(args.duration), "--quiet"]
     help_ = [*CLI, "--help"]
-    subprocess.run(run, capture_output=True, cwd=ROOT, check=True)  # tables into the cache
-    rows: dict[str, list[float]] = {k: [] for k in (
-        "help wall", "help CPU", "run wall", "run CPU", "process_wall_s", "loop wall_s",
-        "wall - loop", "CPU - loop")}
+    pycache = tempfile.mkdtemp(prefix="shipradar-pycache-")
+    envs = _environments(args.bytecode, pycache)
+    for env in envs.values():  # tables into the cache; bytecode into pycache
+        subprocess.run([*CLI, *run], capture_output=True, cwd=ROOT, check=True, env=env)
+    rows: dict[str, list[float]] = {"help wall": [], "help CPU": []}
+    for name in envs:
+        rows.update({f"{k} ({name})": [] for k in (
+            "run wall", "run CPU", "main-thread CPU", "process_wall_s", "loop wall_s",
+            "wall - loop", "CPU - loop", "main-thread CPU outside the loop")})
+    loads = [os.getloadavg()[0]]
     for _ in range(args.repeat):
         w, c, _, _ = _timed(help_)
         rows["help wall"].append(w)
         rows["help CPU"].append(c)
-        w, c, out, _ = _timed(run)
-        summary = json.loads(out.strip().splitlines()[-1])
-        rows["run wall"].append(w)
-        rows["run CPU"].append(c)
-        rows["process_wall_s"].append(summary["process_wall_s"])
-        rows["loop wall_s"].append(summary["wall_s"])
-        rows["wall - loop"].append(w - summary["wall_s"])
-        rows["CPU - loop"].append(c - summary["wall_s"])
-    total, top = import_times(run)
-    loads = table_load_s(args.scenario, args.repeat)
-    print(f"load average {os.getloadavg()[0]:.2f}; {args.scenario}, {args.duration:g} s, "
-          f"{args.repeat} runs")
+        for name, env in envs.items():
+            w, c, out, err = _timed([*CLI_TIMED, *run], env)
+            summary = json.loads(out.strip().splitlines()[-1])
+            main_cpu, loop_cpu = map(float, err.rsplit("MAIN_THREAD_CPU ", 1)[1].split())
+            for k, v in (("run wall", w), ("run CPU", c), ("main-thread CPU", main_cpu),
+                         ("process_wall_s", summary["process_wall_s"]),
+                         ("loop wall_s", summary["wall_s"]), ("wall - loop", w - summary["wall_s"]),
+                         ("CPU - loop", c - summary["wall_s"]),
+                         ("main-thread CPU outside the loop", main_cpu - loop_cpu)):
+                rows[f"{k} ({name})"].append(v)
+        loads.append(os.getloadavg()[0])
+    total, top = import_times([*CLI, *run])
+    table_loads = table_load_s(args.scenario, args.repeat)
+    print(f"load average {min(loads):.2f}-{max(loads):.2f}; {args.scenario}, "
+          f"{args.duration:g} s, {args.repeat} runs; PYTHONDONTWRITEBYTECODE="
+          f"{os.environ.get('PYTHONDONTWRITEBYTECODE', '')!r}")
     print("| measure | median | min |\n|---|---|---|")
     for k, v in rows.items():
         print(_row(k, v))
-    print(_row("tables from the cache", loads))
-    ratio = [p / max(w, 1e-9) for p, w in zip(rows["run wall"], rows["loop wall_s"],
-                                               strict=True)]
-    print(_row("process / loop (wall)", ratio, "x"))
+    print(_row("tables from the cache", table_loads))
+    first = next(iter(envs))
+    walls, loops = rows[f"run wall ({first})"], rows[f"loop wall_s ({first})"]
+    ratio = [p / max(w, 1e-9) for p, w in zip(walls, loops, strict=True)]
+    print(_row(f"process / loop (wall, {first})", ratio, "x"))
     sim = args.duration
-    print(f"real-time factor: loop {sim / statistics.median(rows['loop wall_s']):.0f}x, "
-          f"process {sim / statistics.median(rows['run wall']):.0f}x")
+    print(f"real-time factor ({first}): loop {sim / statistics.median(loops):.0f}x, "
+          f"process {sim / statistics.median(walls):.0f}x")
     print(f"import time (-X importtime, sum of own times): {total:.3f} s; above 20 ms: "
           + ", ".join(f"{n} {t * 1e3:.0f} ms" for t, n in top))
+    shutil.rmtree(pycache, ignore_errors=True)
     return 0
 
 
