@@ -93,9 +93,20 @@ _DENSITY_BY_TABLE: dict[tuple, tuple[weakref.ref, tuple[np.ndarray, np.ndarray, 
 #: The clutter maps' stacked readers by table object, arrays and periodicity: the stack is
 #: a copy of the table's arrays (~5 ms a run for the demo's two) and is only read afterwards.
 _READERS: dict[tuple, tuple[weakref.ref, StackedLookup2D]] = {}
+#: What else a run sets up from the radar and its tables alone, once per process, by table
+#: object (checked through weak references) and the radar's constants, only read afterwards:
+#: the P_fac map's generator (each run draws with a twin of its own,
+#: :meth:`shipradar.sensors.false_alarms.ClutterFalseAlarms.shared`), the clutter spectrum at
+#: its sectors (:meth:`DwellModel._clutter_fa_spectrum`) and the two-ray fallback's terms per
+#: target height (:class:`_TwoRayFallback`): ~3 ms of a 110 s run of the demo, 2 ms of them
+#: the fallback's 48-step bisections for the missile's one height.
+_GENERATORS: dict[tuple, tuple[weakref.ref, false_alarms.ClutterFalseAlarms]] = {}
+_FA_SPECTRA: dict[tuple, tuple[weakref.ref, weakref.ref | None,
+                               tuple[np.ndarray, np.ndarray]]] = {}
+_TWO_RAY: dict[tuple, _TwoRayFallback] = {}
 
 
-def _remember(cache: dict, key: tuple, value: tuple) -> None:
+def _remember(cache: dict, key: tuple, value: object) -> None:
     if len(cache) >= _DENSITY_CACHE_MAX:
         cache.pop(next(iter(cache)))
     cache[key] = value
@@ -402,13 +413,20 @@ class DwellModel:
         """The P_fac map's per-scan generator
         (:func:`shipradar.tables.pfac.clutter_false_alarm_generator`), made at its first use; None
         without a P_fac map."""
-        if self.tables.pfac is None:
+        pfac = self.tables.pfac
+        if pfac is None:
             return None
-        from shipradar.tables.pfac import clutter_false_alarm_generator
+        r = self.radar
+        key = (id(pfac), self.pfa, r.n_channels, self.n_pulses, r.h_range, r.h_azimuth)
+        seen = _GENERATORS.get(key)
+        if seen is None or seen[0]() is not pfac:
+            from shipradar.tables.pfac import clutter_false_alarm_generator
 
-        return clutter_false_alarm_generator(
-            self.tables.pfac, pfa=self.pfa, n_channels=self.radar.n_channels,
-            n_pulses=self.n_pulses, h_range=self.radar.h_range, h_azimuth=self.radar.h_azimuth)
+            seen = (weakref.ref(pfac), clutter_false_alarm_generator(
+                pfac, pfa=self.pfa, n_channels=r.n_channels, n_pulses=self.n_pulses,
+                h_range=r.h_range, h_azimuth=r.h_azimuth))
+            _remember(_GENERATORS, key, seen)
+        return seen[1].shared()
 
     def clutter_false_alarm_density(self, ring_m: float = 250.0, azimuth_sectors: int = 36
                                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
@@ -496,15 +514,35 @@ class DwellModel:
         active P_fac sector, for the sea-clutter false alarms' Doppler: the P_fac sector is
         the resolution of the clutter false-alarm model (count, position bounds and spike
         S/I are the sector's), and the spectrum changes little across one."""
+        pfac, sea = self.tables.pfac, self.tables.sea_clutter
+        key = (id(pfac), id(sea), self._compensation, self.wavelength,
+               self.radar.antenna_height_m)
+        seen = _FA_SPECTRA.get(key)
+        if seen is not None and seen[0]() is pfac and (
+                sea is None if seen[1] is None else seen[1]() is sea):
+            return seen[2]
         gen = self._clutter_fa_generator
         centre_r = 0.5 * (gen.r_min_m + gen.r_max_m)
         centre_az = np.mod(0.5 * (gen.az_min_rad + gen.az_max_rad), 2.0 * math.pi)
-        return self._spectrum_reference(centre_r, centre_az)
+        reference, spread = self._spectrum_reference(centre_r, centre_az)
+        for a in (reference, spread):
+            a.setflags(write=False)  # shared by every run on these tables
+        _remember(_FA_SPECTRA, key, (weakref.ref(pfac), None if sea is None
+                                     else weakref.ref(sea), (reference, spread)))
+        return reference, spread
 
     def _prepare_propagation(self, scenario: Scenario) -> None:
         self.propagation_mode = scenario.fidelity.propagation
         self.wave_height = scenario.wave_height
-        self._two_ray = _TwoRayFallback(self.radar, self.wave_height, self.elevation_pattern)
+        # its per-height terms are a pure function of the antenna, the sea and the height:
+        # shared by the runs of a process
+        key = (self.radar.antenna_height_m, self.radar.frequency_hz, self.radar.polarization,
+               self.wave_height, self.k.pattern_key(self.radar))
+        two_ray = _TWO_RAY.get(key)
+        if two_ray is None:
+            two_ray = _TwoRayFallback(self.radar, self.wave_height, self.elevation_pattern)
+            _remember(_TWO_RAY, key, two_ray)
+        self._two_ray = two_ray
 
     def azimuth_pattern(self, offset_rad, envelope=False):
         """Azimuth directivity factor g_az (field) at an angle from the beam axis [8]-[13].
@@ -1166,7 +1204,8 @@ class _TwoRayFallback:
             new = self._per_height(missing)
             if len(cache) + len(new) <= self.MAX_HEIGHTS:
                 cache.update(new)
-            else:
+            else:  # full (the runs of a process share it): emptied for the next calls
+                self._cache = {}  # (pure values: forgetting them changes no result)
                 cache = {**cache, **new}
         per = np.array([cache[h] for h in keys], dtype=float).reshape(-1, 4)[inverse.ravel()]
         d_h, d_lim, f_lim, f_diff_h = (per[:, i] for i in range(4))
