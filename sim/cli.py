@@ -913,14 +913,14 @@ def _imported(errors: tuple[tuple[str, str], ...]) -> tuple[type[BaseException],
     """The error classes of those modules that are imported.
 
     An exception's class is imported when it is raised, so an error is recognised without
-    importing every command's modules up front (a run without ``--asterix`` or CURVE keys
-    never loads the ASTERIX adapter or the key handling).
+    importing every command's modules up front (a run without ``--asterix`` never loads the
+    ASTERIX adapter).
     """
     return tuple(getattr(sys.modules[m], name) for m, name in errors if m in sys.modules)
 
 
 def _objects_so_far_kept() -> None:
-    """Move every object made so far out of the garbage collector's sight, and collect again.
+    """Move every object made so far out of the garbage collector's sight, and turn it on.
 
     What a command imports and builds before its work (numpy, scipy, pydantic's schemas, the
     tables: about a million objects) lives until the process ends; each full collection walks
@@ -937,10 +937,11 @@ def main(argv: list[str] | None = None) -> int:
 
     Called without ``argv`` (the console script, ``python -m shipradar.sim.cli``) it is the
     process's whole work, and the garbage collector is told so: ``run`` imports and builds
-    its set-up with the collector off (~40 ms of collections over the imports) and freezes
-    that set-up before the loop (:func:`_objects_so_far_kept`), and every command freezes
-    what is left at its end, so that the interpreter's exit does not walk every object once
-    more (60-100 ms).  Neither changes what a command computes or writes.
+    its set-up with the collector off (its collections took ~40 ms of the imports; on again
+    while tables are built) and freezes that set-up before the loop
+    (:func:`_objects_so_far_kept`), and every command freezes what is left at its end, so
+    that the interpreter's exit does not walk every object once more (~50 ms).  Neither
+    changes what a command computes or writes.
     """
     command_line = argv is None
     argv = sys.argv[1:] if argv is None else list(argv)
