@@ -551,17 +551,19 @@ class Bus:
         """
         if not records:
             return
-        if self.recorder is not None:
-            self.recorder.write_many(records)
+        # the recorder's compiled framing measures the frames (every one bytes) as it goes
+        counted = self.recorder.write_many(records) if self.recorder is not None else None
         if self.publisher is not None:
             send = self.publisher.send
             for _, frames in records:
                 send(frames)
         topics = [frames[0] for _, frames in records]
-        if not all(type(t) is bytes for t in topics):
-            topics = [bytes(t) for t in topics]
+        if counted is None:
+            if not all(type(t) is bytes for t in topics):
+                topics = [bytes(t) for t in topics]
+            counted = sum([len(f) for _, frames in records for f in frames])
         self._messages.update(topics)
-        self._bytes += sum([len(f) for _, frames in records for f in frames])
+        self._bytes += counted
         self.t_last = records[-1][0]
 
     def flush(self, fsync: bool = False) -> None:

@@ -257,7 +257,7 @@ class Recorder:
         if len(self._buf) >= self.buffer_bytes:
             self._write_out()
 
-    def write_many(self, records: Sequence[tuple[float, Sequence[bytes]]]) -> None:
+    def write_many(self, records: Sequence[tuple[float, Sequence[bytes]]]) -> int | None:
         """Append several messages: the same records, byte for byte, as one :meth:`write`
         per message, framed in one loop and appended to the buffer in one piece.
 
@@ -265,6 +265,14 @@ class Recorder:
         ----------
         records : Sequence[tuple[float, Sequence[bytes]]]
             ``(t_sim, frames)`` per message, in stream order.
+
+        Returns
+        -------
+        int or None
+            When every message was two ``bytes`` frames ``[topic, body]`` (the stream's, framed
+            in compiled code): the length of all their frames [bytes], which the bus counts
+            (:meth:`shipradar.sim.stream.bus.Bus.emit_many`) without a pass of its own;
+            otherwise None.
 
         Raises
         ------
@@ -287,7 +295,9 @@ class Recorder:
             if framed is not None:
                 f_blob, f_ends, f_raw, f_done = framed
                 self._append_framed(f_blob, f_ends, f_raw, f_done, records)
-                return
+                # all framed (else _append_framed raised): each payload is an 18-byte head
+                # (time, frame count, two frame lengths) and the two frames
+                return f_raw - 18 * f_done
         crc32, pack_mid, pack_u32 = zlib.crc32, _REC2_MID.pack, _U32.pack
         head2, pack_len = _RECORD_HEAD_2.pack, _FRAME_LEN.pack
         parts: list[bytes] = []
@@ -342,6 +352,7 @@ class Recorder:
             raise error
         if len(self._buf) >= self.buffer_bytes:
             self._write_out()
+        return None
 
     def _append_framed(self, blob: bytes, ends: list[int], raw: int, done: int,
                        records: Sequence) -> None:
