@@ -600,8 +600,6 @@ def window_weights(
         raise ValueError("a window needs at least one tap")
     if name == "rectangular":
         return np.ones(n_taps)
-    if name == "chebyshev" and sidelobe_db is not None and sidelobe_db >= _CHEBWIN_QUIET_DB:
-        return _chebwin(n_taps, float(sidelobe_db))
     # imported here: scipy.signal imports scipy.stats (0.3-0.7 s of a run's start-up)
     from scipy.signal import windows as _windows
 
@@ -621,49 +619,6 @@ def window_weights(
         window = _windows.chebwin(n_taps, at=float(sidelobe_db), sym=True)
     else:
         raise ValueError(f"unknown window {name!r}; choose one of {WINDOWS}")
-    return window
-
-
-#: Sidelobe level [dB] from which scipy's ``chebwin`` is silent (below it, it warns that the
-#: window is unsuitable for spectral analysis): :func:`_chebwin` serves these levels.
-_CHEBWIN_QUIET_DB = 45.0
-
-
-def _chebwin(n_taps: int, sidelobe_db: float) -> NDArray[np.float64]:
-    """``scipy.signal.windows.chebwin(n_taps, at=sidelobe_db, sym=True)`` bit for bit (the
-    same numpy operations in the same order, the same ``scipy.fft.fft``), for sidelobe levels
-    of at least 45 dB, without importing ``scipy.signal``: its import (0.3-0.45 s, it pulls
-    in scipy.stats, scipy.interpolate, ...) fell inside the run, at the first steep cell of
-    an I_F table (:func:`shipradar.tables.improvement.improvement_factor_db`).
-    ``tests/test_doppler_filters.py`` checks it against scipy's over lengths and levels.
-
-    The Dolph-Chebyshev window: the Chebyshev polynomial T_{M-1}(β cos(πk/M)) sampled and
-    inverse-transformed, β = cosh(acosh(10^(A/20))/(M-1)) (Harris 1978)."""
-    from scipy import fft as sp_fft  # ~13 ms beside scipy.special, once
-
-    m = int(n_taps)
-    if m <= 1:
-        return np.ones(m, dtype=np.float64)
-    order = m - 1.0
-    val = np.asarray(10 ** (abs(sidelobe_db) / 20.), dtype=np.float64)
-    beta = np.cosh(1.0 / order * np.arccosh(val))
-    k = np.arange(m, dtype=np.float64)
-    x = beta * np.cos(np.pi * k / m)
-    p = np.zeros_like(x)
-    p[x > 1] = np.cosh(order * np.arccosh(x[x > 1]))
-    p[x < -1] = (2 * (m % 2) - 1) * np.cosh(order * np.arccosh(-x[x < -1]))
-    p[abs(x) <= 1] = np.cos(order * np.arccos(x[abs(x) <= 1]))
-    if m % 2:
-        w = np.real(sp_fft.fft(p))
-        n = (m + 1) // 2
-        w = w[:n]
-        w = np.concatenate((np.flip(w[1:n]), w))
-    else:
-        p = p * np.exp(1j * np.pi / m * np.arange(m, dtype=np.float64))
-        w = np.real(sp_fft.fft(p))
-        n = m // 2 + 1
-        w = np.concatenate((np.flip(w[1:n]), w[1:n]))
-    window: NDArray[np.float64] = w / np.max(w)
     return window
 
 

@@ -55,7 +55,9 @@ from shipradar.sensors import doppler_filters as df
 from shipradar.tables.store import Table, get_or_build
 
 BUILDER_NAME = "improvement_factor"
-BUILDER_VERSION = 3
+#: 4: a "response" table at constant PRF keeps its processor's ``weights`` (read by the
+#: steep cells on-line, which then need no window function: no scipy.signal in a run).
+BUILDER_VERSION = 4
 
 #: Processor kinds: none (I_F = 1, no table), MTI canceller, DFT bank, FIR bank, MTI + bank.
 PROCESSORS = ("none", "mti", "dft_bank", "fir_bank", "mti_bank")
@@ -405,7 +407,9 @@ def build_improvement_table(processor: str, *, progress: bool | None = None,
     for the "response" pick at constant PRF, ``ahead_db``, ``behind_db`` and ``crossover``
     locate the jumps of the I_F where the picked filter changes, and ``picked_filter`` and
     ``signal_db`` (the picked filter's ``|H|² + εE`` at each Doppler node [dB]) let the lookup
-    read steep cells exactly (see :func:`improvement_factor_db`).  Stagger tables and the
+    read steep cells exactly (see :func:`improvement_factor_db`), with the attached
+    ``weights`` (F, N), the processor's filter weights they are computed from (so that a run
+    reads them from the table rather than building the window again).  Stagger tables and the
     "best" pick (a maximum of continuous functions, without jumps) have ``crossover = 1``:
     plain bilinear interpolation.
     """
@@ -466,6 +470,8 @@ def build_improvement_table(processor: str, *, progress: bool | None = None,
         value_unit="dB",
         inputs=inputs,
         extra=extra,
+        # the steep cells' exact response (_weights_of)
+        attached={"weights": weights} if "signal_db" in grid else {},
     )
 
 
@@ -574,11 +580,12 @@ _WEIGHTS_CACHE: dict[str, tuple[NDArray, NDArray, float, NDArray]] = {}
 
 
 def _weights_of(table: Table) -> tuple[NDArray, NDArray, float, NDArray]:
-    """A table's processor, cached by table key: weights (F, N), filter energies (F,), the
-    residue ε, and for each filter the first Doppler node where it is picked (-1: none)."""
+    """A table's processor, cached by table key: weights (F, N) (the table's own, computed
+    when it was built), filter energies (F,), the residue ε, and for each filter the first
+    Doppler node where it is picked (-1: none)."""
     got = _WEIGHTS_CACHE.get(table.key)
     if got is None:
-        w = processor_weights(table.inputs)
+        w = table.attached["weights"]
         picked = table.extra["picked_filter"][0].astype(np.intp)
         first = np.full(w.shape[0], -1, dtype=np.intp)
         filters, where = np.unique(picked, return_index=True)

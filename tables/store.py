@@ -157,6 +157,9 @@ class Table:
         The inputs the table was built from (JSON-able); hashed into :attr:`key`.
     extra : dict of ndarray
         Further arrays on the same grid (e.g. the Weibull parameter beside σ0).
+    attached : dict of ndarray
+        Arrays of any shape the builder keeps beside the grid, for the lookups' own use (e.g.
+        the processor's filter weights an I_F table was computed from).
     """
 
     name: str
@@ -169,6 +172,7 @@ class Table:
     value_unit: str
     inputs: dict[str, Any] = field(default_factory=dict)
     extra: dict[str, np.ndarray] = field(default_factory=dict)
+    attached: dict[str, np.ndarray] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if not (len(self.axes) == len(self.axis_names) == len(self.axis_units)):
@@ -200,6 +204,7 @@ class Table:
             "value_unit": self.value_unit,
             "inputs": _canonical(self.inputs),
             "extra": sorted(self.extra),
+            "attached": sorted(self.attached),
         }
 
     # ------------------------------------------------------------------ file format
@@ -210,6 +215,7 @@ class Table:
         arrays = {f"axis{i}": a for i, a in enumerate(self.axes)}
         arrays["values"] = self.values
         arrays.update({f"extra_{k}": v for k, v in self.extra.items()})
+        arrays.update({f"attached_{k}": v for k, v in self.attached.items()})
         meta = np.frombuffer(json.dumps(self.metadata()).encode(), dtype=np.uint8)
         fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp.npz")
         os.close(fd)
@@ -256,6 +262,7 @@ class Table:
             value_unit=meta["value_unit"],
             inputs=meta["inputs"],
             extra={k: z[f"extra_{k}"] for k in meta["extra"]},
+            attached={k: z[f"attached_{k}"] for k in meta.get("attached", [])},
         )
         if table.key != meta["key"]:
             raise ValueError(f"{path}: stored key {meta['key']} does not match its inputs")

@@ -7,6 +7,7 @@ random inputs and on the edges (empty arrays, every regime of [91]-[93], angles 
 
 from __future__ import annotations
 
+import io
 import subprocess
 import sys
 from pathlib import Path
@@ -25,36 +26,36 @@ def _same_bits(a, b) -> None:
     assert a.tobytes() == b.tobytes()
 
 
-@pytest.mark.parametrize("sidelobe_db", [45.0, 50.0, 57.3, 80.0, 100.0, 150.0, 300.0])
-def test_chebyshev_window_is_scipys_bit_for_bit(sidelobe_db):
-    from scipy.signal import windows
+def test_steep_cells_read_the_tables_weights_without_scipy_signal(tmp_path):
+    """The I_F table keeps the weights it was computed from (scipy's windows, at build
+    time): a run's exact steep-cell reads use them and import no window function.
+    scipy.signal's import (0.3-0.45 s) used to fall inside the stress scene's loop, at its
+    first steep I_F cell."""
+    from shipradar.tables import improvement as imp
 
-    for n_taps in range(1, 130):
-        _same_bits(df.window_weights("chebyshev", n_taps, sidelobe_db=sidelobe_db),
-                   windows.chebwin(n_taps, at=sidelobe_db, sym=True))
-
-
-def test_chebyshev_window_below_45_db_is_still_scipys():
-    # scipy warns below 45 dB: that level still goes to scipy (and its warning)
-    from scipy.signal import windows
-
-    with pytest.warns(UserWarning):
-        got = df.window_weights("chebyshev", 16, sidelobe_db=30.0)
-    with pytest.warns(UserWarning):
-        _same_bits(got, windows.chebwin(16, at=30.0, sym=True))
-
-
-def test_shipped_windows_do_not_import_scipy_signal():
-    # scipy.signal's import (0.3-0.45 s) fell inside the stress scene's loop, at its first
-    # steep I_F cell; the shipped scenes' Chebyshev and rectangular windows no longer need it
-    code = ("import sys; from shipradar.sensors import doppler_filters as df; "
-            "df.bank_weights(8, window='chebyshev', sidelobe_db=50.0); "
-            "df.bank_weights(7, window='rectangular'); "
-            "print(sorted(m for m in sys.modules if m.startswith('scipy.signal')))")
-    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                          cwd=ROOT, timeout=300)
+    kw = dict(processor="mti_bank", n_pulses=25, mti_pulses=2, n_filters=8,
+              window="chebyshev", window_sidelobe_db=50.0, resolution="coarse")
+    table = imp.build_improvement_table(**kw)
+    _same_bits(table.attached["weights"], imp.processor_weights(table.inputs))
+    path = table.save(tmp_path / "if.npz")
+    doppler = np.linspace(0.0, 1.0, 4001)
+    code = ("import sys, numpy as np; from shipradar.tables.store import Table; "
+            "from shipradar.tables import improvement as imp; "
+            f"t = Table.load({str(path)!r}); "
+            "d = np.linspace(0.0, 1.0, 4001); "
+            "v = imp.improvement_factor_db(t, np.full(d.shape, 3e-3), d); "
+            "np.save(sys.stdout.buffer, v); "
+            "sys.stderr.write(repr(sorted(m for m in sys.modules if 'scipy.signal' in m)))")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, cwd=ROOT,
+                          timeout=300)
     assert proc.returncode == 0, proc.stderr[-2000:]
-    assert proc.stdout.strip().splitlines()[-1] == "[]"
+    assert proc.stderr.decode().strip().splitlines()[-1] == "[]"
+    got = np.load(io.BytesIO(proc.stdout))
+    # steep cells were read (the grid's response jumps somewhere by more than the threshold)
+    sig = table.extra["signal_db"][0]
+    assert np.any(np.abs(np.diff(sig)) > imp.STEEP_CELL_DB)
+    # the loaded table's weights read as the built table's
+    _same_bits(got, imp.improvement_factor_db(table, np.full(doppler.shape, 3e-3), doppler))
 
 
 # ----------------------------------------------------------------------------- false alarms
