@@ -84,6 +84,7 @@ from __future__ import annotations
 
 import copy
 import functools
+import threading
 from typing import Literal
 
 import numpy as np
@@ -956,7 +957,9 @@ class ClutterFalseAlarms:
         self._hit_below = np.where(bern, self.eta, np.where(normal, 2.0, -1.0))
         self._hit_above = np.full(self.eta.shape, 2.0)
         self._hit_above[pois] = self._pois_cdf[:, 0]
-        self._scratch_arrays: tuple[_Floats, NDArray[np.bool_], NDArray[np.bool_]] | None = None
+        # the scratch arrays of _draw_block, kept per thread (shared with the twins of
+        # shared(): a draw uses them only inside one call and returns none of them)
+        self._scratch_kept = threading.local()
         # uniform_positions' spans, formed once: r0 + (r1 - r0) U is the same number whether
         # the difference is taken before or after selecting the sector
         self._r_span = self.r_max_m - self.r_min_m
@@ -968,17 +971,16 @@ class ClutterFalseAlarms:
 
     def shared(self) -> ClutterFalseAlarms:
         """A generator drawing exactly as this one that shares its arrays, made read-only
-        here (this one's too, and its spike terms computed), with scratch arrays of its own
-        (:meth:`_scratch`): what depends on the map alone is built once, a run or a thread
-        takes a twin (the sectors' ``ravel`` and selection copies are ~1 ms a run for the
-        demo's 216,000-sector map)."""
+        here (this one's too, and its spike terms computed), and its scratch arrays
+        (:meth:`_scratch`, one set per thread): what depends on the map alone is built once
+        and each run takes a twin (the sectors' ``ravel`` and selection copies are ~1 ms a
+        run for the demo's 216,000-sector map, and fresh scratch arrays ~650 page faults,
+        ~1 ms)."""
         self._spike_terms  # noqa: B018 (computed once, shared by the twins)
         for value in (*vars(self).values(), *self._spike_terms):
             if isinstance(value, np.ndarray):
                 value.setflags(write=False)
-        twin = copy.copy(self)
-        twin._scratch_arrays = None
-        return twin
+        return copy.copy(self)
 
     def spike_excess(self, sector: NDArray[np.int64], rng: np.random.Generator
                      ) -> NDArray[np.float64]:
@@ -997,13 +999,17 @@ class ClutterFalseAlarms:
         return _spike_from_terms(base[sector], ln_m[sector], self.weibull_a[sector], e)
 
     def _scratch(self, revolutions: int) -> tuple[_Floats, NDArray[np.bool_], NDArray[np.bool_]]:
-        """The uniforms and two masks of :meth:`_draw`, one per sector and revolution, kept
-        between calls (a block's are tens of MB: allocated once, not at every block)."""
-        shape = (revolutions, self.eta.size)
-        if self._scratch_arrays is None or self._scratch_arrays[0].shape != shape:
-            self._scratch_arrays = (np.empty(shape), np.empty(shape, dtype=bool),
-                                    np.empty(shape, dtype=bool))
-        return self._scratch_arrays
+        """The uniforms and two masks of :meth:`_draw_block`, one per sector and revolution:
+        the first rows of arrays kept between calls and runs (a block's are up to tens of
+        MB: allocated when a block needs more rows than any before in this thread, not at
+        every block)."""
+        kept = getattr(self._scratch_kept, "arrays", None)
+        if kept is None or kept[0].shape[0] < revolutions:
+            shape = (revolutions, self.eta.size)
+            kept = self._scratch_kept.arrays = (np.empty(shape), np.empty(shape, dtype=bool),
+                                                np.empty(shape, dtype=bool))
+        u, below, above = kept
+        return u[:revolutions], below[:revolutions], above[:revolutions]
 
     @functools.cached_property
     def _spike_terms(self) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:

@@ -524,12 +524,12 @@ class DwellModel:
         gen = self._clutter_fa_generator
         centre_r = 0.5 * (gen.r_min_m + gen.r_max_m)
         centre_az = np.mod(0.5 * (gen.az_min_rad + gen.az_max_rad), 2.0 * math.pi)
-        reference, spread = self._spectrum_reference(centre_r, centre_az)
-        for a in (reference, spread):
+        spectrum = self._spectrum_reference(centre_r, centre_az)
+        for a in spectrum:
             a.setflags(write=False)  # shared by every run on these tables
         _remember(_FA_SPECTRA, key, (weakref.ref(pfac), None if sea is None
-                                     else weakref.ref(sea), (reference, spread)))
-        return reference, spread
+                                     else weakref.ref(sea), spectrum))
+        return spectrum
 
     def _prepare_propagation(self, scenario: Scenario) -> None:
         self.propagation_mode = scenario.fidelity.propagation

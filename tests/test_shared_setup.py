@@ -1,0 +1,109 @@
+"""What a run sets up from the radar and its tables alone is made once per process and shared
+by the runs (issue 27, item 5): the P_fac generator (each run a twin that shares its arrays
+and per-thread scratch), the clutter spectrum at its sectors and the two-ray fallback's terms.
+Sharing changes no draw: twins draw as fresh generators, interleaved or in threads, and a
+scene run again in one process, on the same or on freshly loaded tables, gives the same bytes.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import threading
+
+import numpy as np
+import pytest
+
+from shipradar.sensors import false_alarms as fa
+from shipradar.sim.dwell import model as dwell_model
+from shipradar.sim.engine.simulation import Simulation
+from shipradar.sim.stream.bus import Bus
+from shipradar.sim.stream.recording import Recorder
+from shipradar.sim.world.scenario import load_scenario
+from shipradar.tables.scene import load_scene_tables
+from tests.helpers import ROOT
+
+TWO_PI = 2.0 * np.pi
+
+
+def _generator(seed=0, n=4000):
+    rng = np.random.default_rng(seed)
+    # Bernoulli (< 0.1725 for 2 channels), Poisson and a few normal (>= 9) sectors
+    eta = rng.permutation(np.concatenate([rng.uniform(0.0, 0.17, n // 2),
+                                          rng.uniform(0.18, 8.9, n // 3),
+                                          rng.uniform(9.0, 30.0, 5)]))
+    m = eta.size
+    r0 = rng.uniform(0.0, 5e4, m)
+    a0 = rng.uniform(-0.5, TWO_PI, m)
+    return fa.ClutterFalseAlarms(
+        r0, r0 + rng.uniform(0.0, 2e3, m), a0, a0 + rng.uniform(0.0, 0.2, m), np.ones(m), eta,
+        rng.uniform(0.5, 4.0, m), threshold_ratio=12.0, n_channels=2, n_pulses=10.0,
+        range_cell_m=30.0, beamwidth_rad=0.03, antenna_height_m=25.0)
+
+
+def _scans(gen, seed, revolutions):
+    rng = np.random.default_rng(seed)
+    t_a = 2.0 * np.arange(revolutions)
+    out = gen.scans(t_a, t_a + 2.0, rng.uniform(0.0, TWO_PI, revolutions), np.pi, rng)
+    assert out is not None
+    return {k: v.tobytes() for k, v in out.items()}, rng.bit_generator.state
+
+
+def test_twins_draw_as_fresh_generators():
+    template = _generator()
+    twins = [template.shared(), template.shared()]
+    # blocks of growing and shrinking sizes, the twins interleaved in one thread (the
+    # scratch arrays are shared and re-used, their first rows only when a block is smaller)
+    for seed, revolutions in ((1, 7), (2, 40), (3, 1), (4, 23), (5, 40)):
+        want = _scans(_generator(), seed, revolutions)
+        for twin in twins:
+            assert _scans(twin, seed, revolutions) == want
+    for a in (template.eta, template.r_min_m, template._hit_below, template._pois_cdf_cols,
+              twins[0].weibull_a, twins[1]._spike_terms[0]):
+        assert not a.flags.writeable
+        assert any(a is b for b in (*vars(twins[0]).values(), *twins[0]._spike_terms))
+
+
+def test_twins_in_threads_draw_as_fresh_generators():
+    template = _generator(seed=1)
+    want = {seed: _scans(_generator(seed=1), seed, 30) for seed in range(8)}
+    got: dict[int, tuple] = {}
+
+    def work(seed):
+        twin = template.shared()
+        for _ in range(3):
+            got[seed] = _scans(twin, seed, 30)
+
+    threads = [threading.Thread(target=work, args=(s,)) for s in range(8)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert got == want
+
+
+def _recording(scenario, tables, path):
+    bus = Bus(None, Recorder(path, overwrite=True))
+    sim = Simulation(scenario, bus=bus, duration_s=30.0, tables=tables)
+    sim.run()
+    bus.close()
+    return hashlib.sha256(path.read_bytes()).hexdigest(), sim
+
+
+@pytest.mark.slow
+def test_runs_in_one_process_share_the_set_up_and_give_the_same_bytes(tmp_path):
+    sc = load_scenario(ROOT / "scenarios" / "single_missile.yaml")
+    tables = load_scene_tables(sc)
+    dwell_model._GENERATORS.clear()
+    dwell_model._FA_SPECTRA.clear()
+    dwell_model._TWO_RAY.clear()
+    first, sim_a = _recording(sc, tables, tmp_path / "a.rec")
+    again, sim_b = _recording(sc, tables, tmp_path / "b.rec")
+    fresh, sim_c = _recording(sc, load_scene_tables(sc), tmp_path / "c.rec")
+    assert first == again == fresh
+    a, b, c = (s.radars[0].model for s in (sim_a, sim_b, sim_c))
+    assert a._clutter_fa_generator is not b._clutter_fa_generator  # a twin per run
+    assert a._clutter_fa_generator.eta is b._clutter_fa_generator.eta  # its arrays shared
+    assert a._clutter_fa_spectrum is b._clutter_fa_spectrum
+    assert a._two_ray is b._two_ray is c._two_ray  # by value: the antenna and the sea
+    if a.tables.pfac is not c.tables.pfac:  # other table objects: their own generator
+        assert a._clutter_fa_generator.eta is not c._clutter_fa_generator.eta
