@@ -1,10 +1,13 @@
-"""The sky temperature of a radar, kept in the table store, and the radar constants built on it.
+"""The sky temperature and the rain attenuation of a radar, kept in the table store, and the
+radar constants built on them.
 
 :func:`shipradar.sensors.radar.radar_constants` needs T'_a, the sky noise temperature at the
 beam maximum ([18], ITU-R P.372 radiative transfer through P.676 gaseous absorption).  Computing
 it imports itur (which imports astropy, scipy.stats and scipy.interpolate: 0.3-0.6 s) and runs
-a nested quadrature, on every run, for the same few numbers.  The store keeps them under the
-hash of their inputs like any table (issue 27): a run that finds them never imports itur.
+a nested quadrature, on every run, for the same few numbers.  A scene with rain needs γ_R, the
+rain's specific attenuation at the radar's frequency ([16], P.838 through itur: the same
+import).  The store keeps them under the hash of their inputs like any table (issue 27): a run
+that finds them never imports itur.
 """
 
 from __future__ import annotations
@@ -26,6 +29,12 @@ TABLE_VERSION = 1
 #: The table's second elevation node above the beam maximum [rad] (a table axis has two
 #: nodes at least; only the first, the beam maximum, is read).
 SECOND_NODE_ABOVE_RAD = 0.5
+#: γ_R's builder name and version (bump on any change of
+#: :func:`shipradar.sensors.atmosphere.rain_specific_attenuation_db_per_km`), and the second
+#: node of its rain-rate axis above the scene's rate [mm/h] (only the first is read).
+RAIN_TABLE_NAME = "rain_attenuation"
+RAIN_TABLE_VERSION = 1
+RAIN_SECOND_NODE_ABOVE_MM_H = 1.0
 
 #: The tables read in this process, by file, with the (inode, size, mtime) they were read at:
 #: a run asks for each radar's T'_a a dozen times (the scene's table keys, the build
@@ -33,10 +42,11 @@ SECOND_NODE_ABOVE_RAD = 0.5
 _READ: dict[Path, tuple[tuple[int, int, int], Table]] = {}
 
 
-def _read_cached(inputs: dict[str, Any]) -> Table | None:
+def _read_cached(inputs: dict[str, Any], name: str = TABLE_NAME,
+                 version: int = TABLE_VERSION) -> Table | None:
     """The cached table of these inputs (None: not in the cache, or damaged: then warned
     about by :func:`load_cached`), read once per process and file version."""
-    path = cache_path(TABLE_NAME, inputs_hash(TABLE_NAME, TABLE_VERSION, inputs))
+    path = cache_path(name, inputs_hash(name, version, inputs))
     try:
         st = path.stat()
     except OSError:
@@ -45,7 +55,7 @@ def _read_cached(inputs: dict[str, Any]) -> Table | None:
     seen = _READ.get(path)
     if seen is not None and seen[0] == stamp:
         return seen[1]
-    table = load_cached(TABLE_NAME, TABLE_VERSION, inputs)
+    table = load_cached(name, version, inputs)
     if table is not None:
         _READ[path] = (stamp, table)
     return table
@@ -90,3 +100,31 @@ def scene_radar_constants(scenario: Scenario, radar: Radar, *,
     args = sky_temperature_args(scenario, radar)
     t_sky = float(sky_temperature_table(args, store).values[0])
     return radar_constants(scenario, radar, sky_temperature_k=t_sky)
+
+
+def rain_attenuation_db_per_km(freq_hz: float, rain_rate_mm_h: float, polarization: str,
+                               store: bool = True) -> float:
+    """γ_R [dB/km] on a horizontal path, from the store or computed and kept there.
+
+    The number :func:`shipradar.sensors.atmosphere.rain_specific_attenuation_db_per_km`
+    returns for ``(freq_hz, rain_rate_mm_h, polarization)`` (elevation 0), computed by exactly
+    that call, so the stored float is the same; kept as a 1-D table over the rain rate whose
+    first node is ``rain_rate_mm_h``.  ``store=False`` reads the store but does not write it.
+    """
+    rate = float(rain_rate_mm_h)
+    inputs = {"freq_hz": float(freq_hz), "rain_rate_mm_h": rate,
+              "polarization": str(polarization), **itur_versions()}
+    table = _read_cached(inputs, RAIN_TABLE_NAME, RAIN_TABLE_VERSION)
+    if table is None:
+        from shipradar.sensors.atmosphere import rain_specific_attenuation_db_per_km
+
+        rates = np.array([rate, rate + RAIN_SECOND_NODE_ABOVE_MM_H])
+        values = np.array([float(rain_specific_attenuation_db_per_km(freq_hz, r, polarization))
+                           for r in rates])
+        table = Table(name=RAIN_TABLE_NAME, version=RAIN_TABLE_VERSION, axes=(rates,),
+                      axis_names=("rain_rate_mm_h",), axis_units=("mm/h",), values=values,
+                      value_name="rain_specific_attenuation_db_per_km", value_unit="dB/km",
+                      inputs=inputs)
+        if store:
+            table.save(cache_path(RAIN_TABLE_NAME, table.key))
+    return float(table.values[0])

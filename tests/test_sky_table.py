@@ -44,3 +44,25 @@ def test_the_sky_table_is_read_once_per_file_version(table_cache, monkeypatch):
     _store(124.0)  # replaced (a new file: another inode and time)
     assert sky.sky_temperature_table(dict(ARGS)).values[0] == 124.0
     assert len(reads) == 2
+
+
+def test_rain_attenuation_is_itur_and_kept(table_cache):
+    """γ_R from the store is the very float the direct P.838 call gives; the second call
+    reads the store (a stored value is what comes back, whatever the model would say), and
+    store=False writes nothing."""
+    from shipradar.sensors.atmosphere import rain_specific_attenuation_db_per_km
+
+    direct = float(rain_specific_attenuation_db_per_km(5.6e9, 8.0, "H"))
+    assert sky.rain_attenuation_db_per_km(5.6e9, 8.0, "H", store=False) == direct
+    assert not list(table_cache.glob(f"{sky.RAIN_TABLE_NAME}-*"))
+    assert sky.rain_attenuation_db_per_km(5.6e9, 8.0, "H") == direct
+    (path,) = table_cache.glob(f"{sky.RAIN_TABLE_NAME}-*")
+    kept = Table.load(path)
+    # P.838-3's H rows at 5 and 6 GHz (k 2.162e-4, α 1.6969; k 7.056e-4, α 1.5900) give
+    # 0.0074 and 0.0193 dB/km at 8 mm/h: 5.6 GHz lies between
+    assert 0.2162e-3 * 8**1.6969 < kept.values[0] < 0.7056e-3 * 8**1.5900
+    kept.values[0] = 0.125  # the store is read, not the model
+    kept.save(path)
+    sky._READ.clear()
+    assert sky.rain_attenuation_db_per_km(5.6e9, 8.0, "H") == 0.125
+    assert sky.rain_attenuation_db_per_km(5.6e9, 0.0, "H") == 0.0  # no rain, no loss
