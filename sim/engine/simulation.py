@@ -761,31 +761,33 @@ class _RadarProcess:
             noise_power_dbm=10.0 * math.log10(self.model.n0 * 1e3),
         )
 
-    def _plan_scans(self, t_scans: list[float]) -> list[np.ndarray]:
-        """The targets the beam may meet in each revolution starting at ``t_scans``.
+    def _plan_scans(self, t_scans: list[float]) -> tuple[np.ndarray, np.ndarray]:
+        """The targets the beam may meet in each revolution starting at ``t_scans``: their
+        rows and the index in ``t_scans`` of their revolution, revolution after revolution
+        (rows ascending within one).
 
         Those that exist during the revolution and can be inside the instrumented range at
         some time of it (ground range at its start minus what the relative horizontal speed
         covers in one period); the others are not solved for.  The revolutions of a block
-        are planned together (the geometry is computed element by element: the same rows as
-        one revolution at a time).
+        are planned together (the tests and the geometry are element by element: the same
+        rows as one revolution at a time).
         """
         sim = self.sim
         period = self.radar.scan_period_s
-        t_last, t_first = sim.targets.t_last, sim.targets.t_first
-        rows_of = [np.flatnonzero((t_last >= t) & (t_first < t + period)) for t in t_scans]
-        sizes = [r.size for r in rows_of]
-        if not sum(sizes):
-            return rows_of
-        rows = np.concatenate(rows_of)
-        t = np.repeat(np.asarray(t_scans, dtype=float), sizes)
+        t_of = np.asarray(t_scans, dtype=float)
+        t = t_of[:, None]
+        # (revolution, target) pairs in row-major order: revolution after revolution
+        scan_of, rows = np.nonzero((sim.targets.t_last >= t) & (sim.targets.t_first < t + period))
+        scan_of = scan_of.astype(np.int64, copy=False)
+        if not rows.size:
+            return rows, scan_of
+        t = t_of[scan_of]
         tpos, tvel, _ = sim.targets.state(t, rows)
         ppos, pvel = self.platform_state(t)
         _, ground = antenna_azimuth(ppos, tpos, sim.frame)
         reach = np.hypot(tvel[:, 0] - pvel[:, 0], tvel[:, 1] - pvel[:, 1]) * period
         near = ground <= self.radar.instrumented_range_m + reach
-        edges = np.cumsum([0, *sizes]).tolist()
-        return [rows[a:b][near[a:b]] for a, b in zip(edges[:-1], edges[1:], strict=True)]
+        return rows[near], scan_of[near]
 
     def _dwell(self, rows: np.ndarray, tc: np.ndarray, scan_of: np.ndarray,
                bounds: list[tuple[float, float]]) -> dict | None:
@@ -885,31 +887,24 @@ class _RadarProcess:
             bounds.append((t_a, min(t_a + period, sim.duration)))
         self._scan_end_states(scan0, len(bounds))
         # beam crossings of every (revolution, target) pair, solved at once
-        rows_all, start_all, beam_all, scan_all = [], [], [], []
-        if sim.targets.n:
-            for j, ((t_a, _), rows) in enumerate(zip(bounds, self._plan_scans(
-                    [t_a for t_a, _ in bounds]), strict=True)):
-                rows_all.append(rows)
-                # the search starts a hair before the revolution, and a revolution owns the
-                # crossings in [start - ε, end - ε): a crossing on the boundary between two
-                # revolutions (a target on the start azimuth) is found once, by the later one
-                start_all.append(np.full(rows.size, t_a - _CROSSING_EPS_S))
-                beam_all.append(np.full(rows.size, self.beam_azimuth(t_a)
-                                        - self.omega * _CROSSING_EPS_S))
-                scan_all.append(np.full(rows.size, j, dtype=np.int64))
         target_part = None
-        if rows_all and sum(r.size for r in rows_all):
-            rows = np.concatenate(rows_all)
-            t_start = np.concatenate(start_all)
-            scan_of = np.concatenate(scan_all)
+        t_as = [t_a for t_a, _ in bounds]
+        rows, scan_of = (self._plan_scans(t_as) if sim.targets.n
+                         else (np.zeros(0, np.int64), np.zeros(0, np.int64)))
+        if rows.size:
+            # the search starts a hair before the revolution, and a revolution owns the
+            # crossings in [start - ε, end - ε): a crossing on the boundary between two
+            # revolutions (a target on the start azimuth) is found once, by the later one
+            t_start = np.array([t_a - _CROSSING_EPS_S for t_a in t_as])[scan_of]
+            beam_start = np.array([self.beam_azimuth(t_a) - self.omega * _CROSSING_EPS_S
+                                   for t_a in t_as])[scan_of]
 
             def az_at(t, rows=rows):
                 tpos, _, _ = sim.targets.state(t, rows)
                 ppos, _ = self.platform_state(t)
                 return antenna_azimuth(ppos, tpos, sim.frame)[0]
 
-            tc = beam_crossing_times(az_at, t_start, np.concatenate(beam_all), self.omega,
-                                     rows.size)
+            tc = beam_crossing_times(az_at, t_start, beam_start, self.omega, rows.size)
             t_end = np.array([b for _, b in bounds])[scan_of]
             last = t_end >= sim.duration  # the run's end: nothing comes after it
             sel = (tc >= t_start) & ((tc < t_end - _CROSSING_EPS_S) | (last & (tc < t_end)))
