@@ -457,7 +457,7 @@ class _RadarProcess:
         # the looks of the revolutions computed ahead, by revolution: (target, time, P_d, S/I
         # [dB], dominant interference) of each (_on_look), folded into the last look of each
         # target (time, P_d, S/I, interference) at each end of scan for truth[targets]
-        self._looks: dict[int, list[tuple[np.ndarray, ...]]] = {}
+        self._looks: list[tuple[np.ndarray, ...]] = []
         k_targets = len(self.target_ids)
         self._last_look = (np.full(k_targets, np.nan), np.full(k_targets, np.nan),
                            np.full(k_targets, np.nan), np.full(k_targets, -1, np.int8))
@@ -485,7 +485,7 @@ class _RadarProcess:
         self._scan = _merge_parts([])
         self._ends = None
         self._last_eos = self._next_meta = None
-        self._looks = {}
+        self._looks = []
 
     # ------------------------------------------------------------------ helpers
     def _bus_caps(self) -> tuple[FrameSink | None, PlotsAheadSink | None]:
@@ -552,32 +552,53 @@ class _RadarProcess:
         return s
 
     def _on_look(self, look: LookResults) -> None:
-        """Keep a call's looks by revolution (the dwell model's ``on_look``: the engine's
-        own observer), for the last look of each target in ``truth[targets]``."""
+        """Keep a call's looks with their revolutions (the dwell model's ``on_look``: the
+        engine's own observer), for the last look of each target in ``truth[targets]``."""
         rev = (np.zeros(look.size, np.int64) if look.batch is None
                else np.asarray(look.batch, np.int64)) + self._block_scan0
-        for r in np.unique(rev).tolist():
-            sel = rev == r
-            self._looks.setdefault(r, []).append(
-                (look.target[sel], look.time_s[sel], look.pd[sel], look.si_db[sel],
-                 look.interference[sel]))
+        self._looks.append((rev, look.target, look.time_s, look.pd, look.si_db,
+                            look.interference))
 
     def _fold_looks(self, scan0: int, count: int) -> tuple[np.ndarray, ...]:
         """The last look of every target up to the end of each revolution ``scan0`` to
         ``scan0 + count - 1``: its time, P_d, S/I [dB] and dominant interference (NaN, NaN,
         NaN, -1 before any), ``count`` rows of one per target each (the ``truth[targets]``
-        columns of :meth:`_scan_end_states`)."""
+        columns of :meth:`_scan_end_states`).
+
+        The looks are taken revolution after revolution, in each the calls in their order
+        and a call's looks by time (stably): a target's last look up to a revolution is the
+        last one in that order.  All the block's looks at once: sorted by (target,
+        revolution, call, time), the last of a target up to revolution j is found by
+        bisection (the same look a sequential fold of each revolution keeps).
+        """
         last = self._last_look
         k = last[0].size
-        out = tuple(np.empty(count * k, a.dtype) for a in last)
-        for j in range(count):
-            for target, t, pd, si_db, code in self._looks.pop(scan0 + j, ()):
-                order = np.argsort(t, kind="stable")  # the latest look of a target wins
-                rows = target[order]
-                last[0][rows], last[1][rows] = t[order], pd[order]
-                last[2][rows], last[3][rows] = si_db[order], code[order].astype(np.int8)
-            for o, a in zip(out, last, strict=True):
-                o[j * k:(j + 1) * k] = a
+        out = tuple(np.tile(a, count) for a in last)
+        if not count:
+            return out
+        calls, self._looks = self._looks, []
+        later = [c for c in calls if (c[0] >= scan0 + count).any()]
+        if later:  # looks of revolutions after the block wait for theirs
+            self._looks = [tuple(a[c[0] >= scan0 + count] for a in c) for c in later]
+            calls = [tuple(a[c[0] < scan0 + count] for a in c) for c in calls]
+        calls = [c for c in calls if c[0].size]
+        if not calls:
+            return out
+        rev, target, t, pd, si_db, code = (np.concatenate(a) for a in zip(*calls, strict=True))
+        call = np.repeat(np.arange(len(calls)), [c[0].size for c in calls])
+        order = np.lexsort((t, call, rev, target))  # stable: a tie keeps the call's order
+        target, rev = target[order].astype(np.int64), rev[order] - scan0
+        key = target * count + np.maximum(rev, 0)
+        # the last look of target i up to revolution j: the last key <= i count + j
+        want = np.arange(k)[None, :] * count + np.arange(count)[:, None]
+        pos = np.searchsorted(key, want.ravel(), side="right") - 1
+        hit = pos >= 0
+        hit[hit] = target[pos[hit]] == np.tile(np.arange(k), count)[hit]
+        src = order[pos[hit]]
+        for o, a in zip(out, (t, pd, si_db, code), strict=True):
+            o[hit] = a[src]
+        for a, o in zip(last, out, strict=True):
+            a[:] = o[(count - 1) * k:]
         return out
 
     def antenna_state(self, t: float, pos: np.ndarray | None = None,
