@@ -433,7 +433,6 @@ class _RadarProcess:
         self.sector_s = radar.scan_period_s / self.n_sectors
         self.plot_counter = 0
         self._radar_dump = radar.model_dump(mode="json")
-        self._scan = _merge_parts([])
         self._meta_items: tuple[int, bytes, bytes] | None = None
         # what the bus takes (_bus_caps), found once per bus: a runtime-checkable protocol's
         # isinstance costs ~20 us, once per sector it was half of a sparse recorded run
@@ -463,8 +462,9 @@ class _RadarProcess:
                            np.full(k_targets, np.nan), np.full(k_targets, -1, np.int8))
         self._block_scan0 = 0
         model.on_look.append(self._on_look)
-        # revolutions computed ahead (see _compute_block), consumed one per scan
-        self._block: list[dict] = []
+        # revolutions computed ahead (see _compute_block), consumed one per scan: the rows
+        # of each in the block's plots (_block_plots)
+        self._block: list[tuple[int, int]] = []
         self._block_plots: tuple[int, dict, list[int]] | None = None
         self._block_frames: list[_Revolution] | None = None
         # a block's false alarms are held at once: fewer revolutions when a scan has many
@@ -482,7 +482,6 @@ class _RadarProcess:
         simulated time) once the run is over."""
         self._block = []
         self._block_plots = self._block_frames = None
-        self._scan = _merge_parts([])
         self._ends = None
         self._last_eos = self._next_meta = None
         self._looks = []
@@ -647,12 +646,14 @@ class _RadarProcess:
             if not self._block:
                 self._block = self._compute_block(scan)
                 self._block_frames = self._frame_block() if sim.bus is not None else None
-            self._scan = self._block.pop(0)
+            rows = self._block.pop(0)
             rev = self._block_frames.pop(0) if self._block_frames is not None else None
             if rev is not None and rev.encoded and rev.sectors:
                 ahead = self._bus_caps()[1]
                 if ahead is not None:  # ASTERIX: CAT048 ahead
-                    ahead.plots_ahead(self.radar.id, rev.plots, self._scan, rev.starts,
+                    assert self._block_plots is not None
+                    ahead.plots_ahead(self.radar.id, rev.plots,
+                                      _slice_plots(self._block_plots[1], *rows), rev.starts,
                                       rev.stops)
             if not per_sector:
                 # alone: one resumption at the revolution's end (the run's end at the
@@ -886,9 +887,10 @@ class _RadarProcess:
             parts.append(clutter)
         return parts
 
-    def _compute_block(self, scan0: int) -> list[dict]:
-        """Every plot of the next revolutions from ``scan0``, one dict per revolution, each
-        sorted by time (emitted sector by sector).
+    def _compute_block(self, scan0: int) -> list[tuple[int, int]]:
+        """Every plot of the next revolutions from ``scan0``, kept in :attr:`_block_plots`
+        revolution after revolution, each sorted by time (emitted sector by sector); the
+        rows ``[start, stop)`` of each revolution there.
 
         The on-line level is vectorized over a block of revolutions (:data:`_BLOCK_S` of
         simulated time, at least one): the beam-crossing times of every target in every
@@ -942,8 +944,8 @@ class _RadarProcess:
                                           looks, strict=True))
         merged = _merge_parts(parts)
         edges = np.searchsorted(merged["revolution"], np.arange(len(bounds) + 1)).tolist()
-        self._block_plots = (scan0, merged, edges)  # for _encode_block
-        return [_slice_plots(merged, a, b) for a, b in zip(edges[:-1], edges[1:], strict=True)]
+        self._block_plots = (scan0, merged, edges)  # for _frame_block
+        return list(zip(edges[:-1], edges[1:], strict=True))
 
     def _sector_cuts(self, scan0: int, times: np.ndarray, edges: list[int]) -> np.ndarray:
         """Where each sector's plots end in a block's plot ``times`` (revolution ``scan0 +
