@@ -87,15 +87,19 @@ class _PayloadBus(Bus):
     encodes_ahead = False
 
 
-def test_payload_path_is_the_frame_path(tmp_path):
+@pytest.mark.parametrize(("scene", "duration_s"), [
+    ("raid", 13.7), ("manoeuvres", 21.0), ("single_missile", 12.3)])
+def test_payload_path_is_the_frame_path(tmp_path, scene, duration_s):
     # both output paths frame their sectors with shipradar.sim.stream.framing.sector_columns:
-    # the payloads, encoded one by one, are the bodies encoded at once; 13.7 s ends inside a
-    # revolution of both radars
-    s = load_scenario(ROOT / "scenarios/raid.yaml")
+    # the payloads, encoded one by one, are the bodies encoded at once; and the ends of scan
+    # (eos, the next meta's antenna state: payloads per end against protocol.float_rows for
+    # a block); each duration ends inside a revolution (eos "complete" false), the
+    # manoeuvres' ship turns
+    s = load_scenario(ROOT / f"scenarios/{scene}.yaml")
 
     def run(bus_cls, path):
         bus = bus_cls(None, Recorder(path))
-        sim = Simulation(s, bus=bus, duration_s=13.7, seed=3)
+        sim = Simulation(s, bus=bus, duration_s=duration_s, seed=3)
         assert sim.encodes_ahead is (bus_cls is Bus)
         sim.run()
         bus.close()

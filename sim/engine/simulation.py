@@ -55,6 +55,7 @@ from shipradar.sim.stream.schema import (
     PLOT_COLUMNS,
     PLOT_TRUTH_COLUMNS,
     TRUTH_PLOTS,
+    SchemaError,
     empty_plots,
 )
 from shipradar.sim.stream.sink import (
@@ -612,9 +613,7 @@ class _RadarProcess:
         if lat is None or lon is None:
             la, lo, _ = self.sim.frame.geodetic(pos[None, :])
             lat, lon = float(la[0]), float(lo[0])
-        speed = float(np.hypot(vel[0], vel[1]))
-        heading = (math.degrees(math.atan2(vel[0], vel[1])) % 360.0 if speed > 0
-                   else self.platform.heading_deg)
+        heading = self._heading(float(vel[0]), float(vel[1]))
         up = float(pos[2] + self.radar.antenna_height_m)
         return {
             "position": {"lat_deg": lat, "lon_deg": lon, "alt_m": up,
@@ -622,6 +621,24 @@ class _RadarProcess:
             "velocity_enu_mps": [float(x) for x in vel],
             "heading_deg": heading,
         }
+
+    def _heading(self, v_east: float, v_north: float) -> float:
+        """The platform's heading [deg] from its velocity east and north [m/s], true north,
+        clockwise; the scenario's heading when it stands still."""
+        if math.hypot(v_east, v_north) > 0:
+            return math.degrees(math.atan2(v_east, v_north)) % 360.0
+        return self.platform.heading_deg
+
+    def _antenna_states(self, ends: _ScanEnds) -> tuple[dict[str, Any], list[np.ndarray]]:
+        """:meth:`antenna_state` at every end of ``ends``, as the first one (the shape of
+        all) and the columns of its float leaves in packing order (element by element the
+        same numbers), for :func:`shipradar.sim.stream.protocol.float_rows`."""
+        pos, vel = ends.pos, ends.vel
+        up = pos[:, 2] + self.radar.antenna_height_m
+        heading = [self._heading(e, n) for e, n in vel[:, :2].tolist()]
+        first = self.antenna_state(ends.t[0], pos[0], vel[0], ends.lat[0], ends.lon[0])
+        return first, [np.asarray(ends.lat), np.asarray(ends.lon), up, pos[:, 0], pos[:, 1],
+                       up, vel[:, 0], vel[:, 1], vel[:, 2], np.asarray(heading)]
 
     # ------------------------------------------------------------------ process
     def run(self, env: _Clock, per_sector: bool = True) -> Generator[Any, Any, None]:
@@ -1077,13 +1094,16 @@ class _RadarProcess:
         ends = self._ends
         assert ends is not None
         t, scan = ends.t[j], ends.scan0 + j
-        # the run's end inside a revolution cuts it short (the sector loop ends it at t_b =
-        # duration); a revolution ending exactly at the run's end is complete
-        complete = bool(t >= (scan + 1) * self.n_sectors * self.sector_s - 1e-9)
         if state is None:
             state = self.antenna_state(t, ends.pos[j], ends.vel[j], ends.lat[j], ends.lon[j])
         return EOS.message(sensor=self.radar.id, scan=scan, time_s=t, **state,
-                           complete=complete)
+                           complete=self._eos_complete(t, scan))
+
+    def _eos_complete(self, t: float, scan: int) -> bool:
+        """Whether revolution ``scan``, ending at ``t`` [s], is complete: the run's end
+        inside a revolution cuts it short (the sector loop ends it at t_b = duration); a
+        revolution ending exactly at the run's end is complete."""
+        return bool(t >= (scan + 1) * self.n_sectors * self.sector_s - 1e-9)
 
     def _frame_ends(self, encoded: bool) -> None:
         """The ``eos`` and ``truth[targets]`` messages of the revolutions computed last
@@ -1098,13 +1118,25 @@ class _RadarProcess:
             ends.targets = target_columns(self.radar.id, scans, ends.t, ends.columns,
                                           len(self.target_ids))
         if encoded:
-            eos, meta = [], []
-            for j, t in enumerate(ends.t):
-                state = self.antenna_state(t, ends.pos[j], ends.vel[j], ends.lat[j],
-                                           ends.lon[j])
-                eos.append(protocol.encode(protocol.TOPIC_EOS, t, self._eos_payload(j, state))[1])
-                meta.append(protocol.payload_items(protocol.TOPIC_META,
-                                                   {"scan": scans[j] + 1, **state}))
+            # every eos is {sensor, scan, time_s, *antenna state, complete} (the schema's
+            # order, checked with the first one) and the next meta's items {scan, *antenna
+            # state}: the states' items packed at once (float_rows), the rest per end
+            first, columns = self._antenna_states(ends)
+            eos0 = self._eos_payload(0, first)
+            if list(eos0) != ["sensor", "scan", "time_s", *first, "complete"]:
+                raise SchemaError(f"eos keys {list(eos0)}: not the engine's packing")
+            topic = protocol.TOPIC_EOS
+            states = protocol.float_rows(protocol.TOPIC_META, first, columns)
+            times = protocol.float_rows(topic, {"time_s": 0.0}, [np.asarray(ends.t)])
+            sensor = protocol.payload_items(topic, {"sensor": self.radar.id})
+            scan_items = [protocol.payload_items(topic, {"scan": s})
+                          for s in range(scans.start, scans.stop + 1)]
+            complete = {c: protocol.payload_items(topic, {"complete": c}) for c in (True, False)}
+            eos = [protocol.encode_items(topic, t, len(eos0), (
+                sensor, scan_items[j], times[j], states[j],
+                complete[self._eos_complete(t, scans[j])]))[1]
+                for j, t in enumerate(ends.t)]
+            meta = [scan_items[j + 1] + states[j] for j in range(len(ends.t))]
             truth = (ends.targets.encode(np.asarray(ends.t)) if ends.targets is not None
                      else [None] * len(eos))
             ends.frames = list(zip(eos, truth, meta, strict=True))

@@ -1,0 +1,62 @@
+"""protocol.float_rows: the items of many payloads that differ only in their float leaves,
+packed at once, are payload_items of each payload, byte for byte."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from shipradar.sim.stream import protocol
+
+
+def _filled(template, floats):
+    return protocol._float_filled(template, iter(floats))
+
+
+TEMPLATES = [
+    {"position": {"lat_deg": 1.0, "lon_deg": 2.0, "alt_m": 3.0, "east_m": 4.0,
+                  "north_m": 5.0, "up_m": 6.0},
+     "velocity_enu_mps": [1.0, 2.0, 3.0], "heading_deg": 7.0},
+    {"time_s": 0.0},
+    # non-float values stay the template's: str, int (fix and wide), bool, None, tuple
+    {"sensor": "radar-1", "scan": 300, "n": 5, "x": 1.5, "ok": True, "none": None,
+     "pair": (2.5, "b", -7), "deep": {"a": [{"b": 0.25}, 3]}, "z": -1.0},
+]
+
+
+@pytest.mark.parametrize("template", TEMPLATES)
+def test_rows_are_payload_items_of_each_payload(template):
+    marks: list[float] = []
+    protocol._float_marks(template, marks)
+    rng = np.random.default_rng(len(marks))
+    n = 41
+    columns = [rng.normal(0.0, 1e3, n) for _ in marks]
+    special = [np.nan, -0.0, 0.0, np.inf, -np.inf, 5e-324, -2.2250738585072014e-308,
+               1.7976931348623157e308, float.fromhex("0x1.fffffffffffffp-1")]
+    for i, c in enumerate(columns):
+        c[i % n: i % n + len(special)] = special[: n - i % n]
+    columns[0][-1] = marks[0]  # a value that is one of the marks: still its own bytes
+    got = protocol.float_rows(protocol.TOPIC_EOS, template, columns)
+    assert len(got) == n
+    for j in range(n):
+        want = protocol.payload_items(protocol.TOPIC_EOS,
+                                      _filled(template, [c[j].item() for c in columns]))
+        assert got[j] == want
+
+
+def test_no_rows_and_wrong_columns():
+    assert protocol.float_rows(protocol.TOPIC_EOS, {"time_s": 0.0}, [np.zeros(0)]) == []
+    with pytest.raises(protocol.ProtocolError, match="float leaves"):
+        protocol.float_rows(protocol.TOPIC_EOS, {"time_s": 0.0}, [np.zeros(2), np.zeros(2)])
+    with pytest.raises(protocol.ProtocolError, match="one length"):
+        protocol.float_rows(protocol.TOPIC_EOS, {"a": 0.0, "b": 1.0}, [np.zeros(2), np.zeros(3)])
+
+
+def test_a_mark_in_the_template_falls_back_to_each_payload():
+    marks: list[float] = []
+    protocol._float_marks({"a": 0.0}, marks)
+    # the mark's bytes inside a bytes value: the places of the floats are found otherwise
+    template = {"blob": b"\xcb" + np.float64(marks[0]).astype(">f8").tobytes(), "a": 0.0}
+    got = protocol.float_rows(protocol.TOPIC_EOS, template, [np.array([1.0, np.nan])])
+    assert got == [protocol.payload_items(protocol.TOPIC_EOS, {**template, "a": v})
+                   for v in (1.0, np.nan)]
