@@ -60,3 +60,20 @@ def test_a_mark_in_the_template_falls_back_to_each_payload():
     got = protocol.float_rows(protocol.TOPIC_EOS, template, [np.array([1.0, np.nan])])
     assert got == [protocol.payload_items(protocol.TOPIC_EOS, {**template, "a": v})
                    for v in (1.0, np.nan)]
+
+
+def test_flat_items_are_encodes_items_or_none():
+    # a message's fixed part packed without encode(): its bytes, or None when encode() must
+    # pack it (a key or string not packed before, other value types)
+    protocol.encode(protocol.TOPIC_PLOTS, 0.0, {"sensor": "r-1", "scan": 1, "kind": "plots"})
+    for payload in ({"sensor": "r-1", "scan": 0}, {"sensor": "r-1", "scan": 127, "kind": "plots"},
+                    {"scan": 3, "x": 1.5}, {"x": float("nan"), "y": -0.0}, {}):
+        flat = protocol._flat_items(payload)
+        want = protocol.payload_items(protocol.TOPIC_PLOTS, payload)
+        assert flat is None or flat == want
+        if payload and all(k in ("sensor", "scan", "kind") for k in payload):
+            assert flat == want
+    for payload in ({"sensor": "never-packed-id", "scan": 1}, {"scan": 128}, {"scan": -1},
+                    {"scan": True}, {"sensor": None}, {"never_packed_key": 1},
+                    {"scan": [1, 2]}):
+        assert protocol._flat_items(payload) is None

@@ -473,6 +473,32 @@ def encode(topic: bytes, t_sim: float, payload: Mapping[str, Any]) -> list[bytes
     return [topic, body]
 
 
+def _flat_items(payload: Mapping[str, Any]) -> bytes | None:
+    """What :func:`encode` writes for the items of ``payload`` when every key is one it has
+    packed before and every value a str it has packed before, an int in [0, 128) or a float
+    (a message's fixed part: sensor, scan, kind); None otherwise (then :func:`encode`
+    packs it, and remembers its keys and strings)."""
+    parts = []
+    for key, value in payload.items():
+        packed = _KEY_CACHE.get(key) if type(key) is str else None
+        if packed is None:
+            return None
+        parts.append(packed)
+        vtype = type(value)
+        if vtype is str:
+            packed = _STR_CACHE.get(value)
+            if packed is None:
+                return None
+        elif vtype is int and 0 <= value < 128:
+            packed = _FIXINTS[value]
+        elif vtype is float:
+            packed = _FLOAT64.pack(0xCB, value)
+        else:
+            return None
+        parts.append(packed)
+    return b"".join(parts)
+
+
 def encode_slices(
     topic: bytes,
     times: Sequence[float] | np.ndarray,
@@ -528,7 +554,7 @@ def encode_slices(
     # after its map header and envelope
     head_len = len(_map_header(keys + 2)) + len(_ENVELOPE_V) + len(_ENVELOPE_T_KEY) + 9
     prefix = _map_header(keys + len(columns) + 2) + _ENVELOPE_V + _ENVELOPE_T_KEY
-    fixed_parts = tuple(encode(topic, 0.0, p)[1][head_len:] for p in parts)
+    fixed_parts = tuple(_flat_items(p) or encode(topic, 0.0, p)[1][head_len:] for p in parts)
     n_msg = len(times)
     if many:
         if fixed_index is None:
