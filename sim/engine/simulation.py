@@ -646,7 +646,9 @@ class _RadarProcess:
         only at the end of every revolution, its sectors' messages sent in order at that
         resumption: for a radar that runs alone on the batched path
         (:meth:`Simulation._run_batched`), where the resumptions order nothing but its own
-        messages, and every message carries its own time."""
+        messages, and every message carries its own time.  Alone under SimPy (a publisher,
+        a wall clock), it resumes at the end of every sector that sends a message and of
+        every revolution: its messages leave at the same simulated (and wall) times."""
         sim = self.sim
         sim.active_radar = self.index
         resumes = self.resume_times
@@ -654,6 +656,11 @@ class _RadarProcess:
             resumes.append(env.now)
         self._emit_meta(0.0, scan=0)
         n, sector_s, duration, stats = self.n_sectors, self.sector_s, sim.duration, sim.stats
+        # alone under SimPy (a publisher, a wall clock), a resumption orders nothing but
+        # this radar's own messages: the end of a sector that sends none is not waited for
+        # (a worker of a parallel run keeps every one: its resumption times order the
+        # radars' messages in the parent)
+        alone = len(sim.radars) == 1 and resumes is None
         k = 0  # sectors since the start: sector k is [k, k + 1) sector_s
         for scan in itertools.count():
             if k * sector_s >= duration:
@@ -695,6 +702,11 @@ class _RadarProcess:
                 t_b = (k + 1) * sector_s
                 if t_b > duration:
                     t_b = duration
+                if alone and t_b < duration and sector < n - 1 and (
+                        rev is None or i >= len(rev.sectors) or rev.sectors[i] != sector):
+                    stats.sectors += 1  # nothing to send: its end is not waited for
+                    k += 1
+                    continue
                 yield env.timeout(t_b - env.now)
                 sim.active_radar = self.index
                 if resumes is not None:
