@@ -695,6 +695,13 @@ class _RadarProcess:
                 self._end_of_scan(t_end, scan)
                 continue
             i = 0  # the revolution's next message
+            # its frames straight to a bus that takes them (what _send_sector does, without
+            # its checks per sector); the batched path's list through _send_sector
+            emit = None
+            if rev is not None and rev.encoded and type(sim.bus) is not _BatchingBus:
+                frames = self._bus_caps()[0]
+                emit = frames.emit_frames if frames is not None else None
+            plots_topic, truth_topic = protocol.TOPIC_PLOTS, protocol.TOPIC_TRUTH
             for sector in range(n):
                 t_a = k * sector_s
                 if t_a >= duration:
@@ -712,7 +719,12 @@ class _RadarProcess:
                 if resumes is not None:
                     resumes.append(env.now)
                 if rev is not None and i < len(rev.sectors) and rev.sectors[i] == sector:
-                    self._send_sector(t_b, rev.rows[i], rev.plots[i], rev.truth[i])
+                    if emit is not None:
+                        self.plot_counter += rev.rows[i]
+                        emit(t_b, [plots_topic, rev.plots[i]])
+                        emit(t_b, [truth_topic, rev.truth[i]])
+                    else:
+                        self._send_sector(t_b, rev.rows[i], rev.plots[i], rev.truth[i])
                     i += 1
                 stats.sectors += 1
                 k += 1

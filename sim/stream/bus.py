@@ -535,8 +535,9 @@ class Bus:
             self.recorder.write(t_sim, frames)
         if self.publisher is not None:
             self.publisher.send(frames)
-        self._messages[bytes(frames[0])] += 1
-        self._bytes += len(frames[0]) + len(frames[1]) if len(frames) == 2 else sum(
+        topic = frames[0]
+        self._messages[topic if type(topic) is bytes else bytes(topic)] += 1
+        self._bytes += len(topic) + len(frames[1]) if len(frames) == 2 else sum(
             len(f) for f in frames)
         self.t_last = t_sim
 
