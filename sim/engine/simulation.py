@@ -1074,10 +1074,14 @@ class _RadarProcess:
         bus = self.sim.bus
         if rev.encoded and isinstance(bus, _BatchingBus):
             self.plot_counter += sum(rev.rows[:count])
-            plots, truth = protocol.TOPIC_PLOTS, protocol.TOPIC_TRUTH
-            bus.pending += [msg for t, p, q in zip(rev.times[:count], rev.plots[:count],
-                                                   rev.truth[:count], strict=True)
-                            for msg in ((t, [plots, p]), (t, [truth, q]))]
+            # each message's two records (t, (topic, body)), plots then truth, made by zip
+            # (made per revolution and dropped at its flush: a block's thousands held at
+            # once would set off the garbage collector's full passes)
+            times: list = [None] * (2 * count)
+            bodies = list(times)
+            times[::2] = times[1::2] = rev.times[:count]
+            bodies[::2], bodies[1::2] = rev.plots[:count], rev.truth[:count]
+            bus.pending += zip(times, zip(_SECTOR_TOPICS * count, bodies, strict=True), strict=True)
             return
         for j in range(count):
             self._send_sector(rev.times[j], rev.rows[j], rev.plots[j], rev.truth[j])
@@ -1243,6 +1247,9 @@ _BLOCK_S = 64.0
 #: Expected false alarms a block of revolutions holds at most (fewer revolutions, at least
 #: one, when a scan has many: ≈ 200 bytes each while the block is computed).
 _BLOCK_PLOTS = 250_000
+#: the topics of a sector's two messages, in their order
+_SECTOR_TOPICS = [protocol.TOPIC_PLOTS, protocol.TOPIC_TRUTH]
+
 
 @dataclass
 class _Revolution:
