@@ -502,7 +502,7 @@ class DwellModel:
         frac_az = np.add.reduce([_overlap_fraction(az_edges + shift, gen.az_min_rad,
                                                    gen.az_max_rad)
                                  for shift in (-2.0 * math.pi, 0.0, 2.0 * math.pi)])
-        per_scan = (frac_r * gen.eta) @ frac_az.T
+        per_scan = _sum_over_sectors(frac_r * gen.eta, frac_az)
         last = np.flatnonzero(per_scan.sum(axis=1) > 0.0)
         n = 0 if last.size == 0 else int(last[-1]) + 1
         return edges[:n + 1], az_edges, per_scan[:n]
@@ -1223,6 +1223,26 @@ class _TwoRayFallback:
         intermediate = np.exp((1 - w) * np.log(np.maximum(f_lim, tiny))
                               + w * np.log(np.maximum(f_diff_h, tiny)))
         return np.where(inside, f_inter, np.where(beyond, diffraction, intermediate))
+
+
+def _sum_over_sectors(by_ring: np.ndarray, by_azimuth: np.ndarray) -> np.ndarray:
+    """``by_ring @ by_azimuth.T`` (rings × sectors, azimuth cells × sectors -> rings × cells)
+    in a fixed order, without BLAS: a sector overlaps one or two azimuth cells, so each cell
+    sums the columns of its own sectors, in sector order (``np.add.reduceat``).
+
+    A BLAS product's bits depend on its thread count (OpenBLAS splits the sum differently
+    with one thread than with two): the ``meta`` message's density, hence the recording,
+    differed between machines and between a run and a Dask worker (one thread). This sum is
+    the same on every machine, and ~100 times faster for a P_fac map of 11,608 sectors.
+    """
+    n_cells = by_azimuth.shape[0]
+    cell, sector = np.nonzero(by_azimuth)  # row-major: by cell, then by sector
+    terms = by_ring[:, sector] * by_azimuth[cell, sector]
+    out = np.zeros((by_ring.shape[0], n_cells))
+    cells, first = np.unique(cell, return_index=True)
+    if cells.size:
+        out[:, cells] = np.add.reduceat(terms, first, axis=1)
+    return out
 
 
 def _overlap_fraction(edges: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
