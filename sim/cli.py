@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import gc
 import json
+import os
 import signal
 import sys
 import time
@@ -932,6 +933,26 @@ def _objects_so_far_kept() -> None:
     gc.enable()
 
 
+#: The environment variables that set the BLAS libraries' thread counts (OpenBLAS, the
+#: OpenMP runtime, MKL): a user's own setting of any of them is kept.
+BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+def _one_blas_thread() -> None:
+    """One BLAS thread for a ``run`` process, unless the user set a count or numpy is already
+    imported (then it is too late to matter).
+
+    The on-line level has no BLAS work worth a thread, and the stream's bytes do not depend
+    on the count (``tests/test_blas_determinism.py``); OpenBLAS's idle worker threads spin
+    instead: 0.29 s of CPU and ~0.03 s of wall per raid run on 2 cores (docs/performance.md
+    section 12).  Tables a run has to build are built on one thread too; ``shipradar tables
+    build`` uses them all.
+    """
+    if "numpy" in sys.modules or any(v in os.environ for v in BLAS_THREAD_VARIABLES):
+        return
+    os.environ.update(dict.fromkeys(BLAS_THREAD_VARIABLES, "1"))
+
+
 def main(argv: list[str] | None = None) -> int:
     """The ``shipradar`` command; ``argv`` defaults to the process's own arguments.
 
@@ -940,8 +961,9 @@ def main(argv: list[str] | None = None) -> int:
     its set-up with the collector off (its collections took ~40 ms of the imports; on again
     while tables are built) and freezes that set-up before the loop
     (:func:`_objects_so_far_kept`), and every command freezes what is left at its end, so
-    that the interpreter's exit does not walk every object once more (~50 ms).  Neither
-    changes what a command computes or writes.
+    that the interpreter's exit does not walk every object once more (~50 ms).  ``run`` also
+    asks for one BLAS thread (:func:`_one_blas_thread`).  None of this changes what a command
+    computes or writes.
     """
     command_line = argv is None
     argv = sys.argv[1:] if argv is None else list(argv)
@@ -956,6 +978,7 @@ def main(argv: list[str] | None = None) -> int:
     if command_line and args.func is cmd_run:
         gc.disable()
         args.gc_off_until_run = True
+        _one_blas_thread()
     try:
         return args.func(args)
     except KeyboardInterrupt:

@@ -8,6 +8,7 @@ density is now summed in a fixed order without BLAS (``sim.dwell.model._sum_over
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
@@ -31,21 +32,49 @@ def _env(cache: Path, threads: int | None) -> dict[str, str]:
     return env
 
 
-@pytest.mark.xdist_group("raid_tables")
-def test_the_raid_records_the_same_bytes_with_one_and_several_blas_threads(tmp_path):
-    cache = tmp_path / "tables"
-    shipradar = [sys.executable, "-m", "shipradar.sim.cli"]
-    subprocess.run([*shipradar, "tables", "build", RAID], env=_env(cache, None), check=True,
-                   capture_output=True, timeout=600, cwd=tmp_path)
+@pytest.fixture(scope="module")
+def raid_cache(tmp_path_factory):
+    cache = tmp_path_factory.mktemp("tables")
+    subprocess.run([sys.executable, "-m", "shipradar.sim.cli", "tables", "build", RAID],
+                   env=_env(cache, None), check=True, capture_output=True, timeout=600,
+                   cwd=cache)
+    return cache
+
+
+def test_the_raid_records_the_same_bytes_with_one_and_several_blas_threads(raid_cache,
+                                                                          tmp_path):
     recordings = []
     for threads in (1, 2, None):
         out = tmp_path / f"raid-{threads}.rec"
-        proc = subprocess.run([*shipradar, "run", RAID, "--duration", "3", "--seed", "7",
-                               "--record", str(out), "--quiet"], env=_env(cache, threads),
+        proc = subprocess.run([sys.executable, "-m", "shipradar.sim.cli", "run", RAID,
+                               "--duration", "3", "--seed", "7", "--record", str(out),
+                               "--quiet"], env=_env(raid_cache, threads),
                               capture_output=True, text=True, timeout=600, cwd=tmp_path)
         assert proc.returncode == 0, proc.stderr[-2000:]
         recordings.append(out.read_bytes())
     assert recordings[0] == recordings[1] == recordings[2]
+
+
+_THREADS_SEEN = """
+import json, os, sys
+from shipradar.sim import cli
+sys.argv = ["shipradar", "run", sys.argv[1], "--duration", "1", "--quiet"]
+try:
+    cli.main()
+finally:
+    print(json.dumps({v: os.environ.get(v) for v in cli.BLAS_THREAD_VARIABLES}))
+"""
+
+
+@pytest.mark.parametrize(("threads", "expected"), [(None, "1"), (2, "2")])
+def test_a_command_line_run_asks_for_one_blas_thread_unless_told(raid_cache, threads,
+                                                                 expected):
+    proc = subprocess.run([sys.executable, "-c", _THREADS_SEEN, RAID], capture_output=True,
+                          text=True, timeout=600, env=_env(raid_cache, threads),
+                          cwd=raid_cache)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    seen = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert seen == dict.fromkeys(BLAS_THREADS, expected)
 
 
 def test_the_sum_over_sectors_is_the_product():
