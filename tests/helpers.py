@@ -135,3 +135,21 @@ def package_modules() -> dict[str, Path]:
         if spec is not None and spec.origin and spec.origin.endswith(".py"):
             out[info.name] = Path(spec.origin)
     return out
+
+
+def random_clutter_generator(eta, rng, clutter_fa_model: str = "seed"):
+    """A P_fac generator over random sectors with the expected counts ``eta``: ranges in
+    0-52 km, azimuths across north, drawn from ``rng`` in a fixed order (the tests' data
+    depend on it)."""
+    import numpy as np
+
+    from shipradar.sensors.false_alarms import ClutterFalseAlarms
+
+    n = np.asarray(eta).size
+    r0 = rng.uniform(0.0, 5e4, n)
+    a0 = rng.uniform(-0.5, 2.0 * np.pi, n)
+    return ClutterFalseAlarms(
+        r0, r0 + rng.uniform(0.0, 2e3, n), a0, a0 + rng.uniform(0.0, 0.2, n), np.ones(n), eta,
+        rng.uniform(0.5, 4.0, n), threshold_ratio=12.0, n_channels=2, n_pulses=10.0,
+        range_cell_m=30.0, beamwidth_rad=0.03, antenna_height_m=25.0,
+        clutter_fa_model=clutter_fa_model)

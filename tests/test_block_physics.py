@@ -64,6 +64,7 @@ from scipy import special  # noqa: E402
 from shipradar.sensors import false_alarms as fa  # noqa: E402
 from shipradar.sensors import sea_clutter as sc  # noqa: E402
 from shipradar.sensors.measurement import expected_errors  # noqa: E402
+from tests.helpers import random_clutter_generator  # noqa: E402
 
 TWO_PI = 2.0 * np.pi
 
@@ -148,13 +149,7 @@ def _generator(eta, *, contiguous: bool, model="seed", seed=0):
     (the two ways ClutterFalseAlarms finds the hits), azimuths across north."""
     rng = np.random.default_rng(seed)
     eta = np.sort(eta) if contiguous else rng.permutation(eta)
-    n = eta.size
-    r0 = rng.uniform(0.0, 5e4, n)
-    a0 = rng.uniform(-0.5, TWO_PI, n)
-    return fa.ClutterFalseAlarms(
-        r0, r0 + rng.uniform(0.0, 2e3, n), a0, a0 + rng.uniform(0.0, 0.2, n), np.ones(n), eta,
-        rng.uniform(0.5, 4.0, n), threshold_ratio=12.0, n_channels=2, n_pulses=10.0,
-        range_cell_m=30.0, beamwidth_rad=0.03, antenna_height_m=25.0, clutter_fa_model=model)
+    return random_clutter_generator(eta, rng, model)
 
 
 def _etas(n, seed=1):

@@ -13,14 +13,13 @@ import threading
 import numpy as np
 import pytest
 
-from shipradar.sensors import false_alarms as fa
 from shipradar.sim.dwell import model as dwell_model
 from shipradar.sim.engine.simulation import Simulation
 from shipradar.sim.stream.bus import Bus
 from shipradar.sim.stream.recording import Recorder
 from shipradar.sim.world.scenario import load_scenario
 from shipradar.tables.scene import load_scene_tables
-from tests.helpers import ROOT
+from tests.helpers import ROOT, random_clutter_generator
 
 TWO_PI = 2.0 * np.pi
 
@@ -31,13 +30,7 @@ def _generator(seed=0, n=4000):
     eta = rng.permutation(np.concatenate([rng.uniform(0.0, 0.17, n // 2),
                                           rng.uniform(0.18, 8.9, n // 3),
                                           rng.uniform(9.0, 30.0, 5)]))
-    m = eta.size
-    r0 = rng.uniform(0.0, 5e4, m)
-    a0 = rng.uniform(-0.5, TWO_PI, m)
-    return fa.ClutterFalseAlarms(
-        r0, r0 + rng.uniform(0.0, 2e3, m), a0, a0 + rng.uniform(0.0, 0.2, m), np.ones(m), eta,
-        rng.uniform(0.5, 4.0, m), threshold_ratio=12.0, n_channels=2, n_pulses=10.0,
-        range_cell_m=30.0, beamwidth_rad=0.03, antenna_height_m=25.0)
+    return random_clutter_generator(eta, rng)
 
 
 def _scans(gen, seed, revolutions):

@@ -280,6 +280,9 @@ class Simulation:
                     bar.n = min(round(t), bar.total)
                     bar.refresh()
                     next_bar = t + step
+            if bar is not None:  # the run reached its end, which is not a resumption of a
+                bar.n = bar.total  # radar that resumes once per revolution
+                bar.refresh()
             if batch is not None:
                 batch.hand_on()
         except BaseException:
