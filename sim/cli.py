@@ -19,6 +19,8 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from shipradar.sim.world.errors import BadInputError, PeerError
+
 #: When this module started executing [perf_counter s]: the start of the process as the run
 #: summary's ``process_wall_s`` counts it (the interpreter's own start-up and ``import
 #: shipradar`` come before, about 0.03-0.1 s that this clock cannot see).
@@ -37,7 +39,7 @@ if TYPE_CHECKING:
 EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
 
 
-class BadInput(Exception):
+class BadInput(Exception, BadInputError):
     """Bad command-line input: one message line per problem."""
 
 
@@ -893,33 +895,6 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-#: The errors of the commands' modules that mean bad input (exit 2), by module and name.
-_BAD_INPUT_ERRORS = (
-    ("shipradar.sim.stream.bus", "EndpointError"),
-    ("shipradar.sim.stream.recording", "RecordingError"),
-    ("shipradar.sim.stream.recording", "RecordingExistsError"),
-    ("shipradar.sim.adapters.asterix.encode", "AsterixError"),
-    ("shipradar.sim.stream.security", "CurveKeyError"),
-    ("shipradar.tables.budget", "MemoryBudgetError"),
-    ("shipradar.tables.budget", "BuildTimeError"),
-)
-#: The errors that mean a subscriber or publisher let the command down (exit 1).
-_PEER_ERRORS = (
-    ("shipradar.sim.stream.bus", "SubscriberTimeoutError"),
-    ("shipradar.sim.stream.bus", "PublisherStalledError"),
-)
-
-
-def _imported(errors: tuple[tuple[str, str], ...]) -> tuple[type[BaseException], ...]:
-    """The error classes of those modules that are imported.
-
-    An exception's class is imported when it is raised, so an error is recognised without
-    importing every command's modules up front (a run without ``--asterix`` never loads the
-    ASTERIX adapter).
-    """
-    return tuple(getattr(sys.modules[m], name) for m, name in errors if m in sys.modules)
-
-
 def _objects_so_far_kept() -> None:
     """Move every object made so far out of the garbage collector's sight, and turn it on.
 
@@ -985,10 +960,12 @@ def main(argv: list[str] | None = None) -> int:
         print("interrupted", file=sys.stderr)
         return 130
     except Exception as exc:
-        if isinstance(exc, (BadInput, *_imported(_BAD_INPUT_ERRORS))):
+        # marked by their classes (shipradar.sim.world.errors): the commands' modules are
+        # imported only when a command uses them, so they cannot be listed here
+        if isinstance(exc, BadInputError):
             print(str(exc), file=sys.stderr)
             return EXIT_BAD_INPUT
-        if isinstance(exc, _imported(_PEER_ERRORS)):
+        if isinstance(exc, PeerError):
             print(str(exc), file=sys.stderr)
             return EXIT_FAILURE
         raise

@@ -20,6 +20,7 @@ import math
 import os
 from dataclasses import dataclass, replace
 
+from shipradar.sim.world.errors import BadInputError
 from shipradar.sim.world.scenario import Scenario
 
 __all__ = [
@@ -50,7 +51,7 @@ _PE_BYTES_PER_CELL = 4 + 4 + 1
 _CLUTTER_BYTES_PER_CELL = 2 * 8 * 8
 
 
-class MemoryBudgetError(ValueError):
+class MemoryBudgetError(ValueError, BadInputError):
     """The scene's tables would not fit in the memory budget (one line, field and size)."""
 
 
@@ -223,7 +224,7 @@ COST = {
 }
 
 
-class BuildTimeError(ValueError):
+class BuildTimeError(ValueError, BadInputError):
     """The scene's missing tables would take longer than the limit (one line)."""
 
 

@@ -22,6 +22,7 @@ if TYPE_CHECKING:
 
 from shipradar.sim.stream.protocol import MAX_BODY_BYTES, ProtocolError, decode, encode, to_jsonable
 from shipradar.sim.stream.recording import Recorder, read_recording
+from shipradar.sim.world.errors import BadInputError, PeerError
 
 __all__ = [
     "DEFAULT_LINGER_MS",
@@ -52,15 +53,15 @@ _ON_SLOW = ("pace", "drop")
 _DRAIN_EVERY = 64
 
 
-class EndpointError(ValueError):
+class EndpointError(ValueError, BadInputError):
     """An endpoint the publisher refuses to bind."""
 
 
-class SubscriberTimeoutError(TimeoutError):
+class SubscriberTimeoutError(TimeoutError, PeerError):
     """The expected subscribers did not all subscribe in time."""
 
 
-class PublisherStalledError(TimeoutError):
+class PublisherStalledError(TimeoutError, PeerError):
     """In pace mode, a subscriber stopped reading for longer than the stall timeout."""
 
 

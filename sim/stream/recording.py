@@ -40,6 +40,7 @@ from typing import Any, BinaryIO
 
 from shipradar import _frames
 from shipradar.sim.stream.protocol import MAX_BODY_BYTES, SCHEMA_VERSION
+from shipradar.sim.world.errors import BadInputError
 
 __all__ = [
     "COMPRESSIONS",
@@ -93,11 +94,11 @@ _FRAME_LEN = struct.Struct("<I")
 _RECORD_HEAD_2 = struct.Struct("<dHI")  # t_sim, frame count 2, length of the first frame
 
 
-class RecordingError(ValueError):
+class RecordingError(ValueError, BadInputError):
     """A file that is not a readable shipradar recording (wrong magic, version, corruption)."""
 
 
-class RecordingExistsError(FileExistsError):
+class RecordingExistsError(FileExistsError, BadInputError):
     """The recording file exists and overwriting was not asked for."""
 
 

@@ -21,6 +21,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from shipradar.sim.world.errors import BadInputError
+
 __all__ = [
     "MAX_KEY_FILE_BYTES",
     "CurveClient",
@@ -39,7 +41,7 @@ MAX_AUTHORIZED_KEYS: int = 10_000
 _Z85_KEY_LEN = 40
 
 
-class CurveKeyError(ValueError):
+class CurveKeyError(ValueError, BadInputError):
     """A key file or key directory that cannot be used (message names the option and file)."""
 
 

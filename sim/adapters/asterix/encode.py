@@ -30,6 +30,8 @@ from typing import Any
 
 import numpy as np
 
+from shipradar.sim.world.errors import BadInputError
+
 __all__ = [
     "CAT034",
     "CAT048",
@@ -100,7 +102,7 @@ MSG_NORTH_MARKER, MSG_SECTOR_CROSSING = 1, 2
 _CROSSINGS_IN_PYTHON = 64
 
 
-class AsterixError(ValueError):
+class AsterixError(ValueError, BadInputError):
     """A value that the ASTERIX item cannot carry (refused, never wrapped or clipped)."""
 
 
