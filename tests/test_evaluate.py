@@ -340,7 +340,7 @@ def test_study_cli_rescore_compare_determinism(tmp_path):
 
     oracle = f"{PY} {shlex.quote(str(TRACKERS))} oracle {{plots}} {{tracks}}"
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
-                      dashboard_address=None) as cluster, Client(cluster) as client:
+                      dashboard_address=":0") as cluster, Client(cluster) as client:
         a = run_study(DEMO, oracle, runs=2, out=tmp_path / "a", seed=3, duration_s=5.0,
                       client=client)
         b = run_study(DEMO, oracle + " --shift-m 40", runs=2, out=tmp_path / "b", seed=3,

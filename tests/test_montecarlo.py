@@ -86,7 +86,7 @@ def studies(tmp_path_factory):
     base = tmp_path_factory.mktemp("mc")
     out = {}
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                      dashboard_address=None) as cluster, Client(cluster) as client:
+                      dashboard_address=":0") as cluster, Client(cluster) as client:
         for name, seed, runs, duration in (("a", None, RUNS, None), ("b", None, RUNS, None),
                                            ("c", 12345, 4, None)):
             out[name] = mc.run_study(sc, runs, seed=seed, out=base / name / "study.csv",
@@ -226,7 +226,7 @@ def test_cli_existing_scheduler(tmp_path, capsys):
     from distributed import Client, LocalCluster
 
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
-                      dashboard_address=None) as cluster:
+                      dashboard_address=":0") as cluster:
         out = tmp_path / "remote.csv"
         assert mc.cli_main([str(ROOT / "scenarios" / "single_missile.yaml"), "--runs", "2",
                             "--duration", "5", "--out", str(out), "--no-progress",

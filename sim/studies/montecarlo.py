@@ -436,7 +436,9 @@ def _run_replications(scenario, seeds: list[int], base_seed: int, duration_s: fl
             if scheduler is None:
                 cluster = LocalCluster(n_workers=n_workers or os.cpu_count() or 1,
                                        threads_per_worker=1, processes=True,
-                                       dashboard_address=None)
+                                       # a free port: None still binds 8787, and warns
+                                       # when another study holds it
+                                       dashboard_address=":0")
                 own_client = client = Client(cluster)
             else:
                 own_client = client = Client(scheduler)

@@ -146,7 +146,9 @@ def run_study(scenario: str, tracker: str, *, runs: int, out: str | Path,
             if scheduler is None:
                 cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1,
                                        threads_per_worker=1, processes=True,
-                                       dashboard_address=None)
+                                       # a free port: None still binds 8787, and warns
+                                       # when another study holds it
+                                       dashboard_address=":0")
                 own = client = Client(cluster)
             else:
                 own = client = Client(scheduler)
