@@ -11,7 +11,13 @@
   ``--after`` tracks messages;
 - ``malformed``: publishes, at every end of scan, one message lacking ``track_id``, one
   that is not msgpack, then a valid oracle message;
-- ``never``: sleeps without subscribing (until the harness stops it).
+- ``never``: sleeps without subscribing (until the harness stops it);
+- ``asterix``: ASTERIX only, ``python tests/evaluate_trackers.py asterix {asterix} {tracks}
+  --tod0 S``: decodes the UDP datagrams with asterix-decoder (PyPI, not ours) and, at each
+  CAT034 north marker, publishes the revolution's CAT048 plots as tracks, placed by I042 (x,
+  y from the radar [NM]) plus the radar's CAT034 I120 position relative to its first report
+  (flat earth: the ship starts at the origin); ``time_s`` = the marker's time of day minus
+  ``--tod0``, the scenario's start.
 """
 
 from __future__ import annotations
@@ -31,15 +37,19 @@ from shipradar.sim.stream.protocol import decode, encode  # noqa: E402
 
 def main() -> int:
     ap = argparse.ArgumentParser()
-    ap.add_argument("mode", choices=("oracle", "silent", "crash", "malformed", "never"))
-    ap.add_argument("plots")
+    ap.add_argument("mode", choices=("oracle", "silent", "crash", "malformed", "never",
+                                     "asterix"))
+    ap.add_argument("plots", help="the plots endpoint; for asterix, the UDP destination")
     ap.add_argument("tracks")
     ap.add_argument("--shift-m", type=float, default=0.0)
     ap.add_argument("--after", type=int, default=3)
+    ap.add_argument("--tod0", type=float, default=0.0)
     a = ap.parse_args()
     if a.mode == "never":
         time.sleep(3600)
         return 0
+    if a.mode == "asterix":
+        return asterix_tracker(a.plots, a.tracks, a.tod0)
     ctx = zmq.Context()
     pub = ctx.socket(zmq.PUB)
     pub.setsockopt(zmq.SNDHWM, 0)
@@ -82,6 +92,54 @@ def main() -> int:
             if a.mode == "crash" and sent >= a.after:
                 print("evaluate_trackers: crashing on purpose", file=sys.stderr, flush=True)
                 return 3
+
+
+NM = 1852.0
+
+
+def asterix_tracker(destination: str, tracks_endpoint: str, tod0: float) -> int:
+    import math
+    import socket
+
+    import asterix  # asterix-decoder (PyPI)
+
+    host, port = destination.removeprefix("udp://").rsplit(":", 1)
+    udp = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    udp.bind((host, int(port)))  # before {tracks}: the harness starts the run once it is bound
+    udp.settimeout(20.0)
+    pub = zmq.Context().socket(zmq.PUB)
+    pub.setsockopt(zmq.SNDHWM, 0)
+    pub.bind(tracks_endpoint)
+    ref = None
+    radar = (0.0, 0.0)
+    east: list[float] = []
+    north: list[float] = []
+    scan = 0
+    while True:
+        try:
+            datagram = udp.recv(65536)
+        except TimeoutError:
+            return 0
+        for r in asterix.parse(datagram):
+            if r["category"] == 48:
+                east.append(radar[0] + r["I042"]["X"]["val"] * NM)
+                north.append(radar[1] + r["I042"]["Y"]["val"] * NM)
+            elif r["I000"]["MsgTyp"]["val"] == 1:  # north marker: the revolution is complete
+                p = r["I120"]
+                lat, lon = p["LAT"]["val"], p["Lon"]["val"]
+                ref = ref or (lat, lon)
+                radar = ((lon - ref[1]) * 111_320.0 * math.cos(math.radians(lat)),
+                         (lat - ref[0]) * 111_132.0)
+                t = r["I030"]["ToD"]["val"] - tod0
+                n = len(east)
+                tracks = {"sensor": "asterix", "scan": scan, "time_s": t,
+                          "track_id": [f"P{scan}.{j}" for j in range(n)],
+                          "east_m": np.array(east), "north_m": np.array(north),
+                          "v_east_mps": np.zeros(n), "v_north_mps": np.zeros(n),
+                          "sigma_east_m": np.full(n, 100.0), "sigma_north_m": np.full(n, 100.0)}
+                pub.send_multipart(encode(b"tracks", t, tracks))
+                east, north = [], []
+                scan += 1
 
 
 if __name__ == "__main__":

@@ -329,6 +329,28 @@ def test_harness_malformed_tracks_counted_not_trusted(tmp_path):
     assert s.run["gospa"] == 0.0 and s.run["tracks_messages"] == 6
 
 
+def test_harness_asterix_only_tracker(tmp_path):
+    """A tracker fed by ASTERIX alone, decoded by asterix-decoder (PyPI, not ours): the
+    harness sends CAT048/034 to ``{asterix}``, starts the run once ``{tracks}`` is bound and
+    scores what comes back. Its tracks are the plots, placed from I042 and the radar's
+    CAT034 position, with new ids each scan (so SIAP associates none): GOSPA assigns the
+    missile's plot to it once it is detected (frame, units and times right), and charges the
+    ~40 clutter plots a scan as false."""
+    from shipradar.sim.studies.evaluate.runner import RunSpec
+
+    noon = 12 * 3600.0  # the demo's start_time, 12:00:00 UTC
+    cmd = (f"{PY} {shlex.quote(str(TRACKERS))} asterix {{asterix}} {{tracks}} "
+           f"--tod0 {noon}")
+    info, s = _run_and_score(RunSpec(DEMO, 7, str(tmp_path / "asterix"), cmd))
+    assert info["status"] == "ok", info
+    assert s.run["malformed_by_reason"] == {}
+    assert s.run["tracks_messages"] >= s.run["scans"] - 1 > 100
+    # a silent tracker's missed part is c/2 = 1000 m a scan (one missile, counted from t = 1 s)
+    assert s.run["missed"] < 500.0  # the missile is detected at about a third of the run
+    assert 0.0 < s.run["localisation"] < 400.0  # a plot's error and < 1 s of flight, per scan
+    assert s.run["false"] > 20 * 1000.0  # the clutter false alarms, c/2 each
+
+
 # ------------------------------------------------------------------ studies on Dask, CLI
 @pytest.mark.slow
 def test_study_cli_rescore_compare_determinism(tmp_path):
