@@ -4,6 +4,7 @@ do not change during a run, shared by the on-line dwell model and the table buil
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -140,12 +141,23 @@ def false_alarm_probability(radar: Radar) -> float:
     :func:`shipradar.sensors.detection.pfa_from_false_alarm_time` over the reported decisions
     (N_ch channels in the range gates inside the instrumented range): the one P_fa that the
     dwell model, the P_fac map and the P_d table all use. The schema refuses a t_fa that
-    would make it 1 or more.
+    would make it 1 or more.  Computed once per process and set of the six numbers it
+    depends on (~50 us of numpy a call, at every run's construction).
     """
+    return _false_alarm_probability(
+        radar.false_alarm_time_s, radar.beamwidth_az_deg, radar.scan_period_s, radar.prf_hz,
+        radar.pulse_width_s, radar.n_channels, radar.instrumented_range_m)
+
+
+@functools.lru_cache(maxsize=64)
+def _false_alarm_probability(t_fa_s: float, beamwidth_az_deg: float, scan_period_s: float,
+                             prf_hz: float, pulse_width_s: float, n_channels: int,
+                             instrumented_range_m: float) -> float:
+    """:func:`false_alarm_probability` of these radar fields: a pure function of them (the
+    cache key is the values, not the radar object)."""
     return float(detection.pfa_from_false_alarm_time(
-        radar.false_alarm_time_s, math.radians(radar.beamwidth_az_deg), radar.scan_period_s,
-        radar.prf_hz, radar.pulse_width_s, n_channels=radar.n_channels,
-        instrumented_range_m=radar.instrumented_range_m))
+        t_fa_s, math.radians(beamwidth_az_deg), scan_period_s, prf_hz, pulse_width_s,
+        n_channels=n_channels, instrumented_range_m=instrumented_range_m))
 
 
 def pulses_per_beamwidth(radar: Radar) -> float:

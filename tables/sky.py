@@ -12,6 +12,7 @@ that finds them never imports itur.
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Any
 
@@ -42,11 +43,30 @@ RAIN_SECOND_NODE_ABOVE_MM_H = 1.0
 _READ: dict[Path, tuple[tuple[int, int, int], Table]] = {}
 
 
+#: The cache paths of the tables asked for in this process, by their inputs and what decides
+#: the cache directory (:func:`shipradar.tables.store.cache_dir`'s environment variables): the
+#: inputs' hash and the directory (~15 us a call) once, not at every run's construction.
+_PATHS: dict[tuple[Any, ...], Path] = {}
+
+
+def _table_path(name: str, version: int, inputs: dict[str, Any]) -> Path:
+    """``cache_path(name, inputs_hash(name, version, inputs))``, remembered per process."""
+    env = os.environ
+    key = (name, version, tuple(inputs.items()), env.get("SHIPRADAR_TABLES"),
+           env.get("XDG_CACHE_HOME"), env.get("HOME"))
+    path = _PATHS.get(key)
+    if path is None:
+        if len(_PATHS) >= 256:  # a study's many scenes: start again rather than grow
+            _PATHS.clear()
+        path = _PATHS[key] = cache_path(name, inputs_hash(name, version, inputs))
+    return path
+
+
 def _read_cached(inputs: dict[str, Any], name: str = TABLE_NAME,
                  version: int = TABLE_VERSION) -> Table | None:
     """The cached table of these inputs (None: not in the cache, or damaged: then warned
     about by :func:`load_cached`), read once per process and file version."""
-    path = cache_path(name, inputs_hash(name, version, inputs))
+    path = _table_path(name, version, inputs)
     try:
         st = path.stat()
     except OSError:
