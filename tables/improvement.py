@@ -531,6 +531,25 @@ def improvement_factor_db(
     s, d = np.broadcast_arrays(np.asarray(spread_norm, float), np.asarray(doppler_norm, float))
     if table is None:
         return np.where(np.isnan(s) | np.isnan(d), np.nan, 0.0)
+    return _read_cells(table, _cells(table, s, d), array)
+
+
+def improvement_and_gain_db(
+    table: Table | None, spread_norm: ArrayLike, doppler_norm: ArrayLike, array: str
+) -> tuple[NDArray, NDArray]:
+    """``(improvement_factor_db(table, s, d), improvement_factor_db(table, s, d, array=array))``
+    with the cells of the points located once: the same numbers as the two calls."""
+    s, d = np.broadcast_arrays(np.asarray(spread_norm, float), np.asarray(doppler_norm, float))
+    if table is None:
+        none = np.where(np.isnan(s) | np.isnan(d), np.nan, 0.0)
+        return none, none.copy()
+    cells = _cells(table, s, d)
+    return _read_cells(table, cells, None), _read_cells(table, cells, array)
+
+
+def _cells(table: Table, s: NDArray, d: NDArray) -> tuple[NDArray, ...]:
+    """Where :func:`improvement_factor_db` reads the points ``(s, d)`` (broadcast): valid
+    mask, Doppler, cell indices and fractions ``(ok, d, i, j, tx, ty)``."""
     if np.any(s < 0):
         raise ValueError("spread_norm must be >= 0")
     ax_s, ax_d = table.axes
@@ -543,8 +562,12 @@ def improvement_factor_db(
     y = np.clip(y, 0.0, len(ax_d) - 1)
     i = np.minimum(x.astype(np.intp), len(ax_s) - 2)
     j = np.minimum(y.astype(np.intp), len(ax_d) - 2)
-    tx = x - i
-    ty = y - j
+    return ok, d, i, j, x - i, y - j
+
+
+def _read_cells(table: Table, cells: tuple[NDArray, ...], array: str | None) -> NDArray:
+    """:func:`improvement_factor_db` at the points located by :func:`_cells`."""
+    ok, d, i, j, tx, ty = cells
     if array is None:
         # follow the filter picked at the cell's left node up to the crossover, then the one
         # picked at its right node: the jump is placed where the responses cross

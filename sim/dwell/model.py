@@ -717,14 +717,14 @@ class DwellModel:
         mean = np.where(sea_dom, mean_sc, mean_wc)
         spread = np.where(sea_dom, spread_sc, spread_wc)
         relative = self.target_doppler_hz(geom, platform_vel) - mean
-        from shipradar.tables.improvement import improvement_factor_db
+        from shipradar.tables.improvement import improvement_and_gain_db
 
         prf = self.radar.prf_hz
-        i_f_db = improvement_factor_db(self.tables.improvement, spread / prf, relative / prf)
-        # the same filter's gain against white noise: what thermal noise gets through the
-        # processor while the clutter filters are on (the I_F table's sigma -> inf limit)
-        cg_db = improvement_factor_db(self.tables.improvement, spread / prf, relative / prf,
-                                      array="coherent_gain_db")
+        # I_F, and the same filter's gain against white noise: what thermal noise gets
+        # through the processor while the clutter filters are on (the I_F table's
+        # sigma -> inf limit); both read at the same cells, located once
+        i_f_db, cg_db = improvement_and_gain_db(self.tables.improvement, spread / prf,
+                                                relative / prf, "coherent_gain_db")
         l_d = np.ones(n)
         if self._sea_reader is not None and self.high_resolution:
             d_mm = sea_clutter.median_mean_difference_db(a)
