@@ -141,7 +141,7 @@ def false_alarm_probability(radar: Radar) -> float:
     :func:`shipradar.sensors.detection.pfa_from_false_alarm_time` over the reported decisions
     (N_ch channels in the range gates inside the instrumented range): the one P_fa that the
     dwell model, the P_fac map and the P_d table all use. The schema refuses a t_fa that
-    would make it 1 or more.  Computed once per process and set of the six numbers it
+    would make it 1 or more.  Computed once per process and set of the seven numbers it
     depends on (~50 us of numpy a call, at every run's construction).
     """
     return _false_alarm_probability(
