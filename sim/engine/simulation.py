@@ -379,6 +379,14 @@ class _Clock(Protocol):
     def timeout(self, delay: float, /) -> Any: ...
 
 
+def _is_plain_bus(bus: Any) -> bool:
+    """True for the stream's own :class:`shipradar.sim.stream.bus.Bus` (recording and/or
+    publisher; not a subclass, an in-process sink or a test double)."""
+    from shipradar.sim.stream.bus import Bus
+
+    return type(bus) is Bus
+
+
 class _FastClock:
     """What :meth:`_RadarProcess.run` asks of a SimPy environment (``now``, ``timeout``),
     for :meth:`Simulation._run_batched`: a timeout is its delay, the loop does the rest."""
@@ -650,9 +658,11 @@ class _RadarProcess:
         only at the end of every revolution, its sectors' messages sent in order at that
         resumption: for a radar that runs alone on the batched path
         (:meth:`Simulation._run_batched`), where the resumptions order nothing but its own
-        messages, and every message carries its own time.  Alone under SimPy (a publisher,
-        a wall clock), it resumes at the end of every sector that sends a message and of
-        every revolution: its messages leave at the same simulated (and wall) times."""
+        messages, and every message carries its own time; likewise alone in fast mode with
+        the stream's own bus (a publisher: nothing reads the clock between its messages).
+        Alone under a wall clock or with another sink, it resumes at the end of every sector
+        that sends a message and of every revolution: its messages leave at the same
+        simulated (and wall) times."""
         sim = self.sim
         sim.active_radar = self.index
         resumes = self.resume_times
@@ -665,6 +675,13 @@ class _RadarProcess:
         # (a worker of a parallel run keeps every one: its resumption times order the
         # radars' messages in the parent)
         alone = len(sim.radars) == 1 and resumes is None
+        if per_sector and alone and not sim.realtime and _is_plain_bus(sim.bus):
+            # alone in fast mode, with the stream's own bus (a publisher): nothing reads the
+            # clock between its messages (no wall clock, no in-process sink, no other
+            # process's messages to interleave), and each message carries its own time, so
+            # the revolution's messages leave in order at its end, as on the batched path
+            # (the block's messages are made at once before any leaves, either way)
+            per_sector = False
         k = 0  # sectors since the start: sector k is [k, k + 1) sector_s
         for scan in itertools.count():
             if k * sector_s >= duration:
@@ -1095,6 +1112,16 @@ class _RadarProcess:
             times[::2] = times[1::2] = rev.times[:count]
             bodies[::2], bodies[1::2] = rev.plots[:count], rev.truth[:count]
             bus.pending += zip(times, zip(_SECTOR_TOPICS * count, bodies, strict=True), strict=True)
+            return
+        frames = self._bus_caps()[0] if rev.encoded else None
+        if frames is not None:  # _send_sector's frames path, the bus's emit_frames resolved once
+            emit, plots_topic, truth_topic = frames.emit_frames, protocol.TOPIC_PLOTS, \
+                protocol.TOPIC_TRUTH
+            for j in range(count):
+                self.plot_counter += rev.rows[j]
+                t_b = rev.times[j]
+                emit(t_b, [plots_topic, rev.plots[j]])
+                emit(t_b, [truth_topic, rev.truth[j]])
             return
         for j in range(count):
             self._send_sector(rev.times[j], rev.rows[j], rev.plots[j], rev.truth[j])
