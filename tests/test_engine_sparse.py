@@ -1,6 +1,8 @@
-"""A radar alone under SimPy's loop (a publisher: live subscribers see each sector as it is
-made) resumes only at the ends of the sectors that send a message and of its revolutions: the
-publisher gets the recording's frames, in the same order, and the counts are the same."""
+"""A radar alone under SimPy's loop resumes only where it has something to send: at the ends of
+the sectors that send a message and of its revolutions (a wall clock, in-process sinks), or,
+in fast mode with the stream's own Bus (a publisher), at the ends of its revolutions
+(tests/test_engine_lone_publisher.py); either way the publisher gets the recording's frames,
+in the same order, and the counts are the same."""
 
 from __future__ import annotations
 

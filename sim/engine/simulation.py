@@ -240,8 +240,9 @@ class Simulation:
         mode (no ``realtime``) and nothing live downstream, i.e. no bus, or a bus that accepts
         a scan's messages at once (:func:`shipradar.sim.stream.sink.takes_batches`: a
         :class:`shipradar.sim.stream.bus.Bus` without a publisher, recording only).  A
-        publisher (a live subscriber sees each sector as it is made), the ASTERIX bus,
-        in-process sinks, test doubles and the wall-clock modes keep SimPy's event loop."""
+        publisher (a live subscriber gets each message as it leaves: per sector, or for a
+        radar alone in fast mode per revolution), the ASTERIX bus, in-process sinks, test
+        doubles and the wall-clock modes keep SimPy's event loop."""
         if self.realtime:
             return False
         return self.bus is None or takes_batches(self.bus)
