@@ -153,3 +153,21 @@ def random_clutter_generator(eta, rng, clutter_fa_model: str = "seed"):
         rng.uniform(0.5, 4.0, n), threshold_ratio=12.0, n_channels=2, n_pulses=10.0,
         range_cell_m=30.0, beamwidth_rad=0.03, antenna_height_m=25.0,
         clutter_fa_model=clutter_fa_model)
+
+
+class KeepingPublisher:
+    """What :class:`shipradar.sim.stream.bus.Bus` needs of a publisher, keeping every
+    (topic, body) it is sent."""
+
+    def __init__(self):
+        self.sent = []
+
+    def send(self, frames):
+        self.sent.append((bytes(frames[0]), bytes(frames[1])))
+
+    def close(self, linger_ms=0):
+        pass
+
+    @property
+    def stats(self):
+        return {}

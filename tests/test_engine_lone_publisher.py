@@ -12,24 +12,7 @@ from shipradar.sim.engine.simulation import Simulation
 from shipradar.sim.stream.bus import Bus
 from shipradar.sim.stream.recording import Recorder, read_recording
 from shipradar.sim.world.scenario import load_scenario
-from tests.helpers import ROOT
-
-
-class _Frames:
-    """A publisher that keeps what it is sent."""
-
-    def __init__(self):
-        self.sent = []
-
-    def send(self, frames):
-        self.sent.append((bytes(frames[0]), bytes(frames[1])))
-
-    def close(self, linger_ms=0):
-        pass
-
-    @property
-    def stats(self):
-        return {}
+from tests.helpers import ROOT, KeepingPublisher
 
 
 def _count_resumptions(monkeypatch):
@@ -63,7 +46,7 @@ def test_a_lone_publisher_radar_resumes_per_revolution_with_the_recordings_frame
     with read_recording(path) as reader:
         recorded = [(bytes(frames[0]), bytes(frames[1])) for _, frames in reader]
     seen = _count_resumptions(monkeypatch)
-    pub = _Frames()
+    pub = KeepingPublisher()
     live = Simulation(s, bus=Bus(publisher=pub), duration_s=duration,  # type: ignore[arg-type]
                       seed=5)
     assert not live.batched

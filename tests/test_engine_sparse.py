@@ -12,30 +12,13 @@ from shipradar.sim.engine.simulation import Simulation
 from shipradar.sim.stream.bus import Bus
 from shipradar.sim.stream.recording import Recorder, read_recording
 from shipradar.sim.world.scenario import load_scenario
-from tests.helpers import ROOT
-
-
-class _Frames:
-    """A publisher that keeps what it is sent."""
-
-    def __init__(self):
-        self.sent = []
-
-    def send(self, frames):
-        self.sent.append((bytes(frames[0]), bytes(frames[1])))
-
-    def close(self, linger_ms=0):
-        pass
-
-    @property
-    def stats(self):
-        return {}
+from tests.helpers import ROOT, KeepingPublisher
 
 
 @pytest.mark.parametrize("duration", [13.7, 12.0])
 def test_a_radar_alone_under_simpy_publishes_the_recordings_frames(tmp_path, duration):
     s = load_scenario(ROOT / "scenarios/single_missile.yaml")
-    pub = _Frames()
+    pub = KeepingPublisher()
     live = Simulation(s, bus=Bus(publisher=pub), duration_s=duration,  # type: ignore[arg-type]
                       seed=3)
     assert not live.batched and len(live.radars) == 1
