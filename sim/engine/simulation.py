@@ -655,9 +655,10 @@ class _RadarProcess:
 
     # ------------------------------------------------------------------ process
     def run(self, env: _Clock, per_sector: bool = True) -> Generator[Any, Any, None]:
-        """The radar's process: it resumes at the end of every sector (``per_sector``), or
-        only at the end of every revolution, its sectors' messages sent in order at that
-        resumption: for a radar that runs alone on the batched path
+        """The radar's process, one revolution after another: it resumes at the end of every
+        sector (``per_sector``, :meth:`_revolution_by_sector`), or only at the end of every
+        revolution, its sectors' messages sent in order at that resumption
+        (:meth:`_revolution_at_once`): for a radar that runs alone on the batched path
         (:meth:`Simulation._run_batched`), where the resumptions order nothing but its own
         messages, and every message carries its own time; likewise alone in fast mode with
         the stream's own bus (a publisher: nothing reads the clock between its messages).
@@ -666,16 +667,14 @@ class _RadarProcess:
         simulated (and wall) times."""
         sim = self.sim
         sim.active_radar = self.index
-        resumes = self.resume_times
-        if resumes is not None:
-            resumes.append(env.now)
+        if self.resume_times is not None:
+            self.resume_times.append(env.now)
         self._emit_meta(0.0, scan=0)
-        n, sector_s, duration, stats = self.n_sectors, self.sector_s, sim.duration, sim.stats
         # alone under SimPy (a publisher, a wall clock), a resumption orders nothing but
         # this radar's own messages: the end of a sector that sends none is not waited for
         # (a worker of a parallel run keeps every one: its resumption times order the
         # radars' messages in the parent)
-        alone = len(sim.radars) == 1 and resumes is None
+        alone = len(sim.radars) == 1 and self.resume_times is None
         if per_sector and alone and not sim.realtime and _is_plain_bus(sim.bus):
             # alone in fast mode, with the stream's own bus (a publisher): nothing reads the
             # clock between its messages (no wall clock, no in-process sink, no other
@@ -685,73 +684,97 @@ class _RadarProcess:
             per_sector = False
         k = 0  # sectors since the start: sector k is [k, k + 1) sector_s
         for scan in itertools.count():
-            if k * sector_s >= duration:
+            if k * self.sector_s >= sim.duration:
                 return
             if scan > 0:
-                self._emit_meta(k * sector_s, scan)
-            if not self._block:
-                self._block = self._compute_block(scan)
-                self._block_frames = self._frame_block() if sim.bus is not None else None
-            rows = self._block.pop(0)
-            rev = self._block_frames.pop(0) if self._block_frames is not None else None
-            if rev is not None and rev.encoded and rev.sectors:
-                ahead = self._bus_caps()[1]
-                if ahead is not None:  # ASTERIX: CAT048 ahead
-                    assert self._block_plots is not None
-                    ahead.plots_ahead(self.radar.id, rev.plots,
-                                      _slice_plots(self._block_plots[1], *rows), rev.starts,
-                                      rev.stops)
-            if not per_sector:
-                # alone: one resumption at the revolution's end (the run's end at the
-                # latest), where its sectors' messages leave in order, each at its own time
-                reached = n
-                t_end = (k + n) * sector_s
-                if t_end >= duration:  # the run ends in this revolution: t_b ≥ duration
-                    reached = next(s for s in range(1, n + 1) if (k + s) * sector_s >= duration)
-                    t_end = duration
-                yield env.timeout(t_end - env.now)
-                if rev is not None:
-                    self._send_sectors(rev, bisect.bisect_left(rev.sectors, reached))
-                stats.sectors += reached
-                k += reached
-                self._end_of_scan(t_end, scan)
-                continue
-            i = 0  # the revolution's next message
-            # its frames straight to a bus that takes them (what _send_sector does, without
-            # its checks per sector); the batched path's list through _send_sector
-            emit = None
-            if rev is not None and rev.encoded and type(sim.bus) is not _BatchingBus:
-                frames = self._bus_caps()[0]
-                emit = frames.emit_frames if frames is not None else None
-            plots_topic, truth_topic = protocol.TOPIC_PLOTS, protocol.TOPIC_TRUTH
-            for sector in range(n):
-                t_a = k * sector_s
-                if t_a >= duration:
-                    return
-                t_b = (k + 1) * sector_s
-                if t_b > duration:
-                    t_b = duration
-                if alone and t_b < duration and sector < n - 1 and (
-                        rev is None or i >= len(rev.sectors) or rev.sectors[i] != sector):
-                    stats.sectors += 1  # nothing to send: its end is not waited for
-                    k += 1
-                    continue
-                yield env.timeout(t_b - env.now)
-                sim.active_radar = self.index
-                if resumes is not None:
-                    resumes.append(env.now)
-                if rev is not None and i < len(rev.sectors) and rev.sectors[i] == sector:
-                    if emit is not None:
-                        self.plot_counter += rev.rows[i]
-                        emit(t_b, [plots_topic, rev.plots[i]])
-                        emit(t_b, [truth_topic, rev.truth[i]])
-                    else:
-                        self._send_sector(t_b, rev.rows[i], rev.plots[i], rev.truth[i])
-                    i += 1
-                stats.sectors += 1
+                self._emit_meta(k * self.sector_s, scan)
+            rev = self._next_revolution(scan)
+            if per_sector:
+                k = yield from self._revolution_by_sector(env, scan, k, rev, alone)
+            else:
+                k = yield from self._revolution_at_once(env, scan, k, rev)
+
+    def _next_revolution(self, scan: int) -> _Revolution | None:
+        """Revolution ``scan``'s messages, from the current block (the next block computed
+        and framed when this one is used up; None without a bus); its CAT048 handed to an
+        ASTERIX bus ahead."""
+        sim = self.sim
+        if not self._block:
+            self._block = self._compute_block(scan)
+            self._block_frames = self._frame_block() if sim.bus is not None else None
+        rows = self._block.pop(0)
+        rev = self._block_frames.pop(0) if self._block_frames is not None else None
+        if rev is not None and rev.encoded and rev.sectors:
+            ahead = self._bus_caps()[1]
+            if ahead is not None:  # ASTERIX: CAT048 ahead
+                assert self._block_plots is not None
+                ahead.plots_ahead(self.radar.id, rev.plots,
+                                  _slice_plots(self._block_plots[1], *rows), rev.starts,
+                                  rev.stops)
+        return rev
+
+    def _revolution_at_once(self, env: _Clock, scan: int, k: int, rev: _Revolution | None
+                            ) -> Generator[Any, Any, int]:
+        """One revolution from sector ``k`` on, with one resumption at its end (the run's end
+        at the latest), where its sectors' messages leave in order, each at its own time.
+        Returns the next revolution's first sector."""
+        n, sector_s, duration = self.n_sectors, self.sector_s, self.sim.duration
+        reached = n
+        t_end = (k + n) * sector_s
+        if t_end >= duration:  # the run ends in this revolution: t_b ≥ duration
+            reached = next(s for s in range(1, n + 1) if (k + s) * sector_s >= duration)
+            t_end = duration
+        yield env.timeout(t_end - env.now)
+        if rev is not None:
+            self._send_sectors(rev, bisect.bisect_left(rev.sectors, reached))
+        self.sim.stats.sectors += reached
+        self._end_of_scan(t_end, scan)
+        return k + reached
+
+    def _revolution_by_sector(self, env: _Clock, scan: int, k: int, rev: _Revolution | None,
+                              alone: bool) -> Generator[Any, Any, int]:
+        """One revolution from sector ``k`` on, resuming at the end of each sector (``alone``:
+        of each sector that sends a message, and of the revolution), where that sector's
+        messages leave.  Returns the next revolution's first sector."""
+        sim = self.sim
+        n, sector_s, duration, stats = self.n_sectors, self.sector_s, sim.duration, sim.stats
+        resumes = self.resume_times
+        i = 0  # the revolution's next message
+        # its frames straight to a bus that takes them (what _send_sector does, without
+        # its checks per sector); the batched path's list through _send_sector
+        emit = None
+        if rev is not None and rev.encoded and type(sim.bus) is not _BatchingBus:
+            frames = self._bus_caps()[0]
+            emit = frames.emit_frames if frames is not None else None
+        plots_topic, truth_topic = protocol.TOPIC_PLOTS, protocol.TOPIC_TRUTH
+        for sector in range(n):
+            if k * sector_s >= duration:
+                break
+            t_b = (k + 1) * sector_s
+            if t_b > duration:
+                t_b = duration
+            if alone and t_b < duration and sector < n - 1 and (
+                    rev is None or i >= len(rev.sectors) or rev.sectors[i] != sector):
+                stats.sectors += 1  # nothing to send: its end is not waited for
                 k += 1
-                if sector == n - 1 or t_b >= duration:
-                    self._end_of_scan(t_b, scan)
+                continue
+            yield env.timeout(t_b - env.now)
+            sim.active_radar = self.index
+            if resumes is not None:
+                resumes.append(env.now)
+            if rev is not None and i < len(rev.sectors) and rev.sectors[i] == sector:
+                if emit is not None:
+                    self.plot_counter += rev.rows[i]
+                    emit(t_b, [plots_topic, rev.plots[i]])
+                    emit(t_b, [truth_topic, rev.truth[i]])
+                else:
+                    self._send_sector(t_b, rev.rows[i], rev.plots[i], rev.truth[i])
+                i += 1
+            stats.sectors += 1
+            k += 1
+            if sector == n - 1 or t_b >= duration:
+                self._end_of_scan(t_b, scan)
+        return k
 
     @functools.cached_property
     def _clutter_fa_meta(self) -> dict:
