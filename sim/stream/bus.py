@@ -14,7 +14,6 @@ import sys
 import time
 from collections import Counter
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from types import TracebackType
 from typing import TYPE_CHECKING, Any, TextIO
 
 if TYPE_CHECKING:
@@ -22,6 +21,7 @@ if TYPE_CHECKING:
 
 from shipradar.sim.stream.protocol import MAX_BODY_BYTES, ProtocolError, decode, encode, to_jsonable
 from shipradar.sim.stream.recording import Recorder, read_recording
+from shipradar.sim.stream.sink import Closing
 from shipradar.sim.world.errors import BadInputError, PeerError
 
 __all__ = [
@@ -140,7 +140,7 @@ def _topic_str(topic: bytes) -> str:
     return topic.decode("utf-8", "backslashreplace")
 
 
-class Publisher:
+class Publisher(Closing):
     """ZeroMQ publisher of encoded messages, with subscriber counting and no silent loss.
 
     An XPUB socket (``XPUB_VERBOSER``: every subscribe and unsubscribe of every subscriber
@@ -456,19 +456,9 @@ class Publisher:
         if self._own_context:
             self.context.term()
 
-    def __enter__(self) -> Publisher:
-        return self
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        self.close()
 
 
-class Bus:
+class Bus(Closing):
     """Where the engine emits messages: encoded once, recorded and published identically.
 
     Parameters
@@ -616,16 +606,6 @@ class Bus:
             else {"path": str(rec.path), "records": rec.records, "bytes": rec.bytes_written},
         }
 
-    def __enter__(self) -> Bus:
-        return self
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        self.close()
 
 
 def message_json(frames: Sequence[bytes]) -> str:

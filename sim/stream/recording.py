@@ -35,11 +35,11 @@ import zlib
 from collections.abc import Iterator, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from types import TracebackType
 from typing import Any, BinaryIO
 
 from shipradar import _frames
 from shipradar.sim.stream.protocol import MAX_BODY_BYTES, SCHEMA_VERSION
+from shipradar.sim.stream.sink import Closing
 from shipradar.sim.world.errors import BadInputError
 
 __all__ = [
@@ -146,7 +146,7 @@ def _zstd_compressor():
                                     write_checksum=False)
 
 
-class Recorder:
+class Recorder(Closing):
     """Append-only writer of a recording (format 2).
 
     Parameters
@@ -458,16 +458,6 @@ class Recorder:
             os.close(self._fd)
             self._fd = None
 
-    def __enter__(self) -> Recorder:
-        return self
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        self.close()
 
 
 # =========================================================================== reading
@@ -534,7 +524,7 @@ class _Bad(Exception):
     """A candidate record that does not check out (internal to the reader)."""
 
 
-class RecordingReader:
+class RecordingReader(Closing):
     """Iterate the valid records of a recording as ``(t_sim, frames)``.
 
     Parameters
@@ -893,16 +883,6 @@ class RecordingReader:
         """Close the file (idempotent)."""
         self._file.close()
 
-    def __enter__(self) -> RecordingReader:
-        return self
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        self.close()
 
 
 def read_recording(

@@ -22,7 +22,8 @@ takes payloads) is served as a plain :class:`MessageSink`.
 from __future__ import annotations
 
 from collections.abc import Callable, Container, Mapping, Sequence
-from typing import Any, Protocol, TypeGuard, runtime_checkable
+from types import TracebackType
+from typing import Any, Protocol, TypeGuard, TypeVar, runtime_checkable
 
 __all__ = [
     "BatchSink",
@@ -143,3 +144,25 @@ class MemorySink:
     @property
     def stats(self) -> dict[str, Any]:
         return {"messages": len(self.messages)}
+
+
+_Closing = TypeVar("_Closing", bound="Closing")
+
+
+class Closing:
+    """``with obj:`` closes it at the end, however the block ends: for the stream's objects
+    that hold a socket or a file and have a ``close()`` (publisher, bus, recorder, reader)."""
+
+    def close(self) -> None:
+        raise NotImplementedError
+
+    def __enter__(self: _Closing) -> _Closing:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.close()
