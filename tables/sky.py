@@ -12,7 +12,6 @@ that finds them never imports itur.
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 from typing import Any
 
@@ -22,7 +21,7 @@ from shipradar.sensors import noise
 from shipradar.sensors.radar import RadarConstants, radar_constants, sky_temperature_args
 from shipradar.sim.world.scenario import Radar, Scenario
 from shipradar.tables.atmosphere import itur_versions
-from shipradar.tables.store import Table, cache_path, inputs_hash, load_cached
+from shipradar.tables.store import Table, cache_dir, cache_path, inputs_hash, load_cached
 
 #: Table builder name and version (bump on any change of :func:`noise.sky_temperature_k`).
 TABLE_NAME = "sky_temperature"
@@ -43,22 +42,20 @@ RAIN_SECOND_NODE_ABOVE_MM_H = 1.0
 _READ: dict[Path, tuple[tuple[int, int, int], Table]] = {}
 
 
-#: The cache paths of the tables asked for in this process, by their inputs and what decides
-#: the cache directory (:func:`shipradar.tables.store.cache_dir`'s environment variables): the
-#: inputs' hash and the directory (~15 us a call) once, not at every run's construction.
+#: The cache paths of the tables asked for in this process, by their inputs and the cache
+#: directory: the inputs' hash (~15 us) once, not at every run's construction.
 _PATHS: dict[tuple[Any, ...], Path] = {}
 
 
 def _table_path(name: str, version: int, inputs: dict[str, Any]) -> Path:
     """``cache_path(name, inputs_hash(name, version, inputs))``, remembered per process."""
-    env = os.environ
-    key = (name, version, tuple(inputs.items()), env.get("SHIPRADAR_TABLES"),
-           env.get("XDG_CACHE_HOME"), env.get("HOME"))
+    root = cache_dir()
+    key = (name, version, tuple(inputs.items()), root)
     path = _PATHS.get(key)
     if path is None:
         if len(_PATHS) >= 256:  # a study's many scenes: start again rather than grow
             _PATHS.clear()
-        path = _PATHS[key] = cache_path(name, inputs_hash(name, version, inputs))
+        path = _PATHS[key] = cache_path(name, inputs_hash(name, version, inputs), root)
     return path
 
 
