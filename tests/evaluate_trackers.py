@@ -105,6 +105,8 @@ def asterix_tracker(destination: str, tracks_endpoint: str, tod0: float) -> int:
 
     host, port = destination.removeprefix("udp://").rsplit(":", 1)
     udp = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    # the simulator sends in fast mode, unpaced (UDP): room for the whole demo's datagrams
+    udp.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 8 << 20)
     udp.bind((host, int(port)))  # before {tracks}: the harness starts the run once it is bound
     udp.settimeout(20.0)
     pub = zmq.Context().socket(zmq.PUB)

@@ -344,7 +344,8 @@ def test_harness_asterix_only_tracker(tmp_path):
     info, s = _run_and_score(RunSpec(DEMO, 7, str(tmp_path / "asterix"), cmd))
     assert info["status"] == "ok", info
     assert s.run["malformed_by_reason"] == {}
-    assert s.run["tracks_messages"] >= s.run["scans"] - 1 > 100
+    # UDP, unpaced: a loaded machine may drop a few datagrams (north markers among them)
+    assert s.run["tracks_messages"] > 0.8 * s.run["scans"] > 80
     # a silent tracker's missed part is c/2 = 1000 m a scan (one missile, counted from t = 1 s)
     assert s.run["missed"] < 500.0  # the missile is detected at about a third of the run
     assert 0.0 < s.run["localisation"] < 400.0  # a plot's error and < 1 s of flight, per scan
