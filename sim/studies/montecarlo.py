@@ -422,23 +422,29 @@ def _study_tables(scenario, progress: bool) -> tuple[Any, tuple[tuple[str, str, 
     return tables, _table_files(tables, [r.id for _, r in scenario.radars()])
 
 
+def local_cluster(n_workers: int | None) -> Any:
+    """A Dask cluster of ``n_workers`` single-threaded worker processes on this machine (all
+    cores when None or 0), its HTTP server on a free port (``dashboard_address=None`` still
+    binds 8787, and warns when another study holds it); the caller closes it."""
+    from distributed import LocalCluster
+
+    return LocalCluster(n_workers=n_workers or os.cpu_count() or 1, threads_per_worker=1,
+                        processes=True, dashboard_address=":0")
+
+
 def _run_replications(scenario, seeds: list[int], base_seed: int, duration_s: float | None,
                       tables, files, *, scheduler: str | None, n_workers: int | None,
                       client, progress: bool) -> tuple[list[dict], int]:
     """Every replication as a Dask task (:func:`_one_run`) on ``client``, or on a client
     to ``scheduler``, or on a local cluster of ``n_workers`` processes (those two closed
     after); returns the runs' reduced rows in run order and the number of workers."""
-    from distributed import Client, LocalCluster, as_completed
+    from distributed import Client, as_completed
 
     cluster = own_client = None
     try:
         if client is None:
             if scheduler is None:
-                cluster = LocalCluster(n_workers=n_workers or os.cpu_count() or 1,
-                                       threads_per_worker=1, processes=True,
-                                       # a free port: None still binds 8787, and warns
-                                       # when another study holds it
-                                       dashboard_address=":0")
+                cluster = local_cluster(n_workers)
                 own_client = client = Client(cluster)
             else:
                 own_client = client = Client(scheduler)

@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import sys
 import time
 from collections.abc import Sequence
@@ -117,8 +116,9 @@ def run_study(scenario: str, tracker: str, *, runs: int, out: str | Path,
     client : distributed.Client or None
         An open client to use instead.
     """
-    from distributed import Client, LocalCluster, as_completed
+    from distributed import Client, as_completed
 
+    from shipradar.sim.studies.montecarlo import local_cluster
     from shipradar.sim.world.scenario import load_scenario
     from shipradar.tables.scene import load_scene_tables
 
@@ -144,11 +144,7 @@ def run_study(scenario: str, tracker: str, *, runs: int, out: str | Path,
     try:
         if client is None:
             if scheduler is None:
-                cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1,
-                                       threads_per_worker=1, processes=True,
-                                       # a free port: None still binds 8787, and warns
-                                       # when another study holds it
-                                       dashboard_address=":0")
+                cluster = local_cluster(workers)
                 own = client = Client(cluster)
             else:
                 own = client = Client(scheduler)
