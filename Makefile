@@ -10,16 +10,32 @@ ENDPOINT ?= tcp://127.0.0.1:5556
 SERVE_ARGS ?= --realtime 1
 TAIL_ARGS ?=
 
-.PHONY: install demo test check typecheck bench lint clean tables serve tail tshark chromium \
+.PHONY: install lock demo test check typecheck bench lint clean tables serve tail tshark chromium \
   viewer-screenshot
 
-$(STAMP): pyproject.toml shipradar/_frames.c
+# The application's install is locked: every dependency (the test extra's included) and the
+# install's own tools at the exact versions and hashes of requirements/lock.txt, then shipradar
+# itself (editable, --no-deps: nothing more is resolved or fetched). The lock is for CPython 3.11
+# on x86-64 Linux (glibc >= 2.28), the machine the project, its CI and its published hashes run
+# on; pyproject.toml keeps lower bounds for library users. A changed lock reinstalls.
+LOCK := requirements/lock.txt
+
+$(STAMP): pyproject.toml shipradar/_frames.c $(LOCK)
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install -q --upgrade pip
-	$(PY) -m pip install -q -e '.[test]'
+	$(PY) -m pip install -q --require-hashes --no-deps -r $(LOCK)
+	$(PY) -m pip install -qq --no-deps --no-build-isolation -e .
+	$(PY) -m pip check
 	touch $(STAMP)
 
 install: $(STAMP)
+
+# Refresh the lock: the newest releases that pyproject.toml's bounds (the test extra) and
+# requirements/tools.in allow, for the lock's platform whatever machine runs it; review the diff
+# (numpy, scipy and OpenBLAS move the stream's low bits: tests/golden/README.md)
+lock: $(STAMP)
+	$(VENV)/bin/uv pip compile pyproject.toml requirements/tools.in --extra test \
+	  --generate-hashes --python-version 3.11 --python-platform x86_64-manylinux_2_28 \
+	  --custom-compile-command 'make lock' --upgrade --quiet -o $(LOCK)
 
 demo: $(STAMP)
 	mkdir -p $(OUT)
