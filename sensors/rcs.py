@@ -17,6 +17,8 @@ value a missile approaching the radar (the threat aspect) presents.
 
 from __future__ import annotations
 
+from typing import Literal
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -79,8 +81,9 @@ def off_nose_angle(theta_rad: ArrayLike, phi_rad: ArrayLike) -> NDArray[np.float
     """True angle between the nose and the direction of the radar, ``acos(cos θ' cos φ')``.
 
     Exact cone angle for the aspect angles of :func:`aspect_angles` (spherical cosine law);
-    this is the aspect of RCS tables (:func:`tabulated_rcs`).  [15] instead combines the two
-    angles as ``sqrt(θ'² + φ'²)``, which equals it when either angle is zero.
+    this is the aspect of RCS tables (:func:`tabulated_rcs`) and of the missile model
+    (:func:`missile_rcs`).  [15] as printed combines the two angles as
+    ``sqrt(θ'² + φ'²)``, which equals it when either angle is zero.
 
     Parameters
     ----------
@@ -99,16 +102,23 @@ def off_nose_angle(theta_rad: ArrayLike, phi_rad: ArrayLike) -> NDArray[np.float
     return angle
 
 
+#: How :func:`missile_rcs` combines θ' and φ' into the angle off the nose ψ.
+MISSILE_ASPECTS = ("off_nose", "seed")
+MissileAspect = Literal["off_nose", "seed"]
+
+
 def missile_rcs(
     sigma_nose_m2: ArrayLike,
     length_m: ArrayLike,
     diameter_m: ArrayLike,
     theta_rad: ArrayLike,
     phi_rad: ArrayLike,
+    *,
+    aspect: MissileAspect = "off_nose",
 ) -> NDArray[np.float64]:
     """Missile cross section against aspect, seed [15].
 
-    ``σ = σ_n {cos ψ + 4L/(πD) sin ψ}``, ``ψ = sqrt(φ'² + θ'²)``.
+    ``σ = σ_n {cos ψ + 4L/(πD) sin ψ}``, ψ the angle between the nose and the radar.
 
     Parameters
     ----------
@@ -122,6 +132,16 @@ def missile_rcs(
         θ', bearing of the line of sight from the velocity [rad].
     phi_rad : array_like
         φ', elevation of the line of sight from the velocity [rad].
+    aspect : {"off_nose", "seed"}, optional
+        How ψ is formed from θ' and φ'.  ``"off_nose"`` (the default): the true cone angle
+        ``acos(cos θ' cos φ')`` (:func:`off_nose_angle`), the aspect RCS tables use too.
+        ``"seed"``: [15] as printed, ``ψ = sqrt(θ'² + φ'²)``, kept to reproduce the seed's
+        numbers.  The two agree where either angle is zero, and within a few degrees near
+        the nose, but not for a target seen from behind and above or below: tail-on
+        (θ' ≈ π) any φ' pushes the printed ψ past π and σ swings back toward σ_n although
+        the radar is far from the nose (a missile receding at 150 m/s and diving at 260 m/s,
+        seen on the horizon, is 120° off its nose: 1.85 dBsm, and -4.11 dBsm as printed,
+        for σ_n = 0.1 m², L = 4.7 m, D = 0.35 m).
 
     Returns
     -------
@@ -135,10 +155,17 @@ def missile_rcs(
     terms (a nose cap and a cylinder) have: ``σ(ψ) = σ(π - ψ)``, i.e.
     ``σ = σ_n (|cos ψ| + 4L/(πD) |sin ψ|)``.  Tail-on gives σ_n, broadside the seed's
     σ_n·4L/(πD); the result is identical to [15] for ψ ≤ π/2 and continuous everywhere.
-    ψ larger than π (only reachable through the sqrt combination of a large θ' and φ')
-    follows the same rule.
+    With ``aspect="seed"`` ψ can exceed π (a large θ' and φ' together) and follows the
+    same rule.
     """
-    psi = np.hypot(np.asarray(theta_rad, dtype=np.float64), np.asarray(phi_rad, dtype=np.float64))
+    theta = np.asarray(theta_rad, dtype=np.float64)
+    phi = np.asarray(phi_rad, dtype=np.float64)
+    if aspect == "off_nose":
+        psi = off_nose_angle(theta, phi)
+    elif aspect == "seed":
+        psi = np.hypot(theta, phi)
+    else:
+        raise ValueError(f"aspect: must be one of {MISSILE_ASPECTS}, got {aspect!r}")
     ratio = (
         4.0
         * np.asarray(length_m, dtype=np.float64)

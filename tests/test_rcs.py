@@ -21,12 +21,70 @@ def test_nose_on_and_broadside_values():
 
 def test_seed_formula_inside_ninety_degrees():
     psi = np.deg2rad(np.array([10.0, 30.0, 60.0, 89.0]))
-    # Split ψ between θ' and φ' (ψ = sqrt(θ'² + φ'²)) in a hand-chosen 3-4-5 ratio.
-    theta, phi = 0.6 * psi, 0.8 * psi
     expected = SIGMA_N * (np.cos(psi) + 4 * LENGTH / (np.pi * DIAMETER) * np.sin(psi))
+    # [15] as printed: split ψ between θ' and φ' (ψ = sqrt(θ'² + φ'²)) in a 3-4-5 ratio
+    theta, phi = 0.6 * psi, 0.8 * psi
+    assert rcs.missile_rcs(SIGMA_N, LENGTH, DIAMETER, theta, phi, aspect="seed") == (
+        pytest.approx(expected, rel=1e-12))
+    # the true cone angle: θ' and φ' with cos θ' cos φ' = cos ψ (spherical cosine law)
+    phi = 0.5 * psi
+    theta = np.arccos(np.cos(psi) / np.cos(phi))
     assert rcs.missile_rcs(SIGMA_N, LENGTH, DIAMETER, theta, phi) == pytest.approx(
-        expected, rel=1e-12
-    )
+        expected, rel=1e-12)
+
+
+@pytest.mark.parametrize("aspect", ["off_nose", "seed"])
+def test_the_two_aspects_agree_where_either_angle_is_zero(aspect):
+    a = np.deg2rad(np.linspace(-180.0, 180.0, 73))
+    ref = SIGMA_N * (np.abs(np.cos(a)) + 4 * LENGTH / (np.pi * DIAMETER) * np.abs(np.sin(a)))
+    assert rcs.missile_rcs(SIGMA_N, LENGTH, DIAMETER, a, 0.0, aspect=aspect) == pytest.approx(
+        ref, rel=1e-12)
+    half = a[np.abs(a) <= np.pi / 2]  # φ' lives in [-π/2, π/2]
+    assert rcs.missile_rcs(SIGMA_N, LENGTH, DIAMETER, 0.0, half, aspect=aspect) == (
+        pytest.approx(ref[np.abs(a) <= np.pi / 2], rel=1e-12))
+    with pytest.raises(ValueError, match="aspect"):
+        rcs.missile_rcs(SIGMA_N, LENGTH, DIAMETER, 0.0, 0.0, aspect="sqrt")  # type: ignore[arg-type]
+
+
+def _hand_15(sigma_n, length, diameter, psi):
+    """[15] folded fore-aft, written out: σ_n (|cos ψ| + 4L/(πD) |sin ψ|) [m²]."""
+    return sigma_n * (abs(np.cos(psi)) + 4 * length / (np.pi * diameter) * abs(np.sin(psi)))
+
+
+@pytest.mark.parametrize(("los", "vel", "psi_deg"), [
+    # issue 40: 10 km north, on the radar's horizon, flying away at 150 m/s and diving at
+    # 260 m/s: the nose points 60° below the horizontal away from the radar, 120° off it
+    ([0.0, 10e3, 0.0], [0.0, 150.0, -260.0], 120.0),
+    # the same, climbing: 120° too
+    ([0.0, 10e3, 0.0], [0.0, 150.0, 260.0], 120.0),
+    # 3 km up, seen from the radar: the dot product gives the angle (103.3°)
+    ([0.0, 10e3, 3e3], [0.0, 150.0, -260.0], None),
+    ([0.0, 10e3, 3e3], [0.0, 150.0, 260.0], None),
+    # receding and crossing, climbing steeply, off to the side
+    ([4e3, 9e3, 1e3], [-80.0, 200.0, 300.0], None),
+    ([-7e3, 2e3, 500.0], [-250.0, 20.0, -90.0], None),
+])
+def test_receding_climbs_and_dives_use_the_true_angle_off_the_nose(los, vel, psi_deg):
+    """A receding target that climbs or dives: σ at the angle between its velocity and the
+    direction to the radar (a dot product, independent of the aspect-angle code)."""
+    los, vel = np.array(los), np.array(vel)
+    to_radar = -los / np.linalg.norm(los)
+    psi = np.arccos(np.dot(vel, to_radar) / np.linalg.norm(vel))
+    if psi_deg is not None:
+        assert np.degrees(psi) == pytest.approx(psi_deg, abs=0.02)  # 260/150 ≈ tan 60°
+    assert psi > np.pi / 2  # receding
+    theta, phi = rcs.aspect_angles(los, vel)
+    sigma = rcs.missile_rcs(0.1, 4.7, 0.35, theta, phi)
+    assert sigma == pytest.approx(_hand_15(0.1, 4.7, 0.35, psi), rel=1e-12)
+
+
+def test_issue_40_diving_missile_against_the_printed_combination():
+    """The issue's numbers: 1.85 dBsm at 120° off the nose; [15] as printed gave -4.11."""
+    theta, phi = rcs.aspect_angles(np.array([0.0, 10e3, 0.0]), np.array([0.0, 150.0, -260.0]))
+    true_db = 10 * np.log10(rcs.missile_rcs(0.1, 4.7, 0.35, theta, phi))
+    seed_db = 10 * np.log10(rcs.missile_rcs(0.1, 4.7, 0.35, theta, phi, aspect="seed"))
+    assert true_db == pytest.approx(1.85, abs=0.005)
+    assert seed_db == pytest.approx(-4.11, abs=0.005)
 
 
 def test_beyond_ninety_degrees_folds_to_tail_symmetric_aspect():
