@@ -10,7 +10,7 @@ ENDPOINT ?= tcp://127.0.0.1:5556
 SERVE_ARGS ?= --realtime 1
 TAIL_ARGS ?=
 
-.PHONY: install lock demo test check typecheck bench lint clean tables serve tail tshark chromium \
+.PHONY: install lock golden demo test check typecheck bench lint clean tables serve tail tshark chromium \
   viewer-screenshot
 
 # The application's install is locked: every dependency (the test extra's included) and the
@@ -42,6 +42,11 @@ demo: $(STAMP)
 	$(VENV)/bin/shipradar tables build $(DEMO)
 	$(VENV)/bin/shipradar run $(DEMO) --record $(OUT)/demo.rec --overwrite
 	@echo "watch it: $(VENV)/bin/shipradar view $(OUT)/demo.rec --open"
+
+# Record the golden runs anew (tests/golden/README.md): after a deliberate change of the stream
+# or of the lock; needs the locked install
+golden: $(STAMP)
+	$(PY) -m tests.golden
 
 tables: $(STAMP)
 	$(VENV)/bin/shipradar tables build $(DEMO)

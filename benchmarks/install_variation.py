@@ -1,0 +1,131 @@
+"""Where the bytes part between installs (issue 34; docs/stability.md section 6).
+
+Runs the five shipped scenes (seed 7; 60 s, the stress scene 30 s, as
+benchmarks/recording_hashes.sh) with other installs' ``shipradar`` (scratch venvs with other
+numpy/scipy, hence other OpenBLAS builds) and compares with this install (the lock's):
+
+- the tables each install builds (every array of every ``.npz``: equal bytes, or the largest
+  relative difference);
+- the recordings made with each install's own tables, and with this install's tables (which
+  separates the on-line level from the off-line one): equal bytes, equal within which relative
+  tolerance, or the first message that differs in structure (which plots exist).
+
+Usage: python benchmarks/install_variation.py OUTDIR VENV [VENV ...]
+(``make install`` for this install first; each VENV has shipradar and its dependencies.)
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from shipradar.sim.stream.compare import compare_recordings, plot_ids, recording_messages
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENES = {"single_missile": 60, "raid": 60, "stress": 30, "manoeuvres": 60, "jammed_squall": 60}
+
+
+def _versions(python: Path) -> str:
+    """numpy's and scipy's versions and the BLAS each was built with (their show_config)."""
+    code = ("import numpy, scipy\n"
+            "def blas(m):\n"
+            "    b = m.show_config(mode='dicts')['Build Dependencies']['blas']\n"
+            "    return f\"{b.get('name')} {b.get('version')}\"\n"
+            "print(f'numpy {numpy.__version__} ({blas(numpy)}), '\n"
+            "      f'scipy {scipy.__version__} ({blas(scipy)})')")
+    return subprocess.run([str(python), "-c", code], capture_output=True, text=True,
+                          check=True).stdout.strip()
+
+
+def _run(venv: Path, cache: Path, scene: str, out: Path) -> None:
+    env = dict(os.environ, SHIPRADAR_TABLES=str(cache))
+    cli = str(venv / "bin" / "shipradar")
+    path = str(ROOT / "scenarios" / f"{scene}.yaml")
+    subprocess.run([cli, "tables", "build", path], env=env, check=True, capture_output=True)
+    subprocess.run([cli, "run", path, "--seed", "7", "--duration", str(SCENES[scene]),
+                    "--record", str(out), "--overwrite", "--quiet"], env=env, check=True,
+                   capture_output=True)
+
+
+def _sha(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()[:16]
+
+
+def _tables(ref: Path, other: Path) -> list[str]:
+    rows = []
+    for f in sorted(ref.glob("*.npz")):
+        g = other / f.name
+        if not g.exists():
+            rows.append(f"  {f.name}: missing")
+            continue
+        if f.read_bytes() == g.read_bytes():
+            continue
+        with np.load(f) as a, np.load(g) as b:
+            worst, at = 0.0, ""
+            for k in a.files:
+                x, y = a[k], b[k]
+                if x.dtype.kind != "f":
+                    if not np.array_equal(x, y):
+                        worst, at = np.inf, k
+                    continue
+                d = np.abs(x - y)
+                s = np.maximum(np.abs(x), np.abs(y))
+                same = (x == y) | (np.isnan(x) & np.isnan(y))
+                with np.errstate(invalid="ignore", divide="ignore"):
+                    rel = np.where(same, 0.0, d / np.where(s > 0, s, 1.0))
+                rel = np.where(np.isfinite(rel), rel, np.inf)
+                n = int(np.count_nonzero(rel))
+                if rel.size and rel.max() > worst:
+                    worst, at = float(rel.max()), f"{k} ({n} of {rel.size} values differ)"
+        rows.append(f"  {f.name}: largest relative difference {worst:.3g} in {at}")
+    return rows
+
+
+def _recording(ref: Path, other: Path) -> str:
+    if ref.read_bytes() == other.read_bytes():
+        return "same bytes"
+    c = compare_recordings(ref, other, rtol=1e-6)
+    n_ref = len(plot_ids(recording_messages(ref)))
+    n_other = len(plot_ids(recording_messages(other)))
+    text = f"{c}; plots {n_ref} vs {n_other}"
+    if c.first is not None and c.first.kind == "value":
+        loose = compare_recordings(ref, other, rtol=1.0)
+        text += f"; beyond it: {loose}"
+    return text
+
+
+def main(argv: list[str]) -> int:
+    out = Path(argv[1])
+    venvs = [Path(v) for v in argv[2:]]
+    this = Path(sys.prefix)
+    print(f"this install: {_versions(Path(sys.executable))}")
+    ref_cache = out / "lock" / "tables"
+    for scene in SCENES:
+        _run(this, ref_cache, scene, out / "lock" / f"{scene}.rec")
+    for venv in venvs:
+        py = venv / "bin" / "python"
+        name = venv.name
+        print(f"\n## {name}: {_versions(py)}")
+        cache = out / name / "tables"
+        for scene in SCENES:
+            _run(venv, cache, scene, out / name / f"{scene}.rec")
+            _run(venv, ref_cache, scene, out / name / f"{scene}.lock-tables.rec")
+        rows = _tables(ref_cache, cache)
+        print("tables: " + ("all bytes equal" if not rows else "\n" + "\n".join(rows)))
+        for scene in SCENES:
+            ref = out / "lock" / f"{scene}.rec"
+            own = out / name / f"{scene}.rec"
+            mixed = out / name / f"{scene}.lock-tables.rec"
+            print(f"{scene} {_sha(own)} (lock {_sha(ref)})\n"
+                  f"  own tables: {_recording(ref, own)}\n"
+                  f"  lock's tables: {_recording(ref, mixed)}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))

@@ -1,0 +1,1 @@
+"""Golden recordings compared by value (issue 34): see README.md here."""
