@@ -2,7 +2,8 @@
 
 Runs the five shipped scenes (seed 7; 60 s, the stress scene 30 s, as
 benchmarks/recording_hashes.sh) with other installs' ``shipradar`` (scratch venvs with other
-numpy/scipy, hence other OpenBLAS builds) and compares with this install (the lock's):
+numpy/scipy, hence other OpenBLAS builds) and compares with a reference install's (the lock's
+numpy and scipy; every venv holds the same shipradar wheel):
 
 - the tables each install builds (every array of every ``.npz``: equal bytes, or the largest
   relative difference);
@@ -10,8 +11,8 @@ numpy/scipy, hence other OpenBLAS builds) and compares with this install (the lo
   separates the on-line level from the off-line one): equal bytes, equal within which relative
   tolerance, or the first message that differs in structure (which plots exist).
 
-Usage: python benchmarks/install_variation.py OUTDIR VENV [VENV ...]
-(``make install`` for this install first; each VENV has shipradar and its dependencies.)
+Usage: python benchmarks/install_variation.py OUTDIR REFERENCE_VENV VENV [VENV ...]
+(each venv has shipradar and its dependencies; this interpreter only compares.)
 """
 
 from __future__ import annotations
@@ -101,12 +102,13 @@ def _recording(ref: Path, other: Path) -> str:
 
 def main(argv: list[str]) -> int:
     out = Path(argv[1])
-    venvs = [Path(v) for v in argv[2:]]
-    this = Path(sys.prefix)
-    print(f"this install: {_versions(Path(sys.executable))}")
+    reference = Path(argv[2])
+    venvs = [Path(v) for v in argv[3:]]
+    print(f"reference {reference.name}: {_versions(reference / 'bin' / 'python')}")
     ref_cache = out / "lock" / "tables"
     for scene in SCENES:
-        _run(this, ref_cache, scene, out / "lock" / f"{scene}.rec")
+        if not (out / "lock" / f"{scene}.rec").exists():
+            _run(reference, ref_cache, scene, out / "lock" / f"{scene}.rec")
     for venv in venvs:
         py = venv / "bin" / "python"
         name = venv.name
