@@ -113,3 +113,23 @@ def test_relative_difference_at_the_edges():
     b = np.array([1.0, 0.0, np.nan, np.inf, np.inf, 1.0, 1.0, np.inf, 1.0])
     np.testing.assert_array_equal(relative_difference(a, b),
                                   [0.0, 0.0, 0.0, 0.0, np.inf, 0.5, np.inf, np.inf, 2.0])
+
+
+def test_levels_in_db_differ_by_the_powers_they_stand_for():
+    a = np.array([0.0, 10.0, -200.0, -np.inf, 30.0])
+    b = np.array([10.0, 10.0 * np.log10(2.0), -199.5, -np.inf, np.inf])
+    expected = [0.9, 0.8, 1.0 - 10.0 ** -0.05, 0.0, np.inf]
+    np.testing.assert_allclose(relative_difference(a, b, db=True), expected, rtol=1e-9)
+
+
+def test_an_snr_near_0_db_is_compared_as_a_power(stream):
+    i = _first_plots(stream)
+    other = copy.deepcopy(stream)
+    topic, t, payload = other[i]
+    snr = np.array(payload["snr_db"])
+    snr[0] += 1e-7  # a relative power change of 2.3e-8, whatever snr_db itself is
+    other[i] = (topic, t, dict(payload, snr_db=snr))
+    result = compare_streams(stream, other, rtol=1e-6)
+    assert result.equal
+    assert result.by_key["plots.snr_db"] == pytest.approx(1e-7 * math.log(10.0) / 10.0,
+                                                          rel=1e-6)

@@ -87,7 +87,7 @@ def recording_messages(path: str | Path) -> Iterator[Message]:
             yield topic.decode("ascii", "replace"), t_sim, payload
 
 
-def relative_difference(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+def relative_difference(a: np.ndarray, b: np.ndarray, *, db: bool = False) -> np.ndarray:
     """|a - b| / max(|a|, |b|) elementwise; 0 where both are equal (NaN with NaN, inf with the
     same inf), inf where only one is NaN or infinite.
 
@@ -95,20 +95,27 @@ def relative_difference(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     ----------
     a, b : numpy.ndarray
         Float arrays of one shape.
+    db : bool, optional
+        ``a`` and ``b`` are levels in dB: the relative difference is that of the powers they
+        stand for, A = 10^(a/10): |A - B| / max(A, B) = 1 - 10^(-|a - b|/10) (a relative
+        difference of a dB number itself means nothing near 0 dB).
 
     Returns
     -------
     numpy.ndarray
-        The relative differences, in [0, 2] for finite values, or inf.
+        The relative differences, in [0, 2] for finite values (below 1 with ``db``), or inf.
     """
     a = np.asarray(a, dtype=np.float64)
     b = np.asarray(b, dtype=np.float64)
     same = (a == b) | (np.isnan(a) & np.isnan(b))
     finite = np.isfinite(a) & np.isfinite(b)
-    scale = np.maximum(np.abs(a), np.abs(b))
     out = np.full(a.shape, np.inf)
     ok = finite & ~same
-    out[ok] = np.abs(a[ok] - b[ok]) / scale[ok]
+    if db:
+        out[ok] = -np.expm1(-np.abs(a[ok] - b[ok]) * (np.log(10.0) / 10.0))
+    else:
+        scale = np.maximum(np.abs(a[ok]), np.abs(b[ok]))
+        out[ok] = np.abs(a[ok] - b[ok]) / scale
     out[same] = 0.0
     return out
 
@@ -129,7 +136,8 @@ class _Walker:
         self.out, self.topic, self.index = out, topic, index
 
     def floats(self, where: str, a: Any, b: Any) -> None:
-        rel = relative_difference(np.asarray(a), np.asarray(b))
+        db = where.split("[")[0].endswith(("_db", "_dbm", "_dbi"))
+        rel = relative_difference(np.asarray(a), np.asarray(b), db=db)
         if rel.size == 0:
             return
         i = int(np.argmax(rel))
@@ -191,7 +199,9 @@ def compare_streams(expected: Iterable[Message], actual: Iterable[Message], *,
         Decoded messages (:func:`recording_messages`, :func:`shipradar.messages`).
     rtol : float
         Largest allowed relative difference |a - b| / max(|a|, |b|) of any float (message
-        times included); integers, ids, text, shapes and dtypes must be equal, NaN where NaN.
+        times included; a ``*_db`` level's is that of the power it stands for,
+        :func:`relative_difference`); integers, ids, text, shapes and dtypes must be equal,
+        NaN where NaN.
 
     Returns
     -------
