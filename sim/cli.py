@@ -66,9 +66,17 @@ def _load(path: str):
     from shipradar.sim.world.scenario import ScenarioError, load_scenario
 
     try:
-        return load_scenario(path)
+        scenario = load_scenario(path)
     except ScenarioError as exc:
         raise BadInput("\n".join(f"{path}: {line}" for line in exc.lines)) from None
+    if scenario.traffic:  # the traffic files read and checked once, before any work
+        from shipradar.sim.world.traffic import TrafficError, scene_targets
+
+        try:
+            scene_targets(scenario)
+        except TrafficError as exc:
+            raise BadInput(f"{path}: {exc}") from None
+    return scenario
 
 
 def _positive(name: str):
@@ -109,10 +117,22 @@ def cmd_examples(args) -> int:
     return EXIT_OK
 
 
+def _target_count(s) -> str:
+    """The scene's targets: its own, and those of its traffic files with the rows read."""
+    if not s.traffic:
+        return str(len(s.targets))
+    from shipradar.sim.world.traffic import scene_targets
+
+    t = scene_targets(s)
+    dropped = sum(t.dropped.values())
+    return (f"{t.n} ({len(s.targets)} own, {t.from_files} from {len(s.traffic)} traffic "
+            f"file(s): {t.traffic_rows} rows, {dropped} left out)")
+
+
 def cmd_validate(args) -> int:
     s = _load(_scenario_path(args))
     radars = ", ".join(r.id for _, r in s.radars())
-    print(f"{args.scenario}: valid ({len(s.targets)} targets, radars: {radars}, "
+    print(f"{args.scenario}: valid ({_target_count(s)} targets, radars: {radars}, "
           f"{s.duration_s:g} s)")
     if getattr(args, "explain", False):
         from shipradar.sim.studies.fidelity import explain_lines

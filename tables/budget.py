@@ -379,14 +379,15 @@ def _spec_estimate(scenario: Scenario, spec, radar, where: str):
 def _pd_estimates(scenario: Scenario) -> list[BuildEstimate]:
     """The exact-P_d tables a run builds when ``fidelity.pd_method`` is ``table`` (the dwell
     model asks for them when it starts, one per Swerling case of the scene's targets)."""
-    if scenario.fidelity.pd_method != "table" or not scenario.targets:
+    if scenario.fidelity.pd_method != "table" or not (scenario.targets or scenario.traffic):
         return []
     from shipradar.sensors.radar import false_alarm_probability, pulses_per_beamwidth
+    from shipradar.sim.world.traffic import scene_targets
     from shipradar.tables import pd as tpd
     from shipradar.tables.store import inputs_hash, is_cached
 
     out = []
-    cases = sorted({int(t.swerling_case) for t in scenario.targets})
+    cases = sorted({int(c) for c in scene_targets(scenario).swerling})
     for pi, platform in enumerate(scenario.platforms):
         for ri, radar in enumerate(platform.radars):
             pfa = false_alarm_probability(radar)

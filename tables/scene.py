@@ -433,6 +433,10 @@ def pe_table_height_m(scenario: Scenario, radar: Radar) -> float:
     """
     movers: list[Target | Jammer] = [*scenario.targets, *scenario.jammers]
     top = max([radar.antenna_height_m, *(m.max_altitude_m for m in movers)])
+    if scenario.traffic:  # the highest fix of the traffic files
+        from shipradar.sim.world.traffic import scene_targets
+
+        top = max(top, scene_targets(scenario).max_altitude_m)
     return min(PE_MAX_HEIGHT_M, max(100.0, 1.2 * top + 20.0))
 
 
@@ -571,4 +575,11 @@ def farthest_mover_range_m(scenario: Scenario, radar: Radar) -> float:
         d = np.hypot(pos[:, 0] - own[:, 0], pos[:, 1] - own[:, 1])
         if np.any(active):
             best = max(best, float(d[active].max()))
+    if scenario.traffic:  # the traffic files' fixes, from wherever the platform sails
+        from shipradar.sim.world.traffic import scene_targets
+
+        at = np.append(ship.times[0][np.isfinite(ship.times[0])], ship.t_last)
+        ship_pos, _, _ = ship.state(at, np.zeros(at.size, dtype=int))
+        best = max([best, *(scene_targets(scenario).max_ground_range_m(p[:2])
+                            for p in ship_pos)])
     return best

@@ -421,6 +421,17 @@ VARIANTS: tuple[Variant, ...] = (
         {"time_s": 0, "lat_deg": 44.668, "lon_deg": -62.9117, "altitude_m": 5},
         {"time_s": 35, "lat_deg": 44.6076, "lon_deg": -63.0, "altitude_m": 5}]},
         why="the missile's path by latitude and longitude"),
+    # -- recorded traffic: the AIS sample file (scenarios/traffic/), every field of an entry
+    Variant("traffic", (), {"traffic": [{
+        "path": str(Path(__file__).resolve().parents[1] / "scenarios" / "traffic"
+                    / "ais_sample.csv"),
+        "preset": "ais", "rcs": {"type": "constant", "sigma_m2": 500.0}, "swerling": 1,
+        "max_gap_s": 120.0, "time_offset_s": 0.0, "window_start_s": 0.0,
+        "window_end_s": 170.0,
+        "overrides": [{"ids": ["316001001"], "kind": "ship", "swerling": 2,
+                       "rcs": {"type": "constant", "sigma_m2": 50.0}}],
+        "columns": {"speed_unit": "knots", "time_unit": "iso"}, "limits": {}}]},
+        why="six AIS ships around the frigate from the shipped sample file"),
     # -- platform: manoeuvres and smoothing of the ship
     Variant("ship-turn", _PLATFORM, {**_SHIP_START, "segments": [
         {"type": "turn", "turn_rate_deg_s": 3.0, "duration_s": 10.0, "direction": "right"}]},

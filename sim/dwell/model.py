@@ -150,8 +150,14 @@ class DwellModel:
 
     INTERFERENCE_NAMES = INTERFERENCE_NAMES
 
-    def __init__(self, scenario: Scenario, platform: Platform, radar: Radar, tables):
+    def __init__(self, scenario: Scenario, platform: Platform, radar: Radar, tables,
+                 targets=None):
+        from shipradar.sim.world.traffic import scene_targets
+
         self.scenario = scenario
+        #: every target of the scene, its own and its traffic files'
+        #: (:class:`shipradar.sim.world.traffic.SceneTargets`)
+        self.targets = scene_targets(scenario) if targets is None else targets
         self.platform = platform
         self.radar = radar
         self.tables = tables.for_radar(radar.id)
@@ -193,8 +199,8 @@ class DwellModel:
             from shipradar.tables.pd import PdTables
 
             self._pd_tables = PdTables(self.pfa, self.n_pulses,
-                                       [t.swerling_case for t in scenario.targets])
-        self._prepare_targets(scenario)
+                                       [int(c) for c in self.targets.swerling])
+        self._prepare_targets()
         self._prepare_jammers(scenario)
         self._prepare_propagation(scenario)
         self._prepare_compensation(platform, radar)
@@ -225,8 +231,8 @@ class DwellModel:
                 radar.frequency_hz, _rain_equivalent_rate(env.rain), radar.polarization)
 
     # ------------------------------------------------------------------ set-up
-    def _prepare_targets(self, scenario: Scenario) -> None:
-        n = len(scenario.targets)
+    def _prepare_targets(self) -> None:
+        n = self.targets.n
         self.rcs_kind = np.zeros(n, dtype=np.int8)
         self.rcs_const = np.zeros(n)
         self.rcs_missile = np.zeros((n, 3))
@@ -234,19 +240,24 @@ class DwellModel:
         tables: list[np.ndarray] = []
         self.rcs_table_row = np.full(n, -1)
         grid = np.arange(0.0, 180.0 + 0.5 * _RCS_TABLE_STEP_DEG, _RCS_TABLE_STEP_DEG)
-        for i, t in enumerate(scenario.targets):
-            self.swerling[i] = t.swerling_case
-            if t.rcs.type == "constant":
+        self.swerling[:] = self.targets.swerling
+        table_rows: dict[int, int] = {}  # a model shared by many traffic targets: one table
+        for i, model in enumerate(self.targets.rcs):
+            if model.type == "constant":
                 self.rcs_kind[i] = _RCS_CONSTANT
-                self.rcs_const[i] = t.rcs.sigma_m2
-            elif t.rcs.type == "missile":
+                self.rcs_const[i] = model.sigma_m2
+            elif model.type == "missile":
                 self.rcs_kind[i] = _RCS_MISSILE
-                self.rcs_missile[i] = (t.rcs.sigma_nose_m2, t.rcs.length_m, t.rcs.diameter_m)
+                self.rcs_missile[i] = (model.sigma_nose_m2, model.length_m, model.diameter_m)
             else:
                 self.rcs_kind[i] = _RCS_TABLE
-                self.rcs_table_row[i] = len(tables)
-                tables.append(rcs.tabulated_rcs(np.radians(t.rcs.aspect_deg),
-                                                np.asarray(t.rcs.sigma_m2), np.radians(grid)))
+                row = table_rows.get(id(model))
+                if row is None:
+                    row = table_rows[id(model)] = len(tables)
+                    tables.append(rcs.tabulated_rcs(np.radians(model.aspect_deg),
+                                                    np.asarray(model.sigma_m2),
+                                                    np.radians(grid)))
+                self.rcs_table_row[i] = row
         self.rcs_tables = np.array(tables) if tables else np.zeros((0, grid.size))
         self.rcs_grid_step = math.radians(_RCS_TABLE_STEP_DEG)
 

@@ -76,6 +76,7 @@ from shipradar.sim.world.kinematics import (
     beam_crossing_times,
 )
 from shipradar.sim.world.scenario import Platform, Radar, Scenario
+from shipradar.sim.world.traffic import scene_targets
 from shipradar.sim.world.trajectory import trajectories
 
 if TYPE_CHECKING:
@@ -162,7 +163,9 @@ class Simulation:
         self.frame = LocalFrame(origin)
         # waypoints (as before), segments or rounded corners: analytic pieces
         # (shipradar.sim.world.trajectory)
-        self.targets = trajectories(scenario.targets, self.frame, hold=False)
+        # the scenario's own targets and its traffic files' (shipradar.sim.world.traffic)
+        self.target_set = scene_targets(scenario)
+        self.targets = self.target_set.trajectories(self.frame)
         self.platforms = trajectories(scenario.platforms, self.frame, hold=True)
         self.jammers = trajectories(scenario.jammers, self.frame, hold=True)
         self.tables = tables if tables is not None else load_scene_tables(scenario)
@@ -172,7 +175,7 @@ class Simulation:
             if only_radars is not None and k not in only_radars:
                 continue
             p_index = scenario.platforms.index(platform)
-            model = DwellModel(scenario, platform, radar, self.tables)
+            model = DwellModel(scenario, platform, radar, self.tables, self.target_set)
             rng = np.random.default_rng(seeds[k])
             process = _RadarProcess(self, p_index, platform, radar, model, rng)
             process.index = k
@@ -350,6 +353,10 @@ class Simulation:
             "wall_s": round(wall_s, 4),
             "realtime_factor": round(self.duration / wall_s, 2) if wall_s > 0 else None,
         }
+        ts = self.target_set
+        if ts.files:  # what the traffic files gave (shipradar.sim.world.traffic)
+            out["traffic"] = {"targets": ts.from_files, "rows": ts.traffic_rows,
+                              "left_out": dict(sorted(ts.dropped.items()))}
         if self.bus is not None and hasattr(self.bus, "stats"):
             out["bus"] = self.bus.stats
         return out
@@ -464,7 +471,7 @@ class _RadarProcess:
         #: raid)
         self.index = 0
         self.resume_times: list[float] | None = None
-        self.target_ids = [t.id for t in sim.scenario.targets]
+        self.target_ids = list(sim.target_set.ids)
         # the ends of the revolutions computed ahead (_scan_end_states)
         self._ends: _ScanEnds | None = None
         # the looks of the revolutions computed ahead, by revolution: (target, time, P_d, S/I
@@ -777,6 +784,13 @@ class _RadarProcess:
         return k
 
     @functools.cached_property
+    def _target_names(self) -> dict[str, list[str]]:
+        """``meta.target_names`` when traffic files name their targets (vessel names,
+        callsigns); {} for a scene of its own targets only (their names are their ids)."""
+        targets = self.sim.target_set
+        return {"target_names": list(targets.names)} if targets.files else {}
+
+    @functools.cached_property
     def _clutter_fa_meta(self) -> dict:
         """The radar's expected sea-clutter false alarms per scan, total and per 250 m ring
         (seed 7.2, from its P_fac map), for a tracker's clutter density; {} without a map."""
@@ -868,6 +882,7 @@ class _RadarProcess:
             noise_false_alarms_per_scan=self.model.noise_false_alarms_per_scan,
             **self._clutter_fa_meta,
             target_ids=self.target_ids,
+            **self._target_names,
             origin_codes=list(ORIGIN_NAMES),
             interference_codes=list(self.model.INTERFERENCE_NAMES),
             origin=self.sim.scenario.origin.model_dump(),

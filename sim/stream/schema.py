@@ -236,6 +236,9 @@ META = Payload(b"meta", None, (
        "`range_m` and `azimuth_rad` fall in these cells)", required=False),
     _f("target_ids", "list[str]", "", "scenario target ids; `truth` refers to targets by index "
        "in this list"),
+    _f("target_names", "list[str]", "", "display names of the targets, in the order of "
+       "`target_ids` (a traffic file's vessel name or callsign, else the id); present when "
+       "the scenario has `traffic:` files", required=False),
     _f("origin_codes", "list[str]", "", "names of the `truth` origin codes: `[\"target\", "
        "\"noise\", \"sea_clutter\"]`"),
     _f("interference_codes", "list[str]", "", "names of the `plots` interference codes: "

@@ -702,9 +702,157 @@ class Target(_Model):
 
     @property
     def swerling_case(self) -> int:
-        if self.swerling is not None:
-            return self.swerling
-        return 3 if self.rcs.type == "missile" or self.kind == "missile" else 1
+        return swerling_case(self.rcs, self.kind, self.swerling)
+
+
+def swerling_case(rcs: Rcs, kind: str, swerling: int | None) -> int:
+    """A target's Swerling case: the one given, else 3 for a missile RCS model or kind,
+    else 1 (a YAML target's and a traffic file's alike)."""
+    if swerling is not None:
+        return swerling
+    return 3 if rcs.type == "missile" or kind == "missile" else 1
+
+
+# --------------------------------------------------------------------------- recorded traffic
+#: Column names of each ``traffic[].preset`` (sim/world/traffic.py reads them):
+#: ``plain`` (the project's own), ``ais`` (the public US AIS extracts of MarineCadastre /
+#: NOAA: MMSI, BaseDateTime, LAT, LON, SOG [kn], COG [deg], Heading, VesselName, VesselType)
+#: and ``adsb`` (OpenSky Network state vectors: time [unix s], icao24, lat, lon, geoaltitude
+#: or baroaltitude [m], velocity [m/s], heading [deg, the true track], vertrate [m/s],
+#: callsign).  ``None``: the preset has no such column.
+TRAFFIC_PRESETS: dict[str, dict[str, Any]] = {
+    "plain": {"time": "time", "time_s": "time_s", "id": "id", "name": "name",
+              "lat": "lat_deg", "lon": "lon_deg", "alt": "alt_m", "speed": "speed_mps",
+              "course": "course_deg", "vertical_rate": "vertical_rate_mps", "class_": "class",
+              "speed_unit": "mps", "time_unit": "iso"},
+    "ais": {"time": "BaseDateTime", "time_s": None, "id": "MMSI", "name": "VesselName",
+            "lat": "LAT", "lon": "LON", "alt": None, "speed": "SOG", "course": "COG",
+            "vertical_rate": None, "class_": "VesselType", "speed_unit": "knots",
+            "time_unit": "iso"},
+    "adsb": {"time": "time", "time_s": None, "id": "icao24", "name": "callsign",
+             "lat": "lat", "lon": "lon", "alt": ["geoaltitude", "baroaltitude"],
+             "speed": "velocity", "course": "heading", "vertical_rate": "vertrate",
+             "class_": None, "speed_unit": "mps", "time_unit": "unix"},
+}
+
+
+class TrafficColumns(_Model):
+    """Column names of a traffic file, overriding its preset's (None: the preset's)."""
+
+    time: str | None = Field(None, description="absolute time column: ISO 8601 UTC text, or "
+                             "unix seconds with time_unit: unix")
+    time_s: str | None = Field(None, description="seconds since the scenario start [s] "
+                               "(instead of time)")
+    id: str | None = Field(None, description="target identity (MMSI, ICAO 24-bit address, ...)")
+    name: str | None = Field(None, description="display name (vessel name, callsign)")
+    lat: str | None = Field(None, description="latitude [deg] (WGS-84)")
+    lon: str | None = Field(None, description="longitude [deg]")
+    alt: str | None = Field(None, description="height above the sea [m]; none: 0")
+    speed: str | None = Field(None, description="speed over ground (speed_unit)")
+    course: str | None = Field(None, description="course over ground, true north [deg]")
+    vertical_rate: str | None = Field(None, description="vertical speed [m/s]")
+    class_: str | None = Field(None, alias="class", description="class column (AIS VesselType, "
+                               "...) read by overrides[].classes")
+    speed_unit: Literal["mps", "knots", "kmh"] | None = Field(
+        None, description="unit of the speed column: m/s, knots or km/h")
+    time_unit: Literal["iso", "unix"] | None = Field(
+        None, description="time column as ISO 8601 text or unix seconds [s]")
+
+    model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True,
+                              populate_by_name=True)
+
+
+class TrafficOverride(_Model):
+    """RCS and Swerling case of some of a file's targets, by id or by class."""
+
+    ids: list[str] = Field(default_factory=list, max_length=100_000,
+                           description="ids this override applies to")
+    classes: list[str] = Field(default_factory=list, max_length=1000,
+                               description="values of the class column it applies to")
+    kind: Literal["missile", "aircraft", "helicopter", "ship", "other"] | None = None
+    rcs: Rcs | None = None
+    swerling: int | None = Field(None, ge=0, le=4, description="Swerling case 0-4")
+
+    @model_validator(mode="after")
+    def _selects(self) -> TrafficOverride:
+        if not self.ids and not self.classes:
+            raise ValueError("give ids or classes (the targets this override applies to)")
+        return self
+
+
+class TrafficLimits(_Model):
+    """What a traffic file may hold before it is refused (one line, before any run)."""
+
+    max_rows: int = Field(2_000_000, ge=1, le=50_000_000, description="rows of the file")
+    max_ids: int = Field(20_000, ge=1, le=100_000, description="distinct ids kept")
+    max_bytes: int = Field(1 << 30, ge=1, le=1 << 34, description="file size [bytes]")
+
+
+class Traffic(_Model):
+    """A CSV or Parquet file of recorded positions of many targets (AIS, ADS-B, ...).
+
+    Each id becomes a target that exists from its first fix to its last, except across a gap
+    of more than ``max_gap_s`` between two fixes (never extrapolated); between fixes its path
+    is a cubic Hermite curve, smooth in position and velocity (sim/world/traffic.py).
+    """
+
+    path: str = Field(min_length=1, max_length=4096, description="CSV (.csv, .csv.gz) or "
+                      "Parquet (.parquet) file, relative to the scenario file")
+    preset: Literal["plain", "ais", "adsb"] = Field("plain", description="column names")
+    columns: TrafficColumns = TrafficColumns()
+    kind: Literal["missile", "aircraft", "helicopter", "ship", "other"] | None = Field(
+        None, description="kind of the targets; default ship (ais), aircraft (adsb), other")
+    rcs: Rcs
+    swerling: int | None = Field(
+        None, ge=0, le=4, description="Swerling case 0-4; default 3 for a missile model, else 1")
+    overrides: list[TrafficOverride] = Field(default_factory=list, max_length=1000,
+                                             description="per-id or per-class RCS and Swerling "
+                                             "(the first that matches)")
+    ids: list[str] | None = Field(None, max_length=100_000,
+                                  description="ids to keep; None: all")
+    align: Literal["scenario_start", "first_fix"] = Field(
+        "scenario_start", description="an absolute time maps to the scenario's start_time "
+        "(scenario_start) or the file's first fix becomes t = 0 (first_fix); time_s columns "
+        "are scenario time already")
+    time_offset_s: float = Field(0.0, ge=-1.0e7, le=1.0e7,
+                                 description="added to every time after the alignment [s]")
+    window_start_s: float | None = Field(None, ge=-1.0e7, le=1.0e7,
+                                         description="fixes before this scenario time are "
+                                         "dropped [s]")
+    window_end_s: float | None = Field(None, ge=-1.0e7, le=1.0e7,
+                                       description="fixes after this scenario time are "
+                                       "dropped [s]")
+    max_gap_s: float = Field(600.0, gt=0.0, le=1.0e6, description="a target is inactive "
+                             "between two fixes further apart than this [s]")
+    id_prefix: str = Field("", max_length=32, pattern=r"^[A-Za-z0-9_.:-]*$",
+                           description="prefixed to the file's ids in the truth topic (to "
+                           "keep two files' ids apart)")
+    limits: TrafficLimits = TrafficLimits()
+
+    @model_validator(mode="after")
+    def _window(self) -> Traffic:
+        a, b = self.window_start_s, self.window_end_s
+        if a is not None and b is not None and not b > a:
+            raise ValueError(f".window_end_s: must be > window_start_s ({a:g}), got {b:g}")
+        return self
+
+    @property
+    def resolved_kind(self) -> str:
+        """The targets' kind, the preset's default resolved."""
+        if self.kind is not None:
+            return self.kind
+        return {"ais": "ship", "adsb": "aircraft"}.get(self.preset, "other")
+
+    def column_names(self) -> dict[str, Any]:
+        """The preset's column names with ``columns`` applied (``None``: no such column)."""
+        out = dict(TRAFFIC_PRESETS[self.preset])
+        given = self.columns.model_dump(exclude_none=True)
+        if "time_s" in given:
+            out["time"] = None
+        if "time" in given:
+            out["time_s"] = None
+        out.update(given)
+        return out
 
 
 # --------------------------------------------------------------------------- platforms, jammers
@@ -890,6 +1038,9 @@ class Scenario(_Model):
     platforms: list[Platform] = Field(min_length=1, max_length=16)
     targets: list[Target] = Field(default_factory=list, max_length=100_000)
     jammers: list[Jammer] = Field(default_factory=list, max_length=64)
+    traffic: list[Traffic] = Field(
+        default_factory=list, max_length=64,
+        description="recorded traffic files (AIS, ADS-B, ...): each id a target")
     environment: Environment = Environment()
     fidelity: Fidelity = Fidelity()
 
@@ -1167,4 +1318,18 @@ def load_scenario(path: str | Path) -> Scenario:
         raise ScenarioError(["not UTF-8 text"]) from None
     except OSError as exc:
         raise ScenarioError([f"cannot read ({exc.strerror})"]) from None
-    return parse_scenario(data)
+    return parse_scenario(_traffic_paths_resolved(data, path.parent))
+
+
+def _traffic_paths_resolved(data: Any, base: Path) -> Any:
+    """``data`` with each ``traffic[].path`` made absolute against the scenario's folder
+    (a traffic file is named relative to the scenario file that uses it)."""
+    if not isinstance(data, dict) or not isinstance(data.get("traffic"), list):
+        return data
+    entries = []
+    for e in data["traffic"]:
+        if isinstance(e, dict) and isinstance(e.get("path"), str) and e["path"] \
+                and not Path(e["path"]).is_absolute():
+            e = {**e, "path": str((base / e["path"]).resolve())}
+        entries.append(e)
+    return {**data, "traffic": entries}
