@@ -31,11 +31,48 @@ own R⁻⁴::
 (x_s the slant range of the cell at ground range x).  :func:`single_trip_power_w` is P_1
 and :func:`range_folded_power_w` the sum; the sum stops at the instrumented range (the
 clutter map's range axis): each further trip is below the first by (r/(r + k R_u))³ or
-more, and the beam over the curved earth climbs out of the rain far out anyway.  The
-first-trip echo of rain at r (k = 0) usually dominates: at R ≥ R_u it is what the seed's
-volume at R_c stood for, now with its own (R_c)⁻⁴.  With R ≤ R_u and R_inst ≤ R_u the sum
-is the single cell of the seed.  Folding is done in ground range (the seed's "terrestrial
-range" R_r); slant and ground range differ by millimetres at these heights.
+more.  The first-trip echo of rain at r (k = 0) usually dominates: at R ≥ R_u it is what
+the seed's volume at R_c stood for, now with its own (R_c)⁻⁴.  With R ≤ R_u and
+R_inst ≤ R_u the sum is the single cell of the seed.  Folding is done in ground range (the
+seed's "terrestrial range" R_r); slant and ground range differ by millimetres at these
+heights.
+
+Rain attenuation on the clutter ([39] with [3] and [16])
+--------------------------------------------------------
+[39] uses K_r "as previously defined", i.e. [3] with L_atm², and L_atm holds the rain's
+R_s γ_r ([16]).  Each trip carries its own two-way loss through the rain on the way to its
+own cell (:func:`rain_path_to_cell_m`, :func:`two_way_rain_transmission`), not the
+target's: ``P_wc(R) = Σ_k P_1(x_k) / L_rain(x_k)²``, x_k = r + k R_u, the path ending at
+the centre of the [43] cell (height d_h/2; with rain everywhere and the antenna below
+h_cloud that is the whole slant range, inside a rain cylinder only the part inside it).
+The gases and fog of [16] are left out of the clutter, as for the sea clutter [21] (a few
+tenths of a dB at C band over 30 km).  Without it the Giraffe (5.6 GHz) in 16 mm/h of rain
+everywhere overstated its weather clutter by 0.5/1.2/1.8 dB at 10/20/29.9 km and by
+3.4/7.0/10.5 dB at 50 mm/h (issue 35).
+
+Earth curvature
+---------------
+[43] is flat-earth, and so is this module: the cell holds rain from the sea up to
+d_h = min(h_cloud, R φ_b) whatever the range.  Over the 4/3 earth the rain layer at ground
+range R sits R/(2 k a) lower in elevation than over a flat earth (0.67° at 200 km); the
+seed's cell weighs no beam pattern, so an 11-20° fan beam holds that layer whole either way.
+An audit that weighs the cell by the beam over the curved earth finds the SPS-49 (L band,
+11°) 1.1-5.9 dB below this at 120-200 km (issue 35).  That model is outside the seed and is
+not applied: far rain is the seed's flat-earth cell, an upper bound.
+
+Spectrum spread [44]-[45] and the rain layer
+--------------------------------------------
+[45] prints σ_shear = 0.42 k R θ_b.  The shear is vertical, so the angle is the beam's
+*vertical* extent (Nathanson's φ), and the velocities the beam sees are those of the rain it
+holds: a layer of depth h_cloud under a shear k spans k h_cloud in all (10 m/s for 2.5 km at
+the seed's 4e-3 s⁻¹), a uniformly filled layer has the standard deviation k h_cloud/√12
+(2.9 m/s).  :func:`shear_spread_mps` takes the seed's Gaussian-beam value with φ_b while
+the beam is thinner than the layer and that of the layer once the beam is wider:
+``min(0.42 k R φ_b, k h_cloud/√12)``, so the spread never exceeds what the rain layer can
+make (with φ_b alone an 11-20° fan beam gave 20-48 m/s far out).  The seed's literal θ_b
+(the azimuth beamwidth) is not used: the azimuth extent of the cell sees no shear; for a
+pencil beam θ_b = φ_b and the seed's form is the first branch.  Turbulence [44] and the
+scan [37] are added as the seed says.
 """
 
 from __future__ import annotations
@@ -60,10 +97,18 @@ K_HIGH_FREQ_HZ = 35.0e9
 RAIN_RATE_EXPONENT = 1.6
 #: 4.1.4: snow rate over rain-equivalent rate: 10 for dry snow, 5 for wet (melting) snow.
 SNOW_TO_RAIN_DIVISOR = {"rain": 1.0, "dry_snow": 10.0, "wet_snow": 5.0}
-#: [45]: σ_shear = 0.42 k R φ (Nathanson); 0.42 converts the two-way beam to a spread.
+#: [45]: σ_shear = 0.42 k R φ (Nathanson); 0.42 = 1/√(8 ln 2), the standard deviation of a
+#: Gaussian beam of 3 dB width φ.
 SHEAR_SPREAD_FACTOR = 0.42
+#: Standard deviation of a uniform distribution over a unit width, 1/√12: the shear spread
+#: of a rain layer the beam holds whole, over the layer's velocity span k h_cloud.
+UNIFORM_LAYER_FACTOR = 1.0 / np.sqrt(12.0)
 #: [45]: wind shear gradient k = 4 m/s per km (the seed's 4e-3) [1/s].
 WIND_SHEAR_PER_S = 4.0e-3
+#: Largest two-way rain loss applied to a clutter cell [dB]: beyond it the cell is nothing
+#: against any receiver noise, and 10^(-x/10) stays a normal float (300 mm/h at 100 GHz,
+#: 67 dB/km, over 1000 km is 1.3e5 dB).
+MAX_TWO_WAY_RAIN_LOSS_DB = 2000.0
 #: [44]: turbulence spread of rain, σ_turb ≈ 1 m/s (Nathanson, Radar Design Principles, 2nd ed.,
 #: ch. 6; Nathanson & Reilly 1968) [m/s].
 RAIN_TURBULENCE_SPREAD_MPS = 1.0
@@ -380,24 +425,117 @@ def range_folded_power_w(
     return total
 
 
-def shear_spread_mps(
-    range_m: ArrayLike, beamwidth_rad: ArrayLike, shear_per_s: ArrayLike = WIND_SHEAR_PER_S
+def rain_path_to_cell_m(
+    ground_range_m: ArrayLike,
+    azimuth_rad: ArrayLike,
+    antenna_en_m: ArrayLike,
+    antenna_height_m: ArrayLike,
+    elevation_beamwidth_rad: ArrayLike,
+    cloud_base_m: ArrayLike,
+    centre_en_m: ArrayLike = (0.0, 0.0),
+    radius_m: ArrayLike = np.inf,
 ) -> NDArray[np.float64]:
-    """Radial-velocity spread from wind shear σ_shear = 0.42 k R φ, seed [45] [m/s].
+    """Length of the way from the antenna to a weather-clutter cell inside the rain [m].
 
-    The seed writes θ_b and calls the result Hz; it is a velocity (it is multiplied by 2/λ in
-    [44]) and, the shear being vertical, Nathanson's φ is the *elevation* beamwidth: pass φ_b.
+    The cell at ground range x along the beam azimuth holds rain from the sea up to
+    d_h = min(h_cloud, x φ_b) ([43]); the path ends at its centre, d_h/2 up, and is cut by
+    the rain (:func:`shipradar.sensors.atmosphere.rain_path_length_m`, flat earth as [43]):
+    the whole slant distance with rain everywhere and the antenna below h_cloud, the part
+    inside the cylinder for a rain region.
+
+    Parameters
+    ----------
+    ground_range_m : array_like
+        Ground range x of the cell [m], ≥ 0.
+    azimuth_rad : array_like
+        Beam azimuth from true north [rad].
+    antenna_en_m : array_like, shape (..., 2)
+        Antenna east/north in the rain's frame [m].
+    antenna_height_m : array_like
+        h_a [m].
+    elevation_beamwidth_rad : array_like
+        φ_b [rad].
+    cloud_base_m : array_like
+        h_cloud [m].
+    centre_en_m : array_like, shape (..., 2), optional
+        Centre of the rain cylinder [m].
+    radius_m : array_like, optional
+        Radius of the rain cylinder [m]; ``np.inf`` (default): rain everywhere.
+
+    Returns
+    -------
+    ndarray
+        Path length inside the rain [m], in [0, distance to the cell centre].
+    """
+    from shipradar.sensors.atmosphere import rain_path_length_m
+
+    x = _f(ground_range_m)
+    az = _f(azimuth_rad)
+    a_en = _f(antenna_en_m)
+    cell_en = np.stack(np.broadcast_arrays(a_en[..., 0] + x * np.sin(az),
+                                           a_en[..., 1] + x * np.cos(az)), axis=-1)
+    centre = 0.5 * volume_height_m(x, elevation_beamwidth_rad, cloud_base_m)
+    path: NDArray[np.float64] = rain_path_length_m(
+        a_en, cell_en, antenna_height_m, centre, centre_en_m, radius_m, cloud_base_m)
+    return path
+
+
+def two_way_rain_transmission(
+    specific_attenuation_db_per_km: ArrayLike, path_in_rain_m: ArrayLike
+) -> NDArray[np.float64]:
+    """Two-way power transmission through rain, 1/L_rain² = 10^(-2 γ_r L / 10) ([3], [16]).
+
+    Parameters
+    ----------
+    specific_attenuation_db_per_km : array_like
+        γ_r one-way [dB/km] (ITU-R P.838,
+        :func:`shipradar.sensors.atmosphere.rain_specific_attenuation_db_per_km`), ≥ 0.
+    path_in_rain_m : array_like
+        One-way path inside the rain [m] (:func:`rain_path_to_cell_m`), ≥ 0.
+
+    Returns
+    -------
+    ndarray
+        Factor in (0, 1]; 1 without rain on the way.
+    """
+    loss_db = 2.0 * _f(specific_attenuation_db_per_km) * _f(path_in_rain_m) / 1000.0
+    return 10.0 ** (-np.minimum(loss_db, MAX_TWO_WAY_RAIN_LOSS_DB) / 10.0)
+
+
+def shear_spread_mps(
+    range_m: ArrayLike,
+    elevation_beamwidth_rad: ArrayLike,
+    cloud_base_m: ArrayLike,
+    shear_per_s: ArrayLike = WIND_SHEAR_PER_S,
+) -> NDArray[np.float64]:
+    """Radial-velocity spread from wind shear over the rain in the beam, seed [45] [m/s].
+
+    ``σ_shear = min(0.42 k R φ_b, k h_cloud/√12)``: the seed's (Nathanson's) Gaussian-beam
+    spread with the beam's vertical extent R φ_b while the beam is thinner than the rain
+    layer, and the spread of the layer itself, uniformly filled, once the beam holds it
+    whole (module notes: the seed prints θ_b; the shear is vertical).  The seed calls the
+    result Hz; it is a velocity (it is multiplied by 2/λ in [44]).
 
     Parameters
     ----------
     range_m : array_like
-        R [m].
-    beamwidth_rad : array_like
-        Elevation beamwidth φ_b [rad].
+        R [m], ≥ 0.
+    elevation_beamwidth_rad : array_like
+        φ_b [rad].
+    cloud_base_m : array_like
+        h_cloud, top of the rain layer [m] (the [43] cell's height cap).
     shear_per_s : array_like, optional
         Wind shear k [(m/s)/m]; the seed's 4e-3 by default.
+
+    Returns
+    -------
+    ndarray
+        σ_shear [m/s], ≥ 0, at most k h_cloud/√12 (≈ 0.29 of the layer's span k h_cloud).
     """
-    return SHEAR_SPREAD_FACTOR * _f(shear_per_s) * _f(range_m) * _f(beamwidth_rad)
+    k = _f(shear_per_s)
+    beam = SHEAR_SPREAD_FACTOR * k * _f(range_m) * _f(elevation_beamwidth_rad)
+    spread: NDArray[np.float64] = np.minimum(beam, UNIFORM_LAYER_FACTOR * k * _f(cloud_base_m))
+    return spread
 
 
 def weather_spread_hz(

@@ -19,9 +19,14 @@ same grid, read on-line by S/C [46], the distribution loss [64] and the clutter 
 
 Weather map (:func:`build_weather_clutter_map`, only for a scene with precipitation), values
 P_wc [W] if the rain is everywhere, summed over the pulses in flight (the range-folding
-erratum on [39]-[41], :mod:`shipradar.sensors.weather_clutter`); the on-line side multiplies by the
-cell's rain fraction (:func:`shipradar.sensors.weather_clutter.rain_cylinder_fraction`); extras
-``doppler_mean_hz``, ``doppler_spread_hz`` and ``single_trip_power_w`` (the cell alone).
+erratum on [39]-[41], :mod:`shipradar.sensors.weather_clutter`), each trip through its own
+two-way rain loss ([3], [16]); extras ``doppler_mean_hz``, ``doppler_spread_hz`` and
+``single_trip_power_w`` (the cell alone, unattenuated: with a rain region the on-line side
+sums the trips inside the region, each with its own loss through the region).  Its range
+axis (:func:`weather_range_axis`) is the uniform one with nodes added where the sum jumps
+or is steep: both sides of every multiple of the unambiguous range R_u (where the first
+trip starts again at the antenna) and a fine run after each, so that the bilinear reader
+equals the sum off the grid too.
 
 Both depend on the ship's motion only through μ (when not motion-compensated); the table is
 built for the given speed and heading, and the on-line side may recompute f1 [34] cheaply.
@@ -50,7 +55,7 @@ SEA_MAP_NAME = "sea_clutter_map"
 WEATHER_MAP_NAME = "weather_clutter_map"
 #: Builder versions (part of the cache key): bump when the model changes.
 SEA_MAP_VERSION = 1
-WEATHER_MAP_VERSION = 2
+WEATHER_MAP_VERSION = 3
 #: Default grid: 1501 ranges (100 m steps at 150 km) and 1° in azimuth.
 DEFAULT_N_RANGE = 1501
 DEFAULT_N_AZIMUTH = 360
@@ -301,6 +306,76 @@ def sea_clutter_map(
     )
 
 
+#: Fold and trip-end nodes sit this far either side of the jump [m]: the reader interpolates
+#: across the jump only inside this gap (a delay within 1 mm of a pulse's transmission).
+FOLD_NODE_GAP_M = 1.0e-3
+#: After each multiple of R_u the first trip's near rain, P_1 ∝ r²/(r² + h_a²)², rises as r²,
+#: peaks at r ≈ h_a and falls as r⁻²: a geometric run of nodes of ratio
+#: :data:`NEAR_NODE_RATIO` from :data:`FOLD_NODE_GAP_M` (bilinear error of a power law r^n
+#: ≈ n(n - 1)(ratio - 1)²/8: 0.25 % for r², 0.75 % for r⁻²) until the uniform step is fine
+#: enough, at :data:`NEAR_NODES_END_STEPS` steps.
+NEAR_NODE_RATIO = 1.1
+NEAR_NODES_END_STEPS = 20
+#: Most nodes added at the folds: beyond it (many folds, a high PRF over a long range:
+#: ~54 folds of 148-node runs) the near runs are thinned, then the trip-end nodes dropped,
+#: so a 500 kHz PRF over 1000 km (3335 folds) keeps 2 nodes a fold and a bounded map.
+MAX_FOLD_NODES = 8000
+
+
+def weather_range_axis(
+    max_range_m: float, n_range: int, prf_hz: float, antenna_height_m: float
+) -> np.ndarray:
+    """Ground-range axis of a weather-clutter map [m]: uniform, plus nodes at the folds.
+
+    The trip sum P_wc(R) = Σ_k P_1(r + k R_u) ([39]-[41]) jumps at every multiple of R_u
+    (r wraps to 0, the first trip starts again at the antenna) and where a trip passes the
+    instrumented range (R = R_max - j R_u), and it is steep for r below ~2 km (the near
+    rain, largest at r ≈ h_a).  Nodes: the uniform axis of ``n_range`` points on
+    [0, R_max]; :data:`FOLD_NODE_GAP_M` either side of each jump; and after each multiple
+    of R_u a geometric run (:data:`NEAR_NODE_RATIO`) up to :data:`NEAR_NODES_END_STEPS`
+    uniform steps or the next fold.
+
+    Parameters
+    ----------
+    max_range_m : float
+        R_max, the instrumented range [m], > 0.
+    n_range : int
+        Points of the uniform axis, ≥ 2.
+    prf_hz : float
+        f_r [Hz], > 0 (R_u = c/(2 f_r)).
+    antenna_height_m : float
+        h_a [m], > 0.
+
+    Returns
+    -------
+    ndarray
+        Strictly increasing ground ranges from 0 to R_max [m].
+    """
+    uniform = np.linspace(0.0, max_range_m, n_range)
+    r_u = float(wc.unambiguous_range_m(prf_hz))
+    step = max_range_m / (n_range - 1)
+    near_end = min(r_u, NEAR_NODES_END_STEPS * step)
+    n_near = int(np.ceil(np.log(near_end / FOLD_NODE_GAP_M) / np.log(NEAR_NODE_RATIO))) + 1
+    near = np.geomspace(FOLD_NODE_GAP_M, near_end, max(n_near, 2))
+    near = near[near < r_u - FOLD_NODE_GAP_M]  # the first is the right side of each fold
+    folds = r_u * np.arange(0.0, np.floor(max_range_m / r_u) + 1.0)
+    # where a trip leaves the instrumented range: r + j R_u = R_max
+    ends = np.mod(max_range_m, r_u) + folds
+    edges = [folds[1:] - FOLD_NODE_GAP_M, ends - FOLD_NODE_GAP_M, ends + FOLD_NODE_GAP_M]
+    if folds.size * (near.size + 3) > MAX_FOLD_NODES:  # thin the runs, keep their start
+        stride = int(np.ceil(folds.size * near.size / max(MAX_FOLD_NODES - 3 * folds.size,
+                                                          folds.size)))
+        near = near[::stride]
+        if folds.size * (near.size + 3) > MAX_FOLD_NODES:
+            edges = edges[:1]
+    nodes = [uniform, (folds[:, None] + near[None, :]).ravel(), *edges]
+    axis = np.unique(np.concatenate(nodes))
+    axis = axis[(axis >= 0.0) & (axis <= max_range_m)]
+    # drop accidental duplicates (a uniform node on a fold node, to rounding)
+    keep = np.concatenate([[True], np.diff(axis) > 1.0e-3 * FOLD_NODE_GAP_M])
+    return axis[keep]
+
+
 def weather_clutter_map_inputs(
     *,
     freq_hz: float,
@@ -317,6 +392,7 @@ def weather_clutter_map_inputs(
     wind_direction_rad: float,
     max_range_m: float,
     precipitation: str = "rain",
+    rain_attenuation_db_per_km: float = 0.0,
     turbulence_spread_mps: float = wc.RAIN_TURBULENCE_SPREAD_MPS,
     motion_compensated: bool = True,
     ship_speed_mps: float = 0.0,
@@ -328,6 +404,9 @@ def weather_clutter_map_inputs(
     """The hashable inputs of a weather-clutter map (see :func:`build_weather_clutter_map`)."""
     if rain_rate_mm_h <= 0.0:
         raise ValueError("a weather-clutter map needs precipitation (rain_rate_mm_h > 0)")
+    if rain_attenuation_db_per_km < 0.0:
+        raise ValueError(
+            f"rain_attenuation_db_per_km must be >= 0, got {rain_attenuation_db_per_km}")
     return {
         "freq_hz": float(freq_hz),
         "antenna_height_m": float(antenna_height_m),
@@ -343,6 +422,7 @@ def weather_clutter_map_inputs(
         "wind_direction_rad": float(wind_direction_rad),
         "max_range_m": float(max_range_m),
         "precipitation": str(precipitation),
+        "rain_attenuation_db_per_km": float(rain_attenuation_db_per_km),
         "turbulence_spread_mps": float(turbulence_spread_mps),
         "motion_compensated": bool(motion_compensated),
         "ship_speed_mps": float(ship_speed_mps),
@@ -353,14 +433,82 @@ def weather_clutter_map_inputs(
     }
 
 
+def weather_clutter_profile(
+    ground_range_m: ArrayLike, inputs: dict[str, Any]
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """The weather map's range profile, evaluated directly at any ground ranges.
+
+    What :func:`build_weather_clutter_map` tabulates at its nodes (and what its reader is
+    tested against off the grid): the attenuated trip sum P_wc, its power-weighted rms
+    spread, and the single unattenuated trip P_1, with rain everywhere (the map's power
+    does not depend on the azimuth).
+
+    Parameters
+    ----------
+    ground_range_m : array_like
+        Ground ranges R [m], ≥ 0.
+    inputs : dict
+        :func:`weather_clutter_map_inputs` (its result).
+
+    Returns
+    -------
+    tuple of ndarray
+        P_wc [W], σ_wc [Hz], P_1 [W], each of the shape of ``ground_range_m``.
+    """
+    p = inputs
+    ranges = np.asarray(ground_range_m, dtype=np.float64)
+    h_a = p["antenna_height_m"]
+    f = p["freq_hz"]
+    lam = SPEED_OF_LIGHT_MPS / f
+    theta_b, phi_b = p["beamwidth_az_rad"], p["beamwidth_el_rad"]
+    h_cloud, gamma = p["cloud_base_m"], p["rain_attenuation_db_per_km"]
+
+    eta = wc.rain_reflectivity(f, p["rain_rate_mm_h"], p["precipitation"])
+    c_r = range_cell_m(p["pulse_width_s"])
+    rotation = sc.rotation_spread_hz(p["rotation_rate_rad_s"], theta_b)
+
+    def single_trip(x):
+        slant = sc.slant_range_m(x, h_a, p["k_factor"])
+        return wc.single_trip_power_w(
+            p["radar_constant_w_m2"], eta, x, slant, theta_b, phi_b, h_cloud, c_r
+        )
+
+    def attenuated_trip(x):
+        # [39] with K_r of [3]: each trip through its own two-way rain loss [16], rain
+        # everywhere below h_cloud (the azimuth does not matter)
+        path = wc.rain_path_to_cell_m(x, 0.0, np.zeros(2), h_a, phi_b, h_cloud)
+        return single_trip(x) * wc.two_way_rain_transmission(gamma, path)
+
+    def spread_at(x):
+        return wc.weather_spread_hz(
+            lam, wc.shear_spread_mps(x, phi_b, h_cloud), p["turbulence_spread_mps"], rotation
+        )
+
+    # [39]-[41] read consistently (module notes of shipradar.sensors.weather_clutter): the rain
+    # of every pulse in flight, r + k R_u up to the instrumented range, each at its own range.
+    r_max = p["max_range_m"]
+    power = wc.range_folded_power_w(attenuated_trip, ranges, p["prf_hz"], r_max)
+    # the trips share the mean Doppler (wind drift, f1); their spreads differ (shear ∝ range):
+    # the mixture's spread is the power-weighted rms
+    second = wc.range_folded_power_w(
+        lambda x: attenuated_trip(x) * spread_at(x) ** 2, ranges, p["prf_hz"], r_max
+    )
+    own = spread_at(ranges)
+    has = power > 0.0
+    spread = np.where(has, np.sqrt(np.where(has, second, 0.0) / np.where(has, power, 1.0)), own)
+    return power, spread, single_trip(ranges)
+
+
 def build_weather_clutter_map(**kwargs: Any) -> Table:
     """Build the weather-clutter map of one radar in one precipitation (seed [39]-[45]).
 
     Per cell at ground range R: ϑ0 [42] (snow as rain-equivalent), and the rain of every
     pulse in flight that arrives with the echo of R, ``P_wc = Σ_k P_1(r + k R_u)``, r the
-    range folded by the PRF [41], each term ``K_r ϑ0 x θ_b d_h(x) C_R / x_s⁴`` with its own
-    range x ([39], [40], [43]; :func:`shipradar.sensors.weather_clutter.range_folded_power_w`, up to
-    the instrumented range), assuming rain everywhere.  This replaces the seed's volume at
+    range folded by the PRF [41], each term ``K_r ϑ0 x θ_b d_h(x) C_R / x_s⁴ / L_rain(x)²``
+    with its own range x and its own two-way rain loss ([39] with K_r of [3] and the γ_r of
+    [16], [40], [43]; :func:`shipradar.sensors.weather_clutter.range_folded_power_w`, up to
+    the instrumented range), assuming rain everywhere, on the axis of
+    :func:`weather_range_axis`.  This replaces the seed's volume at
     R_c over the true R⁴ (erratum, module notes of :mod:`shipradar.sensors.weather_clutter`).
     Spread [44]-[45] with the scan [37], the power-weighted rms over the trips; mean from the wind
     drift (and f1 [34] unless motion-compensated, the beam at the horizon).  Only call this
@@ -376,49 +524,25 @@ def build_weather_clutter_map(**kwargs: Any) -> Table:
         [Hz], ``radar_constant_w_m2`` [W·m²], ``rain_rate_mm_h`` [mm/h], ``cloud_base_m`` [m],
         ``rotation_rate_rad_s`` [rad/s], ``wind_speed_mps`` [m/s], ``wind_direction_rad``
         (from, true north) [rad], ``max_range_m`` [m], ``precipitation`` ("rain", "dry_snow",
-        "wet_snow"), ``turbulence_spread_mps`` [m/s], ``motion_compensated``,
+        "wet_snow"), ``rain_attenuation_db_per_km`` (γ_r one-way [dB/km], 0: none, e.g.
+        with the atmosphere switched off), ``turbulence_spread_mps`` [m/s],
+        ``motion_compensated``,
         ``ship_speed_mps`` [m/s], ``ship_heading_rad`` [rad], ``n_range``, ``n_azimuth``,
         ``k_factor``.
 
     Returns
     -------
     Table
-        Values P_wc [W] (full rain, summed over trips); extras ``doppler_mean_hz`` and
-        ``doppler_spread_hz`` [Hz], ``single_trip_power_w`` P_1 [W] (the cell alone).
+        Values P_wc [W] (full rain, summed over trips, attenuated); extras
+        ``doppler_mean_hz`` and ``doppler_spread_hz`` [Hz], ``single_trip_power_w`` P_1 [W]
+        (the cell alone, without rain loss).
     """
     p = weather_clutter_map_inputs(**kwargs)
-    ranges, azimuths = map_axes(p["max_range_m"], p["n_range"], p["n_azimuth"])
-    f = p["freq_hz"]
-    lam = SPEED_OF_LIGHT_MPS / f
-    theta_b, phi_b = p["beamwidth_az_rad"], p["beamwidth_el_rad"]
-
-    eta = wc.rain_reflectivity(f, p["rain_rate_mm_h"], p["precipitation"])
-    c_r = range_cell_m(p["pulse_width_s"])
-    rotation = sc.rotation_spread_hz(p["rotation_rate_rad_s"], theta_b)
-
-    def single_trip(x):
-        slant = sc.slant_range_m(x, p["antenna_height_m"], p["k_factor"])
-        return wc.single_trip_power_w(
-            p["radar_constant_w_m2"], eta, x, slant, theta_b, phi_b, p["cloud_base_m"], c_r
-        )
-
-    def spread_at(x):
-        return wc.weather_spread_hz(
-            lam, wc.shear_spread_mps(x, phi_b), p["turbulence_spread_mps"], rotation
-        )
-
-    # [39]-[41] read consistently (module notes of shipradar.sensors.weather_clutter): the rain of
-    # every pulse in flight, r + k R_u up to the instrumented range, each at its own range.
-    r_max = p["max_range_m"]
-    power = wc.range_folded_power_w(single_trip, ranges, p["prf_hz"], r_max)
-    # the trips share the mean Doppler (wind drift, f1); their spreads differ (shear ∝ range):
-    # the mixture's spread is the power-weighted rms
-    second = wc.range_folded_power_w(
-        lambda x: single_trip(x) * spread_at(x) ** 2, ranges, p["prf_hz"], r_max
-    )
-    own = spread_at(ranges)
-    has = power > 0.0
-    spread = np.where(has, np.sqrt(np.where(has, second, 0.0) / np.where(has, power, 1.0)), own)
+    _, azimuths = map_axes(p["max_range_m"], p["n_range"], p["n_azimuth"])
+    ranges = weather_range_axis(p["max_range_m"], p["n_range"], p["prf_hz"],
+                                p["antenna_height_m"])
+    lam = SPEED_OF_LIGHT_MPS / p["freq_hz"]
+    power, spread, single = weather_clutter_profile(ranges, p)
 
     phi = (azimuths - p["wind_direction_rad"])[None, :]
     f1: float | NDArray[np.float64] = 0.0
@@ -441,9 +565,10 @@ def build_weather_clutter_map(**kwargs: Any) -> Table:
         extra={
             "doppler_mean_hz": np.broadcast_to(mean, shape).copy(),
             "doppler_spread_hz": np.broadcast_to(spread[:, None], shape).copy(),
-            # P_1 of the cell itself (no folding): with a rain *region*, the on-line side
-            # needs each trip's own rain fraction, Σ_k frac(r + k R_u) P_1(r + k R_u)
-            "single_trip_power_w": np.broadcast_to(single_trip(ranges)[:, None], shape).copy(),
+            # P_1 of the cell itself (no folding, no rain loss): with a rain *region*, the
+            # on-line side needs each trip's own rain fraction and its own loss through the
+            # region, Σ_k frac(x_k) P_1(x_k) / L_rain(x_k)², x_k = r + k R_u
+            "single_trip_power_w": np.broadcast_to(single[:, None], shape).copy(),
         },
     )
 

@@ -344,12 +344,37 @@ def _clutter_specs(scenario: Scenario, platform: Platform, radar: Radar) -> list
             "precipitation": env.rain.kind,
             **common,
         }
+
+        def wet() -> dict[str, Any]:
+            # the rain's γ_r on each trip's way [3], [16], as the targets get it (none with
+            # the atmosphere switched off); asked only when the map's key is (itur: 0.6 s)
+            return {**weather, "rain_attenuation_db_per_km": weather_rain_attenuation_db_per_km(
+                scenario, radar)}
+
         specs.append(TableSpec(
             radar.id, "weather_clutter", "weather-clutter power and spectrum vs range, azimuth",
-            lambda: tc.weather_clutter_map(**weather)[0],
+            lambda: tc.weather_clutter_map(**wet())[0],
             lambda: (tc.WEATHER_MAP_NAME, tc.WEATHER_MAP_VERSION,
-                     tc.weather_clutter_map_inputs(**weather))))
+                     tc.weather_clutter_map_inputs(**wet()))))
     return specs
+
+
+def weather_rain_attenuation_db_per_km(scenario: Scenario, radar: Radar) -> float:
+    """γ_r [dB/km] (ITU-R P.838, one way, horizontal) the weather-clutter map's trips carry.
+
+    The same number the dwell model puts on the targets' paths: the rain-equivalent rate of
+    the scene's precipitation at the radar's frequency and polarisation, from the table
+    store; 0 without rain or with ``fidelity.atmosphere`` off (no [16] loss at all then).
+    """
+    rain = scenario.environment.rain
+    if rain is None or not scenario.fidelity.atmosphere:
+        return 0.0
+    from shipradar.sensors.weather_clutter import rain_equivalent_rate_mm_h
+    from shipradar.tables.sky import rain_attenuation_db_per_km
+
+    rate = float(rain_equivalent_rate_mm_h(rain.rate_mm_h, rain.kind))
+    return rain_attenuation_db_per_km(radar.frequency_hz, rate, radar.polarization,
+                                      store=False)
 
 
 def duct_height_m(scenario: Scenario) -> float:

@@ -78,8 +78,14 @@ def test_volume_cell_by_hand():
 
 def test_weather_spread_by_hand():
     lam, r, phi_b = 0.05, 30e3, math.radians(2.0)
+    # a 2° beam at 30 km is 1047 m tall, inside a 3 km layer: the seed's Gaussian beam [45]
     shear = 0.42 * 4e-3 * r * phi_b
-    assert wc.shear_spread_mps(r, phi_b) == pytest.approx(shear, rel=1e-12)
+    assert wc.shear_spread_mps(r, phi_b, 3000.0) == pytest.approx(shear, rel=1e-12)
+    # a 20° fan beam at 29.9 km (10.4 km tall) holds a 2.5 km layer whole: velocities 4e-3 z
+    # uniform over 0-2500 m span 10 m/s, standard deviation 10/√12 = 2.89 m/s (the beam
+    # alone would give 0.42 · 4e-3 · 29.9e3 · 0.349 = 17.5 m/s)
+    assert wc.shear_spread_mps(29.9e3, math.radians(20.0), 2500.0) == pytest.approx(
+        10.0 / math.sqrt(12.0), rel=1e-12)
     expected = 2 / lam * math.sqrt(shear**2 + 1.0**2)
     assert wc.weather_spread_hz(lam, shear, 1.0) == pytest.approx(expected, rel=1e-12)
     assert wc.weather_spread_hz(lam, shear, 1.0, 30.0) == pytest.approx(

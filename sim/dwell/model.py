@@ -756,25 +756,36 @@ class DwellModel:
 
         The rain of every pulse in flight, at ground ranges r + k R_u along the target's
         azimuth (:func:`shipradar.sensors.weather_clutter.range_folded_power_w`), each trip's cell
-        counted only when it is inside the rain region. The weather clutter of [40] fills
-        the cell's beam from the surface up to d_h = min(h_cloud, R_c φ_b) [43] whatever the
-        target's own height, so only a cell's horizontal position decides (seed 4.1.4: "only
-        inside the rain region"). Without a region every cell is in the rain and the map's
-        own trip sum is read instead.
+        counted only when it is inside the rain region, and through its own two-way loss
+        along the part of its way inside the region ([39] with K_r of [3], γ_r of [16];
+        :func:`shipradar.sensors.weather_clutter.rain_path_to_cell_m`). The weather clutter
+        of [40] fills the cell's beam from the surface up to d_h = min(h_cloud, R_c φ_b)
+        [43] whatever the target's own height, so only a cell's horizontal position decides
+        (seed 4.1.4: "only inside the rain region"). Without a region every cell is in the
+        rain and the map's own (attenuated) trip sum is read instead.
         """
         rain = self.scenario.environment.rain
         region = None if rain is None else rain.region
         reader = self._wx_trip_reader
-        if region is None or reader is None:
+        if rain is None or region is None or reader is None:
             raise RuntimeError("the folded rain power is read only with a rain region")
         az = geom.azimuth
         east0, north0 = antenna_en[:, 0], antenna_en[:, 1]
         sin_az, cos_az = np.sin(az), np.cos(az)
 
+        gamma = self.rain_gamma_db_per_km
+        centre = np.array([region.east_m, region.north_m])
+
         def one_trip(x):
             inside = np.hypot(east0 + x * sin_az - region.east_m,
                               north0 + x * cos_az - region.north_m) <= region.radius_m
-            return np.where(inside, np.nan_to_num(reader(x, az)[:, 0]), 0.0)
+            p = np.where(inside, np.nan_to_num(reader(x, az)[:, 0]), 0.0)
+            if gamma > 0.0:
+                path = weather_clutter.rain_path_to_cell_m(
+                    x, az, antenna_en, self.radar.antenna_height_m, self.phi_b,
+                    rain.cloud_base_m, centre, region.radius_m)
+                p = p * weather_clutter.two_way_rain_transmission(gamma, path)
+            return p
 
         return weather_clutter.range_folded_power_w(
             one_trip, geom.ground_range, self.radar.prf_hz, self.radar.instrumented_range_m)
