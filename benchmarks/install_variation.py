@@ -28,6 +28,7 @@ import numpy as np
 from shipradar.sim.stream.compare import compare_recordings, plot_ids, recording_messages
 
 ROOT = Path(__file__).resolve().parents[1]
+CPU_VARIABLES = ("NPY_DISABLE_CPU_FEATURES", "OPENBLAS_CORETYPE")
 SCENES = {"single_missile": 60, "raid": 60, "stress": 30, "manoeuvres": 60, "jammed_squall": 60}
 
 
@@ -109,7 +110,12 @@ def main(argv: list[str]) -> int:
             _run(reference, ref_cache, scene, out / "lock" / f"{scene}.rec")
     for venv in venvs:
         py = venv / "bin" / "python"
-        name = venv.name
+        # a CPU without some of this one's SIMD kernels, emulated: numpy's dispatch and
+        # OpenBLAS's kernels set by the environment of this script
+        cpu = " ".join(f"{v}={os.environ[v]}" for v in CPU_VARIABLES if v in os.environ)
+        name = venv.name + ("-cpu-" + hashlib.sha256(cpu.encode()).hexdigest()[:6] if cpu else "")
+        if cpu:
+            print(f"\n(emulated CPU: {cpu})")
         print(f"\n## {name}: {_versions(py)}")
         cache = out / name / "tables"
         for scene in SCENES:

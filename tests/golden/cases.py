@@ -95,16 +95,28 @@ def installed_differences() -> list[str]:
             if installed.get(name) != version]
 
 
+def _cpu_model() -> str:
+    try:
+        with open("/proc/cpuinfo") as f:
+            return next((line.split(":", 1)[1].strip() for line in f
+                         if line.startswith("model name")), platform.processor())
+    except OSError:
+        return platform.processor()
+
+
 def environment() -> dict[str, Any]:
     """What the bytes of a recording depend on beyond the code: the install and the CPU.
 
     The lock's hash (every dependency's version), numpy's and scipy's versions and BLAS
-    builds, the Python, the C library (libm) and the SIMD kernels numpy dispatches to.
+    builds, the Python, the C library (libm), the CPU, the SIMD kernels numpy runs (its
+    baseline and the dispatched targets this CPU has, less any NPY_DISABLE_CPU_FEATURES) and
+    an OpenBLAS core type forced by OPENBLAS_CORETYPE.
     """
     try:
-        from numpy._core._multiarray_umath import __cpu_features__
+        from numpy._core import _multiarray_umath as umath
     except ImportError:  # numpy 1
-        from numpy.core._multiarray_umath import __cpu_features__
+        from numpy.core import _multiarray_umath as umath  # type: ignore[no-redef]
+    found = [f for f in umath.__cpu_dispatch__ if umath.__cpu_features__.get(f)]
 
     def blas(module: Any) -> str:
         try:
@@ -120,7 +132,9 @@ def environment() -> dict[str, Any]:
         "python": platform.python_version(),
         "machine": platform.machine(),
         "libc": " ".join(platform.libc_ver()),
-        "numpy_simd": " ".join(sorted(k for k, on in __cpu_features__.items() if on)),
+        "cpu": _cpu_model(),
+        "numpy_simd": " ".join(umath.__cpu_baseline__) + " + " + " ".join(found),
+        "openblas_coretype": os.environ.get("OPENBLAS_CORETYPE", ""),
     }
 
 
