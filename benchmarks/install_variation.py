@@ -87,6 +87,8 @@ def _tables(ref: Path, other: Path) -> list[str]:
 
 
 def _recording(ref: Path, other: Path) -> str:
+    """Equal bytes, or the comparison by value (rtol 1e-6, then without a tolerance when a
+    value is beyond it) and the keys whose values differ most."""
     if ref.read_bytes() == other.read_bytes():
         return "same bytes"
     c = compare_recordings(ref, other, rtol=1e-6)
@@ -94,9 +96,10 @@ def _recording(ref: Path, other: Path) -> str:
     n_other = len(plot_ids(recording_messages(other)))
     text = f"{c}; plots {n_ref} vs {n_other}"
     if c.first is not None and c.first.kind == "value":
-        loose = compare_recordings(ref, other, rtol=1.0)
-        text += f"; beyond it: {loose}"
-    return text
+        c = compare_recordings(ref, other, rtol=1.0)
+        text += f"; beyond it: {c}"
+    top = sorted(c.by_key.items(), key=lambda kv: -kv[1])[:4]
+    return text + "; by key: " + ", ".join(f"{k} {v:.2g}" for k, v in top)
 
 
 def main(argv: list[str]) -> int:
