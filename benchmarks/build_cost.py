@@ -262,7 +262,6 @@ def accuracy() -> None:
 
 def slow(before: bool, everything: bool) -> None:
     import shipradar.sensors.parabolic_equation as pe
-    import shipradar.tables.improvement as ti
 
     for label, d in slow_scenes():
         kinds = {"improvement"} if "stagger" in label else {"propagation"}
@@ -274,14 +273,16 @@ def slow(before: bool, everything: bool) -> None:
               f"shape {after['table'].values.shape}", flush=True)
         if not before or ("1e6" in label and not everything):
             continue
-        saved = (pe.LARGE_GRID_WORK, ti.DIRECT_WORK_MAX)
-        pe.LARGE_GRID_WORK = ti.DIRECT_WORK_MAX = float("inf")
+        if "stagger" in label:
+            continue  # issue 36: a stagger's table is its weights' constant-PRF one
+        saved = pe.LARGE_GRID_WORK
+        pe.LARGE_GRID_WORK = float("inf")
         try:
             with tempfile.TemporaryDirectory() as cache:
                 os.environ["SHIPRADAR_TABLES"] = cache
                 (old,) = build_and_time(label, d, kinds)
         finally:
-            pe.LARGE_GRID_WORK, ti.DIRECT_WORK_MAX = saved
+            pe.LARGE_GRID_WORK = saved
         print(f"{label:36s} before: measured {old['measured']:7.1f} s, shape "
               f"{old['table'].values.shape}; speed-up {old['measured'] / after['measured']:.1f}x,"
               f" |difference| {_compare(old['table'], after['table'])}",

@@ -209,7 +209,7 @@ COST = {
     "pe_sample": 1.24e-06,
     "pe_cell": 3.04e-08,
     # improvement factor: per steering exponential (direct path), per filter-tap-Doppler
-    # product, per grid cell and bound, per table
+    # product, per grid cell, per table
     "if_exp": 7.29e-08,
     "if_mac": 1.49e-10,
     "if_cell": 1.88e-07,
@@ -335,19 +335,11 @@ def _improvement_estimate(scenario: Scenario, radar, where: str):
     spread, doppler = ti._axes(inputs, n_taps)
     n_s, n_d = spread.size, doppler.size
     stagger = "stagger_prf_hz" in inputs
-    blocked = (stagger and inputs.get("pick", "response") == "response"
-               and 2 * n_filters * n_taps * n_d > ti.DIRECT_WORK_MAX)
-    # the direct path evaluates every response with its own steering vector: 2 calls
-    # (grid and white limit) per bound; the blocked one shares them, and its exponentials
-    # are negligible
-    calls = 0 if blocked else (4 if stagger else 2)
-    macs = (2 if stagger else 1) * n_filters * n_taps * n_d * (1 if blocked else 2)
-    work = {"if_exp": calls * n_d * n_taps, "if_mac": macs,
-            "if_cell": n_s * n_d * (2 if stagger else 1), "if_fixed": 1.0}
-    if stagger and ti.doppler_period(inputs) >= 4 and n_taps < 64:
-        field = "stagger_prf_hz"
-    else:
-        field = "processor.n_coherent"
+    # every response evaluated with its own steering vector: 2 calls (grid and white limit);
+    # a stagger's table is its weights' constant-PRF one (read at each bound), the same work
+    work = {"if_exp": 2 * n_d * n_taps, "if_mac": 2 * n_filters * n_taps * n_d,
+            "if_cell": n_s * n_d, "if_fixed": 1.0}
+    field = "processor.n_coherent"
     detail = (f"improvement-factor table {n_s} spreads x {n_d} Dopplers, {n_filters} "
               f"filters of {n_taps} taps{' (staggered PRF)' if stagger else ''}, "
               f"improvement_grid {inputs['resolution']!r}")

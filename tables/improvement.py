@@ -9,11 +9,24 @@ Grid
       uniform.  I_F varies as a power of the spread (20 dB per decade per canceller stage), so
       interpolation in dB against ``log10 σ`` is accurate where a linear axis is not.  Below
       the axis the clutter is coherent enough that every processor sits at its stability limit
-      (a 2-pulse canceller is within 0.01 dB of it at 1e-7 with the default 100 dB limit), so
-      the lookup clamps to the first row; above ``σ_s = f_r`` the clutter is white to 1e-8.
-    * axis 1: ``f_d/f_r`` from 0 to the Doppler period of the processor, uniform: 1 for a
-      constant PRF; for a staggered PRF the least common multiple of the two bounding PRFs over
-      the reference PRF, capped at :data:`MAX_STAGGER_PERIOD`.
+      (a 2-pulse canceller is within 0.01 dB of it at 1e-7 with the default 100 dB limit;
+      a rectangular DFT bank, whose filters have exact nulls at zero Doppler, within 1.6 dB:
+      measured, docs/accuracy.md), so the lookup clamps to the first row; above
+      ``σ_s = f_r`` the clutter is white to 1e-8.
+    * axis 1: ``f_d/f_r`` over one period of the processor's response, 0 to 1, uniform.
+
+Staggered PRF.  The seed's staggered I_F (5.1.4) is the linear mean of two constant-PRF
+systems, one at each bounding PRF ``f_k`` of the stagger
+(:func:`shipradar.sensors.doppler_filters.staggered_improvement_factor`); each is the
+constant-PRF I_F of the same filter weights with the spread and the Doppler normalized to its
+own PRF, ``σ_s/f_k = (σ_s/f_r)(f_r/f_k)``.  A stagger table therefore holds the constant-PRF
+table of its weights (with its filter switches and steep cells), and its reader evaluates
+each bound there, at ``(f_r/f_k)`` times the point, and averages the two in linear power.
+This reads any Doppler of either sign exactly as the constant-PRF table does, whatever the
+stagger's period (the least common multiple of the two PRFs: hundreds or thousands of f_r for
+close PRFs, which a table over the period could not hold), and its grid is as small as the
+constant-PRF one.  A bound whose scaled spread leaves the spread axis is clamped to it like
+any spread (stability limit below, white clutter above).
 
 The Doppler axis is the target Doppler *relative to the clutter mean* (the table is built with
 the clutter centred on zero Doppler).  This is the seed's MTI with its clutter mean brought
@@ -26,17 +39,32 @@ alternative ``pick="best"`` takes the largest I_F over the filters.
 
 Besides the I_F (``values``, dB), the table carries ``extra["coherent_gain_db"]``: the I_F
 against white noise (``M_c = I``) with the same pick rule, i.e. the limit of the table for
-``σ_s -> ∞``.
+``σ_s -> ∞``.  It is read like the I_F: across a filter switch each side follows its own
+filter, and steep cells (blind speeds) are read with the exact response.
 
 Steep cells.  For one filter the I_F separates, ``I_F = (|H_p(f)|² + εE_p)/(C_p(σ) + εE_p)``:
 the Doppler enters only through the picked filter's response.  Near a null of that response
 (an MTI's blind speed, a sidelobe null between non-overlapping FIR filters) the response is
 logarithmic and no dB interpolation across the cell follows it (the chord reads tens of dB
-low).  The constant-PRF "response" table therefore also stores the picked filter and its
-response at each Doppler node (``picked_filter``, ``signal_db``); where the response changes by
-more than :data:`STEEP_CELL_DB` across a cell, the lookup evaluates every filter's response
-exactly, picks by the same rule, and keeps only the smooth clutter part ``C_p(σ)`` of the picked
-filter from the grid (O(F N) per such point).
+low, or misses a null inside the cell and the neighbouring filter that takes over there).
+The "response" table therefore also stores the picked filter and its response at each
+Doppler node (``picked_filter``, ``signal_db``), and attaches every filter's clutter output
+``C_p(σ) + εE_p`` on the spread axis and its white-noise output ``C_p(∞) + εE_p``
+(``clutter_db``, ``white_db``) and a mask of the cells to read exactly (``exact_cells``: those
+where the coherent gain read from the grid misses the function by more than
+:data:`EXACT_CELL_DB` at a quarter, the middle or three quarters of the cell, found when the
+table is built).  In those cells, and wherever the picked response changes by more than
+:data:`STEEP_CELL_DB` across the cell, the lookup evaluates every filter's response exactly,
+picks by the same rule, and keeps only the smooth clutter part of the picked filter from the
+table, interpolated along the spread axis (O(F N) per such point).  The coherent gain is read
+the same way, with the white-noise output in place of ``C_p(σ)``.
+
+Exact ties of the pick rule (two filters of equal response per unit energy at the target's
+Doppler): the direct function takes the lowest index; the lookup takes, within 1e-9
+(:data:`TIE_RELATIVE`), the filter the table picked at the cell's node on that side, else the
+lowest index.  The two agree except on the measure-zero set where two filters that are not
+mirror images of each other tie exactly (mirror filters, e.g. at ``f_d/f_r = 1/2`` in a
+symmetric bank, have equal I_F).
 """
 
 from __future__ import annotations
@@ -57,7 +85,9 @@ from shipradar.tables.store import Table, get_or_build
 BUILDER_NAME = "improvement_factor"
 #: 4: a "response" table at constant PRF keeps its processor's ``weights`` (read by the
 #: steep cells on-line, which then need no window function: no scipy.signal in a run).
-BUILDER_VERSION = 4
+#: 5: a stagger table holds its weights' constant-PRF table, read at each bound; the
+#: coherent gain is read like the I_F; cells with a null inside are read exactly (issue 36).
+BUILDER_VERSION = 5
 
 #: Processor kinds: none (I_F = 1, no table), MTI canceller, DFT bank, FIR bank, MTI + bank.
 PROCESSORS = ("none", "mti", "dft_bank", "fir_bank", "mti_bank")
@@ -65,13 +95,16 @@ PROCESSORS = ("none", "mti", "dft_bank", "fir_bank", "mti_bank")
 #: Spread axis limits, log10(σ_s/f_r) [1].
 LOG10_SPREAD_MIN = -7.0
 LOG10_SPREAD_MAX = 0.0
-#: Largest Doppler period of a staggered-PRF table, in units of the reference PRF [1].
-MAX_STAGGER_PERIOD = 128.0
-#: PRFs are made rational at this resolution to find the stagger period [Hz].
+#: PRFs are made rational at this resolution to find a stagger's Doppler period [Hz].
 PRF_RESOLUTION_HZ = 1e-3
 #: A Doppler cell over which the picked filter's response changes by more than this is read
 #: with the exact response of that filter (see :func:`improvement_factor_db`) [dB].
 STEEP_CELL_DB = 3.0
+#: A Doppler cell where the coherent gain read from the grid misses the function by more
+#: than this at a quarter, the middle or three quarters of the cell is read exactly [dB].
+EXACT_CELL_DB = 0.5
+#: Points of each Doppler cell where the build checks the reading (fractions of the cell).
+_CHECK_POINTS = (0.25, 0.5, 0.75)
 #: Filter responses this close (relative) are a tie of the pick rule [1].
 TIE_RELATIVE = 1e-9
 
@@ -232,9 +265,9 @@ def doppler_period(inputs: dict[str, Any]) -> float:
     """Doppler period of the processor's I_F in units of the reference PRF [1].
 
     1 for a constant PRF.  For a stagger, the least common multiple of the two bounding PRFs
-    (made rational at :data:`PRF_RESOLUTION_HZ`) over the reference PRF, capped at
-    :data:`MAX_STAGGER_PERIOD`: beyond the cap (far above any ship or missile Doppler for
-    usual PRFs) the lookup folds by the cap, an approximation.
+    (made rational at :data:`PRF_RESOLUTION_HZ`) over the reference PRF: hundreds of f_r or
+    more for close PRFs.  The table's Doppler axis is one period of each bound (0 to 1 in its
+    own PRF), whatever this is (module docstring); figures show the stagger over it.
     """
     if "stagger_prf_hz" not in inputs:
         return 1.0
@@ -245,16 +278,25 @@ def doppler_period(inputs: dict[str, Any]) -> float:
     common = math.lcm(*(f.denominator for f in fracs))
     nums = [f.numerator * (common // f.denominator) for f in fracs]
     lcm_hz = Fraction(math.lcm(*nums), common)
-    return min(float(lcm_hz / Fraction(inputs["prf_hz"])), MAX_STAGGER_PERIOD)
+    return float(lcm_hz / Fraction(inputs["prf_hz"]))
+
+
+def stagger_scales(inputs: dict[str, Any]) -> tuple[float, ...]:
+    """``f_r/f_k`` [1] of the two bounding PRFs ``f_k`` of a stagger (lowest first), by which
+    the lookup scales a point ``(σ_s/f_r, f_d/f_r)`` to read each bound; ``()`` at constant
+    PRF.  The same products as
+    :func:`shipradar.sensors.doppler_filters.staggered_improvement_factor`."""
+    if "stagger_prf_hz" not in inputs:
+        return ()
+    return tuple(inputs["prf_hz"] / f_k for f_k in inputs["stagger_prf_hz"])
 
 
 def _axes(inputs: dict[str, Any], n_taps: int) -> tuple[NDArray, NDArray]:
     res = RESOLUTIONS[inputs["resolution"]]
     n_spread = round((LOG10_SPREAD_MAX - LOG10_SPREAD_MIN) * res.spread_per_decade) + 1
     log_spread = np.linspace(LOG10_SPREAD_MIN, LOG10_SPREAD_MAX, n_spread)
-    period = doppler_period(inputs)
     per_prf = max(res.doppler_min, res.doppler_per_bin * n_taps)
-    doppler = np.linspace(0.0, period, math.ceil(period * per_prf) + 1)
+    doppler = np.linspace(0.0, 1.0, per_prf + 1)
     return log_spread, doppler
 
 
@@ -314,104 +356,24 @@ def _steer(f: NDArray, n: int) -> NDArray:
 
 
 #: Above this many filter-tap-Doppler products (both bounds of a stagger), the staggered
-#: table's filter responses are computed by :func:`_responses_blocked` (one matrix product
-#: per block of Doppler nodes) instead of one steering vector per node: a 256-pulse FIR bank
-#: with a 499/500 kHz stagger (262145 Doppler nodes) took 77 s, and needed 1 GB per array.
-#: The shipped scenes' stagger tables are far below it and keep their bytes.
-DIRECT_WORK_MAX = 5e8
-#: Doppler nodes per block of :func:`_responses_blocked`.
-_BLOCK = 2048
-
-
-def _responses_blocked(weights: NDArray, x0: float, step: float, n_nodes: int,
-                       progress=None) -> NDArray:
-    """|H_i(x)|² of every filter at the uniform nodes ``x0 + j step``, j < n_nodes [1].
-
-    The same sum as :func:`shipradar.sensors.doppler_filters.filter_response` (phases reduced modulo
-    1 before the exponential), split as ``x_j = x_q + r step`` over blocks of
-    :data:`_BLOCK` nodes: ``H[:, q + r] = (conj(w) exp(-j2π x_q n)) @ exp(-j2π r step n)``,
-    one (F, N) x (N, B) matrix product per block and N (F + B) exponentials instead of
-    N B per block.  Agrees with the direct sum to 5e-13 of the largest response (measured,
-    256 taps, 262145 nodes).
-    """
-    n = np.arange(weights.shape[-1])
-    rows = np.arange(_BLOCK)
-    # r step n modulo 1 from the exact integer r n (no rounding of a large product)
-    phase_in_block = np.exp(-2j * np.pi * np.mod(np.outer(n, rows) * step, 1.0))  # (N, B)
-    wc = np.conj(weights)
-    out = np.empty((weights.shape[0], n_nodes))
-    for q in range(0, n_nodes, _BLOCK):
-        b = min(_BLOCK, n_nodes - q)
-        lead = wc * np.exp(-2j * np.pi * np.mod((x0 + q * step) * n, 1.0))[None, :]
-        out[:, q:q + b] = np.abs(lead @ phase_in_block[:, :b]) ** 2
-        if progress is not None:
-            progress(b)
-    return out
-
-
-def _staggered_grid_blocked(weights: NDArray, spread: NDArray, doppler: NDArray,
-                            inputs: dict[str, Any], progress: bool | None
-                            ) -> tuple[NDArray, NDArray]:
-    """The stagger's I_F on the grid and its white-noise limit, "response" pick (linear).
-
-    The same model as :func:`shipradar.sensors.doppler_filters.staggered_improvement_factor` (the
-    linear mean of the two bounding constant-PRF systems, each read from the filter of
-    largest response per unit energy): each bound's responses are computed once, for the
-    grid and for its white-noise limit, by :func:`_responses_blocked`.
-    """
-    import sys
-
-    from tqdm import tqdm
-
-    eps = df.stability_residue(inputs["stability_limit_db"])
-    energy = np.sum(np.abs(weights) ** 2, axis=-1)
-    floor = (eps * energy)[:, None]
-    step = (doppler[-1] - doppler[0]) / (doppler.size - 1)
-    prfs = inputs["stagger_prf_hz"]
-    show = sys.stderr.isatty() if progress is None else progress
-    bar = tqdm(total=2 * doppler.size, disable=not show, desc="I_F", unit="node",
-               leave=False, file=sys.stderr)
-    i_f = np.zeros((spread.size, doppler.size))
-    white = np.zeros(doppler.size)
-    cols = np.arange(doppler.size)
-    try:
-        for f_k in (min(prfs), max(prfs)):
-            scale = inputs["prf_hz"] / f_k
-            sig = _responses_blocked(weights, doppler[0] * scale, step * scale, doppler.size,
-                                     bar.update) + floor  # (F, D)
-            clu = df.clutter_output_power(weights, spread * scale) + floor  # (F, S)
-            clu_white = df.clutter_output_power(weights, np.inf) + floor[:, 0]  # (F,)
-            pick = np.argmax(sig / energy[:, None], axis=0)
-            s = sig[pick, cols]
-            del sig
-            i_f += 0.5 * (s[None, :] / clu[pick, :].T)
-            white += 0.5 * (s / clu_white[pick])
-    finally:
-        bar.close()
-    return i_f, white
-
-
-def build_improvement_table(processor: str, *, progress: bool | None = None,
-                            **kwargs: Any) -> Table | None:
+def build_improvement_table(processor: str, **kwargs: Any) -> Table | None:
     """Build the I_F table of a processor (keywords of :func:`improvement_table_inputs`).
-
-    ``progress``: a tqdm bar over a large stagger table's Doppler nodes on stderr (default:
-    when stderr is a terminal).
 
     Returns ``None`` for ``processor="none"`` (I_F = 1 everywhere; :func:`improvement_factor_db`
     accepts ``None``).  The table's ``values`` are I_F [dB] on (``log10(σ_s/f_r)``,
     ``f_d/f_r``) computed exactly at every grid point ([57], O(N) per point), with the pick
-    rule and the stagger average (linear) of :mod:`shipradar.sensors.doppler_filters`.
+    rule of :func:`shipradar.sensors.doppler_filters.bank_improvement_factor`.  For a stagger
+    they are the constant-PRF I_F of its filter weights, which the lookup reads at each of
+    the two bounds of 5.1.4 (module docstring): the same grid as without the stagger.
 
     Extra arrays: ``coherent_gain_db`` (I_F against white noise, the ``σ_s -> ∞`` limit);
-    for the "response" pick at constant PRF, ``ahead_db``, ``behind_db`` and ``crossover``
-    locate the jumps of the I_F where the picked filter changes, and ``picked_filter`` and
-    ``signal_db`` (the picked filter's ``|H|² + εE`` at each Doppler node [dB]) let the lookup
-    read steep cells exactly (see :func:`improvement_factor_db`), with the attached
-    ``weights`` (F, N), the processor's filter weights they are computed from (so that a run
-    reads them from the table rather than building the window again).  Stagger tables and the
-    "best" pick (a maximum of continuous functions, without jumps) have ``crossover = 1``:
-    plain bilinear interpolation.
+    for the "response" pick, ``ahead_db``, ``behind_db`` and ``crossover`` locate the jumps
+    of the I_F where the picked filter changes, and ``picked_filter`` and ``signal_db`` (the
+    picked filter's ``|H|² + εE`` at each Doppler node [dB]) let the lookup read steep cells
+    exactly (see :func:`improvement_factor_db`), with the attached ``weights`` (F, N), the
+    processor's filter weights they are computed from (so that a run reads them from the
+    table rather than building the window again).  The "best" pick (a maximum of continuous
+    functions, without jumps) has ``crossover = 1``: plain bilinear interpolation.
     """
     inputs = improvement_table_inputs(processor, **kwargs)
     if inputs is None:
@@ -422,28 +384,15 @@ def build_improvement_table(processor: str, *, progress: bool | None = None,
     limit = inputs["stability_limit_db"]
     pick = inputs.get("pick", "response")
     common = dict(pick=pick, stability_limit_db=limit)
-    if "stagger_prf_hz" in inputs and pick == "response" and (
-        2 * weights.size * doppler.size > DIRECT_WORK_MAX
-    ):
-        i_f, white = _staggered_grid_blocked(weights, spread, doppler, inputs, progress)
-        grid = {"values": i_f}
-    elif "stagger_prf_hz" in inputs:
-        stagger = dict(prf_hz=inputs["prf_hz"], stagger_prf_hz=np.asarray(inputs["stagger_prf_hz"]))
-        i_f = df.staggered_improvement_factor(
-            weights, spread[:, None], doppler[None, :], **stagger, **common
-        )
-        white = df.staggered_improvement_factor(weights, np.inf, doppler, **stagger, **common)
-        grid = {"values": i_f}
+    white = df.bank_improvement_factor(weights, np.inf, doppler, **common)
+    if pick == "response":
+        grid = _switch_aware_grid(weights, spread, doppler, limit)
     else:
-        white = df.bank_improvement_factor(weights, np.inf, doppler, **common)
-        if pick == "response":
-            grid = _switch_aware_grid(weights, spread, doppler, limit)
-        else:
-            grid = {
-                "values": df.bank_improvement_factor(
-                    weights, spread[:, None], doppler[None, :], **common
-                )
-            }
+        grid = {
+            "values": df.bank_improvement_factor(
+                weights, spread[:, None], doppler[None, :], **common
+            )
+        }
     values = 10.0 * np.log10(grid["values"])
     if "ahead" not in grid:
         # no jumps: the continuations are the neighbouring nodes themselves
@@ -459,7 +408,7 @@ def build_improvement_table(processor: str, *, progress: bool | None = None,
     if "signal_db" in grid:
         extra["picked_filter"] = grid["picked_filter"]
         extra["signal_db"] = grid["signal_db"]
-    return Table(
+    table = Table(
         name=BUILDER_NAME,
         version=BUILDER_VERSION,
         axes=(log_spread, doppler),
@@ -470,9 +419,41 @@ def build_improvement_table(processor: str, *, progress: bool | None = None,
         value_unit="dB",
         inputs=inputs,
         extra=extra,
-        # the steep cells' exact response (_weights_of)
-        attached={"weights": weights} if "signal_db" in grid else {},
+        # the steep cells' exact response (_processor_of)
+        attached={"weights": weights} | _clutter_outputs_db(weights, spread, limit)
+        if "signal_db" in grid else {},
     )
+    if "signal_db" in grid:
+        table.attached["exact_cells"] = _exact_cells(table, weights, limit)
+    return table
+
+
+def _clutter_outputs_db(weights: NDArray, spread: NDArray, limit_db: float
+                        ) -> dict[str, NDArray]:
+    """Every filter's clutter output ``C_p(σ) + εE_p`` on the spread axis, (S, F), and its
+    white-noise output ``C_p(∞) + εE_p``, (F,) [dB]: the smooth part of a steep cell's I_F
+    and coherent gain."""
+    floor = df.stability_residue(limit_db) * np.sum(np.abs(weights) ** 2, axis=-1)
+    clutter = df.clutter_output_power(weights, spread) + floor[:, None]
+    white = df.clutter_output_power(weights, np.inf) + floor
+    return {"clutter_db": 10.0 * np.log10(clutter.T), "white_db": 10.0 * np.log10(white)}
+
+
+def _exact_cells(table: Table, weights: NDArray, limit_db: float) -> NDArray:
+    """Doppler cells (D-1,) where the coherent gain read from the grid (switches and steep
+    cells included) misses the function by more than :data:`EXACT_CELL_DB` at one of
+    :data:`_CHECK_POINTS`: a null of the picked filter inside the cell with both nodes on
+    its flanks, or another filter's sidelobe taking over there.  The I_F has the same
+    Doppler dependence (module docstring), so these cells are read exactly for both."""
+    ax_d = table.axes[1]
+    frac = np.asarray(_CHECK_POINTS)
+    d = (ax_d[:-1, None] + frac * (ax_d[1] - ax_d[0])).ravel()
+    table.attached["exact_cells"] = np.zeros(ax_d.size - 1, dtype=bool)
+    (read,) = _read_cells(table, _cells(table, np.ones(d.size), d), (_SEPARABLE,))
+    exact = 10.0 * np.log10(df.bank_improvement_factor(weights, np.inf, d,
+                                                       stability_limit_db=limit_db))
+    miss = np.abs(read - exact).reshape(ax_d.size - 1, frac.size)
+    return np.any(miss > EXACT_CELL_DB, axis=1)
 
 
 def improvement_table(
@@ -506,8 +487,10 @@ def improvement_factor_db(
     Bilinear interpolation (in dB, against ``log10 σ`` and ``f_d/f_r``) on the uniform grid,
     by direct index arithmetic: O(1) per point, no search.  In a Doppler cell where the
     picked filter changes, each side of the crossover interpolates its own filter's I_F, so
-    the jump of the pick rule stays sharp.  Within one cell of a blind speed the dB
-    interpolation lies below the logarithmic null's true shape (conservative).
+    the jump of the pick rule stays sharp; in a cell where the picked filter's response
+    changes by more than :data:`STEEP_CELL_DB` (a blind speed, a null between filters) the
+    response is evaluated exactly (module docstring).  A stagger table is read at each
+    bounding PRF and the two are averaged in linear power (module docstring).
 
     Parameters
     ----------
@@ -519,19 +502,20 @@ def improvement_factor_db(
         white.
     doppler_norm : array_like
         Target Doppler relative to the clutter mean over the reference PRF, ``f_d/f_r`` [1],
-        any real value: folded modulo the table's Doppler period (1 for a constant PRF).
+        any finite real value (each bound's response is periodic in its own PRF).
     array : str, optional
-        Read ``table.extra[array]`` (e.g. ``"coherent_gain_db"``) instead of the I_F.
+        Read ``table.extra[array]`` instead of the I_F.  ``"coherent_gain_db"`` is read with
+        the I_F's switches and steep cells; any other array bilinearly.
 
     Returns
     -------
     ndarray, broadcast shape of the inputs
-        [dB]; NaN where an input is NaN.
+        [dB]; NaN where an input is NaN or the Doppler is infinite.
     """
     s, d = np.broadcast_arrays(np.asarray(spread_norm, float), np.asarray(doppler_norm, float))
     if table is None:
         return np.where(np.isnan(s) | np.isnan(d), np.nan, 0.0)
-    return _read_cells(table, _cells(table, s, d), array)
+    return _read(table, s, d, (array,))[0]
 
 
 def improvement_and_gain_db(
@@ -543,15 +527,37 @@ def improvement_and_gain_db(
     if table is None:
         none = np.where(np.isnan(s) | np.isnan(d), np.nan, 0.0)
         return none, none.copy()
-    cells = _cells(table, s, d)
-    return _read_cells(table, cells, None), _read_cells(table, cells, array)
+    i_f, other = _read(table, s, d, (None, array))
+    return i_f, other
+
+
+def _read(table: Table, s: NDArray, d: NDArray, arrays: Sequence[str | None]) -> list[NDArray]:
+    """The ``arrays`` (None: the I_F) of :func:`improvement_factor_db` at the points."""
+    if np.any(s < 0):
+        raise ValueError("spread_norm must be >= 0")
+    scales = stagger_scales(table.inputs)
+    if not scales:
+        cells = _cells(table, s, d)
+        return _read_cells(table, cells, arrays)
+    # 5.1.4: the linear mean of the two bounding constant-PRF systems, each read from the
+    # table in its own PRF (the products are those of staggered_improvement_factor)
+    lo, hi = (_read_cells(table, _cells(table, s * k, d * k), arrays) for k in scales)
+    return [_mean_power_db(a, b) for a, b in zip(lo, hi, strict=True)]
+
+
+def _mean_power_db(a_db: NDArray, b_db: NDArray) -> NDArray:
+    """``10 log10((10^(a/10) + 10^(b/10)) / 2)`` [dB], without overflow; NaN stays NaN."""
+    top = np.fmax(a_db, b_db)
+    gap = np.abs(a_db - b_db)
+    finite = np.isfinite(gap)
+    gap = np.where(finite, gap, 0.0)
+    out = top + 10.0 * np.log10(0.5 * (1.0 + 10.0 ** (-gap / 10.0)))
+    return np.where(finite, out, np.nan)
 
 
 def _cells(table: Table, s: NDArray, d: NDArray) -> tuple[NDArray, ...]:
     """Where :func:`improvement_factor_db` reads the points ``(s, d)`` (broadcast): valid
     mask, Doppler, cell indices and fractions ``(ok, d, i, j, tx, ty)``."""
-    if np.any(s < 0):
-        raise ValueError("spread_norm must be >= 0")
     ax_s, ax_d = table.axes
     ok = ~np.isnan(s) & np.isfinite(d)
     s0 = 10.0 ** ax_s[0]
@@ -565,77 +571,104 @@ def _cells(table: Table, s: NDArray, d: NDArray) -> tuple[NDArray, ...]:
     return ok, d, i, j, x - i, y - j
 
 
-def _read_cells(table: Table, cells: tuple[NDArray, ...], array: str | None) -> NDArray:
-    """:func:`improvement_factor_db` at the points located by :func:`_cells`."""
+#: The extra array read with the I_F's switches and steep cells (see :func:`_read_cells`).
+_SEPARABLE = "coherent_gain_db"
+
+
+def _read_cells(table: Table, cells: tuple[NDArray, ...],
+                arrays: Sequence[str | None]) -> list[NDArray]:
+    """:func:`improvement_factor_db` of each of ``arrays`` (None: the I_F) at the points
+    located by :func:`_cells`; the exact responses of the steep cells evaluated once."""
     ok, d, i, j, tx, ty = cells
-    if array is None:
-        # follow the filter picked at the cell's left node up to the crossover, then the one
-        # picked at its right node: the jump is placed where the responses cross
-        left = ty < table.extra["crossover"][0, j]
-        v, ahead, behind = table.values, table.extra["ahead_db"], table.extra["behind_db"]
-        lo0 = np.where(left, v[i, j], behind[i, j])
-        hi0 = np.where(left, ahead[i, j], v[i, j + 1])
-        lo1 = np.where(left, v[i + 1, j], behind[i + 1, j])
-        hi1 = np.where(left, ahead[i + 1, j], v[i + 1, j + 1])
-    else:
-        data = table.extra[array]
-        lo0, hi0, lo1, hi1 = data[i, j], data[i, j + 1], data[i + 1, j], data[i + 1, j + 1]
-    out = (1 - tx) * ((1 - ty) * lo0 + ty * hi0) + tx * ((1 - ty) * lo1 + ty * hi1)
-    if array is None and "signal_db" in table.extra:
+    ex = table.extra
+    response_pick = "signal_db" in ex
+    # gathers from the flattened (S, D) arrays (several times faster than 2-D indexing)
+    n_d = table.values.shape[1]
+    f00 = i * n_d + j
+    f10 = f00 + n_d
+    v, ahead, behind = (a.reshape(-1) for a in (table.values, ex["ahead_db"], ex["behind_db"]))
+    # follow the filter picked at the cell's left node up to the crossover, then the one
+    # picked at its right node: the jump is placed where the responses cross
+    crossover = ex["crossover"][0][j]
+    left = ty < crossover
+    if_lo0 = np.where(left, v[f00], behind[f00])
+    if_hi0 = np.where(left, ahead[f00], v[f00 + 1])
+    corners = []
+    for array in arrays:
+        if array is None:
+            lo1 = np.where(left, v[f10], behind[f10])
+            hi1 = np.where(left, ahead[f10], v[f10 + 1])
+            corners.append((if_lo0, if_hi0, lo1, hi1))
+        elif array == _SEPARABLE and response_pick:
+            # the coherent gain is the picked filter's response over its white-noise output:
+            # along a Doppler cell it changes as the I_F of the same filter (any spread row),
+            # so the I_F's continuations across a switch carry over by the same dB step
+            g, v0, a0, b0 = ex[array][0], table.values[0], ex["ahead_db"][0], ex["behind_db"][0]
+            g0, g1 = g[j], g[j + 1]
+            switch = crossover < 1.0
+            lo = np.where(left, g0, np.where(switch, g1 + b0[j] - v0[j + 1], g0))
+            hi = np.where(left, np.where(switch, g0 + a0[j] - v0[j], g1), g1)
+            corners.append((lo, hi, lo, hi))
+        else:
+            data = ex[array].reshape(-1)
+            corners.append((data[f00], data[f00 + 1], data[f10], data[f10 + 1]))
+    outs = [(1 - tx) * ((1 - ty) * lo0 + ty * hi0) + tx * ((1 - ty) * lo1 + ty * hi1)
+            for lo0, hi0, lo1, hi1 in corners]
+    exact_arrays = [k for k, a in enumerate(arrays) if a is None
+                    or (a == _SEPARABLE and response_pick)]
+    if exact_arrays and response_pick:
         # along a Doppler cell the I_F of one filter changes only through its response, so
-        # |hi - lo| is that response's change: steep cells are read exactly (module docstring)
-        steep = np.atleast_1d(ok & (np.abs(hi0 - lo0) > STEEP_CELL_DB))
+        # |hi - lo| is that response's change: steep cells (and the cells with a null inside,
+        # found at build time) are read exactly (module docstring)
+        steep = np.atleast_1d(ok & ((np.abs(if_hi0 - if_lo0) > STEEP_CELL_DB)
+                                    | table.attached["exact_cells"][j]))
         if np.any(steep):
-            shape = np.shape(out)
-            out = np.array(out, dtype=float).reshape(-1)
             flat = steep.reshape(-1)
             node = np.where(left, j, j + 1)
             d_s, i_s, tx_s, node_s = (
                 np.atleast_1d(a).reshape(-1)[flat] for a in (d, i, tx, node)
             )
-            node_filter = table.extra["picked_filter"][0, node_s].astype(np.intp)
-            out[flat] = _steep_cells_db(table, d_s, i_s, tx_s, node_filter, out[flat])
-            out = out.reshape(shape)
-    return np.where(ok, out, np.nan)
+            node_filter = ex["picked_filter"][0, node_s].astype(np.intp)
+            p, response_db = _exact_response_db(table, d_s, node_filter)
+            for k in exact_arrays:
+                if arrays[k] is None:
+                    c_db = table.attached["clutter_db"]
+                    floor_db = (1 - tx_s) * c_db[i_s, p] + tx_s * c_db[i_s + 1, p]
+                else:
+                    floor_db = table.attached["white_db"][p]
+                shape = np.shape(outs[k])
+                out = np.array(outs[k], dtype=float).reshape(-1)
+                out[flat] = response_db - floor_db
+                outs[k] = out.reshape(shape)
+    return [np.where(ok, out, np.nan) for out in outs]
 
 
-_WEIGHTS_CACHE: dict[str, tuple[NDArray, NDArray, float, NDArray]] = {}
+_PROCESSOR_CACHE: dict[str, tuple[NDArray, NDArray, float]] = {}
 
 
-def _weights_of(table: Table) -> tuple[NDArray, NDArray, float, NDArray]:
+def _processor_of(table: Table) -> tuple[NDArray, NDArray, float]:
     """A table's processor, cached by table key: weights (F, N) (the table's own, computed
-    when it was built), filter energies (F,), the residue ε, and for each filter the first
-    Doppler node where it is picked (-1: none)."""
-    got = _WEIGHTS_CACHE.get(table.key)
+    when it was built), filter energies (F,) and the residue ε."""
+    got = _PROCESSOR_CACHE.get(table.key)
     if got is None:
         w = table.attached["weights"]
-        picked = table.extra["picked_filter"][0].astype(np.intp)
-        first = np.full(w.shape[0], -1, dtype=np.intp)
-        filters, where = np.unique(picked, return_index=True)
-        first[filters] = where
         got = (w, np.sum(np.abs(w) ** 2, axis=-1),
-               df.stability_residue(table.inputs["stability_limit_db"]), first)
-        _WEIGHTS_CACHE[table.key] = got
+               df.stability_residue(table.inputs["stability_limit_db"]))
+        _PROCESSOR_CACHE[table.key] = got
     return got
 
 
-def _steep_cells_db(
-    table: Table,
-    doppler: NDArray,
-    i: NDArray,
-    tx: NDArray,
-    node_filter: NDArray,
-    fallback: NDArray,
-) -> NDArray:
-    """I_F [dB] in steep Doppler cells: the exact pick and response over the grid's clutter.
+def _exact_response_db(table: Table, doppler: NDArray, node_filter: NDArray
+                       ) -> tuple[NDArray, NDArray]:
+    """The filter ``p`` picked at each Doppler by the table's rule and its exact
+    ``|H_p|² + εE_p`` [dB], for the steep cells; the I_F (or coherent gain) is this over the
+    picked filter's clutter output ``attached["clutter_db"]`` interpolated along the spread
+    axis (or its white-noise output ``attached["white_db"]``).
 
-    The responses of every filter are evaluated at the target Doppler and the filter is
-    picked by the table's rule (largest response per unit energy, ties to the lowest index);
-    its clutter output C_p(σ) [dB] is ``signal_db - values`` at a Doppler node where the table
-    picked the same filter, interpolated along the spread axis.  A filter the grid never
-    picks (a sidelobe island narrower than a cell) keeps the interpolated ``fallback``.
+    The responses of every filter are evaluated at the Doppler, and the filter is picked as
+    the grid was: largest response per unit energy, ties as in the module docstring.
     """
-    w, energy, eps, first = _weights_of(table)
+    w, energy, eps = _processor_of(table)
     n = np.arange(w.shape[-1])
     steer = np.exp(-2j * np.pi * np.mod(doppler[:, None] * n, 1.0))
     response = np.abs(steer @ np.conj(w).T) ** 2  # (points, filters)
@@ -647,11 +680,4 @@ def _steep_cells_db(
     tied = score >= score.max(axis=1, keepdims=True) * (1.0 - TIE_RELATIVE)
     rows = np.arange(doppler.size)
     p = np.where(tied[rows, node_filter], node_filter, np.argmax(tied, axis=1))
-    col = first[p]
-    known = col >= 0
-    col = np.where(known, col, 0)
-    v = table.values
-    clutter_db = table.extra["signal_db"][0, col] - ((1 - tx) * v[i, col] + tx * v[i + 1, col])
-    r_p = response[rows, p]
-    exact = 10.0 * np.log10(r_p + eps * energy[p]) - clutter_db
-    return np.where(known, exact, fallback)
+    return p, 10.0 * np.log10(response[rows, p] + eps * energy[p])

@@ -180,21 +180,24 @@ def test_pe_range_stops_at_the_farthest_target_only_on_a_large_grid():
     assert kw["max_range_m"] == pytest.approx(1.05 * 21000 * np.sqrt(2) + 1000, rel=1e-3)
 
 
-def test_blocked_stagger_table_agrees_with_the_direct_one(monkeypatch):
-    """The blocked I_F path against the former direct one on a 32-pulse bank with a 499/500
-    kHz stagger: equal to 1e-9 dB except at the Doppler nodes where two filters' responses
-    tie to rounding (there either filter is picked: the I_F jumps at that node anyway)."""
-    kw = dict(n_pulses=32, window="hann", prf_hz=5e5, stagger_prf_hz=[499e3, 500e3],
-              resolution="coarse")
-    monkeypatch.setattr(ti, "DIRECT_WORK_MAX", float("inf"))
-    direct = ti.build_improvement_table("fir_bank", **kw)
-    monkeypatch.setattr(ti, "DIRECT_WORK_MAX", 0.0)
-    blocked = ti.build_improvement_table("fir_bank", **kw)
-    diff = np.abs(direct.values - blocked.values)
-    ties = np.any(diff > 1e-9, axis=0)
-    assert ties.mean() < 1e-3
-    np.testing.assert_allclose(blocked.extra["coherent_gain_db"],
-                               direct.extra["coherent_gain_db"], rtol=0, atol=1e-9)
+def test_a_stagger_table_costs_what_its_constant_prf_table_costs():
+    """Issue 36: a stagger's I_F table is its weights' constant-PRF table (read at each
+    bound), whatever the stagger's period: the same grid, the same estimate."""
+    kw = dict(n_pulses=32, window="hann", resolution="coarse")
+    stagger = ti.build_improvement_table("fir_bank", **kw, prf_hz=5e5,
+                                         stagger_prf_hz=[499e3, 500e3])
+    constant = ti.build_improvement_table("fir_bank", **kw)
+    assert stagger.values.shape == constant.values.shape
+    np.testing.assert_array_equal(stagger.values, constant.values)
+
+    def work(**radar):
+        d = _with(processor={"type": "fir_bank", "n_coherent": 32}, **radar)
+        return next(e for e in estimate_build(parse_scenario(d))
+                    if e.kind == "improvement").work
+
+    assert work(prf_hz=5e5, stagger_prf_hz=[499e3, 500e3], pulse_width_s=0.1e-6,
+                transmitted_pulse_width_s=0.5e-6) == work(prf_hz=5e5, pulse_width_s=0.1e-6,
+                                                          transmitted_pulse_width_s=0.5e-6)
 
 
 def test_shipped_scene_tables_stay_below_the_large_grid_rules():

@@ -119,6 +119,8 @@ def plot_improvement_vs_doppler(
 
 #: Clutter spreads σ_s/f_r drawn from an I_F table [1].
 TABLE_SPREADS_NORM = (1e-3, 1e-2, 3e-2, 1e-1)
+#: Widest Doppler span of a stagger's figure, over the reference PRF [1].
+TABLE_MAX_SPAN_NORM = 20.0
 
 
 def plot_improvement_table(
@@ -133,8 +135,8 @@ def plot_improvement_table(
 
     One curve per clutter spread, read through the on-line lookup
     (:func:`shipradar.tables.improvement.improvement_factor_db`) over one Doppler period of the
-    table (1 for a constant PRF; the stagger period otherwise), so the picture shows what a run
-    reads.
+    processor (1 for a constant PRF; the stagger's period, at most
+    :data:`TABLE_MAX_SPAN_NORM`), so the picture shows what a run reads.
 
     Parameters
     ----------
@@ -154,9 +156,9 @@ def plot_improvement_table(
     Path
         The written file.
     """
-    from shipradar.tables.improvement import improvement_factor_db
+    from shipradar.tables.improvement import doppler_period, improvement_factor_db
 
-    period = float(table.axes[1][-1])
+    period = min(doppler_period(table.inputs), TABLE_MAX_SPAN_NORM)
     doppler = np.linspace(0.0, period, int(n_points))
     inputs = table.inputs
     desc = inputs["processor"]
