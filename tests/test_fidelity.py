@@ -1,14 +1,16 @@
-"""``shipradar fidelity`` (sim/studies/fidelity.py, issue 18): common random numbers, the
-comparison,
-the recommendation and its tolerances, --apply, bad input, and ``validate --explain``.
+"""``shipradar fidelity`` (sim/studies/fidelity.py, issues 18 and 38): common random
+numbers, the comparison, the recommendation, its tolerances and its costs (a cost model in
+place of the clock: :class:`CostModel`), --apply, bad input, and ``validate --explain``.
 
 Scenes are small (one X-band radar, 1 s scans, a few tens of seconds, one or two targets)
-and share one private table cache for the module.
+and share one private table cache for the module. The accuracy runs are deterministic
+(common random numbers), so a study run again in this module reuses them (:func:`_memo_runs`).
 """
 
 from __future__ import annotations
 
 import copy
+import math
 import os
 
 import numpy as np
@@ -16,6 +18,7 @@ import pytest
 import yaml
 
 from shipradar.sim.studies import fidelity as fi
+from shipradar.sim.studies import timing as ti
 from shipradar.sim.world.scenario import load_scenario, parse_scenario
 from tests.helpers import quiet_radar
 
@@ -74,14 +77,60 @@ def _private_cache(tmp_path_factory):
         os.environ["SHIPRADAR_TABLES"] = old
 
 
+class CostModel:
+    """A test double of the study's clock (:class:`shipradar.sim.studies.timing.SampleTimer`):
+    each setting's CPU is ``base_s`` times the factors of the values it sets, times seeded
+    log-normal noise (``noise``, the spread of a loaded machine), the same on load, first
+    and warm run."""
+
+    def __init__(self, factors=None, *, base_s=0.1, noise=0.05, seed=0):
+        self.factors = factors or {}
+        self.base_s = base_s
+        self.noise = noise
+        self.rng = np.random.default_rng(seed)
+        self.calls = 0
+
+    def __call__(self, fid, seed):
+        self.calls += 1
+        f = math.prod(v for (choice, value), v in self.factors.items()
+                      if fid[choice] == value)
+        n = self.rng.lognormal(0.0, self.noise, size=3)
+        return ti.Sample(0.2 * self.base_s * f * n[0], self.base_s * f * n[1],
+                         self.base_s * f * n[2])
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _memo_runs():
+    """Accuracy runs keyed by (scene, setting, seeds, duration): identical when repeated."""
+    memo = {}
+    real = fi.run_setting
+
+    def run(scenario, setting, seeds, duration_s, clock, *, crn=True):
+        key = (scenario.model_dump_json(), repr(sorted(setting.fidelity.items())),
+               tuple(seeds), duration_s, crn)
+        if key not in memo:
+            memo[key] = real(scenario, setting, seeds, duration_s, clock, crn=crn)
+        return copy.copy(memo[key]) if memo[key].setting == setting else \
+            fi.RunResult(**{**memo[key].__dict__, "setting": setting})
+
+    mp = pytest.MonkeyPatch()
+    mp.setattr(fi, "run_setting", run)
+    yield
+    mp.undo()
+
+
+#: LIT's costs in the test double: both cheaper propagation models 3x cheaper per run.
+LIT_COSTS = {("propagation", "two_ray"): 1 / 3, ("propagation", "free_space"): 1 / 3}
+
+
 @pytest.fixture(scope="module")
 def ducted_study():
-    return fi.run_fidelity_study(parse_scenario(DUCTED))
+    return fi.run_fidelity_study(parse_scenario(DUCTED), timer=CostModel(), pairs=4)
 
 
 @pytest.fixture(scope="module")
 def lit_study():
-    return fi.run_fidelity_study(parse_scenario(LIT))
+    return fi.run_fidelity_study(parse_scenario(LIT), timer=CostModel(LIT_COSTS), pairs=4)
 
 
 def _comp(study, label):
@@ -206,16 +255,21 @@ def test_free_space_like_geometry_accepts_two_ray(lit_study):
 
 
 @pytest.mark.slow
-def test_recommendation_applied_and_rerun_is_inside_its_tolerances(ducted_study, tmp_path):
-    study = ducted_study
-    path = tmp_path / "ducted.yaml"
-    path.write_text(yaml.safe_dump(DUCTED, sort_keys=False))
-    out = tmp_path / "ducted-fast.yaml"
-    fi.apply_fidelity(path, study.recommended, out)
+def test_recommendation_applied_and_rerun_is_inside_its_tolerances(lit_study, tmp_path):
+    """The block written by --apply (unread choices left out: the schema's defaults stand
+    for them) runs inside the tolerances, against the reference run again."""
+    study = lit_study
+    path = tmp_path / "lit.yaml"
+    path.write_text(yaml.safe_dump(LIT, sort_keys=False))
+    out = tmp_path / "lit-fast.yaml"
+    fi.apply_fidelity(path, study.recommended, out, unread=study.unread)
     applied = load_scenario(out)
-    assert applied.fidelity.model_dump() == fi.Fidelity(**study.recommended).model_dump()
-    assert applied.targets == parse_scenario(DUCTED).targets
-    s = parse_scenario(DUCTED)
+    read = set(fi.Fidelity.model_fields) - set(study.unread)
+    assert "pe_grid" not in read and "pe_grid:" not in out.read_text()
+    assert applied.fidelity.model_dump(include=read) == \
+        fi.Fidelity(**study.recommended).model_dump(include=read)
+    assert applied.targets == parse_scenario(LIT).targets
+    s = parse_scenario(LIT)
     clock = fi._TableClock()
     ref = fi.run_setting(s, fi.Setting("reference", None, None, study.reference, True,
                                        "reference"), study.seeds, study.duration_s, clock)
@@ -230,24 +284,106 @@ def test_recommendation_applied_and_rerun_is_inside_its_tolerances(ducted_study,
 
 
 @pytest.mark.slow
-def test_recommendation_obeys_tolerances_and_is_the_cheapest(ducted_study):
+def test_equal_costs_keep_the_reference_twice(ducted_study):
+    """Every setting costs the same (10 % noise, two noise seeds): nothing is measurably
+    cheaper, so the same command twice recommends the reference both times, and says so."""
     study = ducted_study
-    rc = study.recommended_comparison
-    assert rc is not None and rc.ok
-    assert rc.result.setting.fidelity == study.recommended
-    # no admissible alternative left out is cheaper, by the noise margin, than the value
-    # the recommendation kept (unless the combination check sent that choice back)
-    for c in study.comparisons:
-        s = c.result.setting
-        if s.kind == "alternative" and c.ok and study.recommended[s.choice] != s.value:
-            kept = study.recommended[s.choice]
-            kept_cost = (_comp(study, "reference").cost_s if kept == study.reference[s.choice]
-                         else _comp(study, f"{s.choice}={fi._fmt(kept)}").cost_s)
-            assert c.cost_s >= kept_cost - study.cost_margin_s or any(
-                s.choice in n for n in study.notes)
+    again = fi.run_fidelity_study(parse_scenario(DUCTED), timer=CostModel(noise=0.1, seed=9),
+                                  pairs=4)
+    for st in (study, again):
+        assert st.recommended == st.reference
+        assert st.recommended_comparison is st.comparisons[0]
+        assert "recommended: the reference (no setting" in fi.format_report(st)
+        # no alternative is called cheaper
+        assert not any(ti.is_cheaper(st.ratio(c)) for c in st.comparisons[1:])
     # violations make a setting inadmissible, and are reported
     bad = [c for c in study.comparisons if not c.ok]
     assert bad and all(c.violations for c in bad)
+
+
+@pytest.mark.slow
+def test_a_three_times_cheaper_setting_is_found(lit_study):
+    """two_ray and free_space 3x cheaper per run (the cost model), both inside the
+    tolerances: the more accurate of the two is recommended, re-timed as a whole at 1/3 of
+    the reference within its interval; pe_grid, unread beside two_ray, is left out."""
+    study = lit_study
+    assert study.recommended["propagation"] == "two_ray"
+    assert _diff_label(study) == "propagation=two_ray"
+    two, free = _comp(study, "propagation=two_ray"), _comp(study, "propagation=free_space")
+    assert two.ok and free.ok
+    assert fi._error_score(two, study.tolerances) < fi._error_score(free, study.tolerances)
+    cost = study.recommended_cost
+    assert cost is not None and cost.warm_ratio.n == 4
+    assert cost.warm_ratio.low < 1 / 3 < cost.warm_ratio.high
+    assert ti.is_cheaper(cost.warm_ratio)
+    assert "pe_grid" in study.unread
+    text = fi.format_report(study)
+    assert "recommended (cheapest by per-run CPU" in text
+    assert "  pe_grid:" not in text.split("recommended (")[1]
+    assert "not read by this scene with this block: pe_grid" in text
+    # and the more accurate one loses when the other is clearly cheaper
+    other = fi.run_fidelity_study(parse_scenario(LIT), pairs=4, timer=CostModel(
+        {**LIT_COSTS, ("propagation", "free_space"): 1 / 6}))
+    assert other.recommended["propagation"] == "free_space"
+
+
+@pytest.mark.slow
+def test_combined_block_is_retimed_and_dropped_when_not_cheaper():
+    """Each of two changes is 2x cheaper alone, but together they cost the reference's
+    (the cost model's interaction): the block re-timed as a whole is not cheaper, so the
+    change with the smaller saving goes back; the printed block is then a single change
+    whose own fresh timing is the saving printed."""
+
+    class Interacting(CostModel):
+        def __call__(self, fid, seed):
+            both = fid["propagation"] == "two_ray" and fid["atmosphere"] is False
+            self.factors = ({} if both else
+                            {("propagation", "two_ray"): 0.5, ("atmosphere", False): 0.45})
+            return super().__call__(fid, seed)
+
+    study = fi.run_fidelity_study(parse_scenario(LIT), pairs=4, timer=Interacting())
+    assert any("re-timed as a whole" in n and "propagation back to pe" in n
+               for n in study.notes), study.notes
+    assert _diff_label(study) == "atmosphere=false"
+    assert study.recommended_cost.warm_ratio.low < 0.45 < study.recommended_cost.warm_ratio.high
+
+
+@pytest.mark.slow
+def test_same_command_twice_with_the_real_clock():
+    """The real clock on the lit scene: two studies recommend the same block, or each
+    choice on which they differ is reported as within noise by one of them."""
+    studies = [fi.run_fidelity_study(parse_scenario(LIT), pairs=3) for _ in range(2)]
+    a, b = (st.recommended for st in studies)
+    differ = {k for k in a if a[k] != b[k]}
+    noisy = {u.split("=")[0] for st in studies for u in st.undecided}
+    assert differ <= noisy, (a, b, [st.undecided for st in studies])
+
+
+@pytest.mark.slow
+def test_shortened_study_warns(capsys):
+    study = fi.run_fidelity_study(parse_scenario(LIT), duration_s=10.0, timer=CostModel(),
+                                  pairs=2)
+    assert study.shortened
+    text = fi.format_report(study)
+    assert text.count("WARNING: shortened study (10 s of the scene's 20 s)") == 2
+    assert "holds for the first 10 s only" in text
+    assert not fi.run_fidelity_study(parse_scenario(LIT), timer=CostModel(), pairs=2).shortened
+
+
+def test_apply_refuses_a_shortened_study(tmp_path, capsys):
+    """--apply with --duration below the scene's refuses before any work, naming the flag
+    that allows it."""
+    src = tmp_path / "s.yaml"
+    src.write_text(yaml.safe_dump(LIT))
+    out = tmp_path / "o.yaml"
+    assert fi.cli_main([str(src), "--duration", "5", "--apply", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "--duration 5 s is shorter than the scene's 20 s" in err
+    assert "--allow-shortened" in err and not out.exists()
+
+
+def _diff_label(study):
+    return fi._diff_label(study.recommended, study.reference)
 
 
 @pytest.mark.slow
@@ -285,8 +421,10 @@ def test_report_csv_png(lit_study, tmp_path):
     text = fi.format_report(lit_study)
     assert "recommended" in text and "fidelity:\n  pd_method:" in text
     block = text[text.index("fidelity:\n"):].split("\n\n")[0]
-    assert fi.Fidelity(**yaml.safe_load(block)["fidelity"]).model_dump() == \
-        fi.Fidelity(**lit_study.recommended).model_dump()
+    read = set(fi.Fidelity.model_fields) - set(lit_study.unread)
+    assert fi.Fidelity(**yaml.safe_load(block)["fidelity"]).model_dump(include=read) == \
+        fi.Fidelity(**lit_study.recommended).model_dump(include=read)
+    assert set(yaml.safe_load(block)["fidelity"]) == read
     per = fi.format_per_target(lit_study)
     assert "xr/high" in per and per.count("\n") == sum(len(c.rows) for c in lit_study.comparisons)
     fi.write_csv(lit_study, tmp_path / "f.csv")
@@ -294,6 +432,9 @@ def test_report_csv_png(lit_study, tmp_path):
 
     rows = list(csv.DictReader(open(tmp_path / "f.csv", encoding="utf-8")))
     assert {r["setting"] for r in rows} >= {"reference", "propagation=two_ray"}
+    two = next(r for r in rows if r["setting"] == "propagation=two_ray" and r["target"] == "*")
+    assert float(two["warm_run_ratio_low"]) < 1 / 3 < float(two["warm_run_ratio_high"])
+    assert two["cheaper"] == "True" and float(two["build_estimated_s"]) >= 0
     assert any(r["target"] == "*" for r in rows) and any(r["target"] == "high" for r in rows)
     fi.plot_pareto(lit_study, tmp_path / "f.png")
     assert (tmp_path / "f.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
@@ -370,3 +511,89 @@ def test_expected_first_detection_range():
     r, p = fi._expected_first_range(np.array([0.5, 0.5]), np.array([10.0, 8.0]))
     assert p == pytest.approx(0.75, abs=1e-15)
     assert r == pytest.approx((0.5 * 10 + 0.25 * 8) / 0.75, rel=1e-12)
+
+
+# ----------------------------------------------------------------------------- costs
+def test_ratio_interval_covers_the_true_ratio():
+    """Paired log-normal costs with a common load factor per pair (a shared machine): the
+    95 % interval of the ratio covers the true ratio in 95 % of 4000 seeded experiments
+    (binomial spread: 0.95 ± 0.007), and the load factor cancels."""
+    rng = np.random.default_rng(38)
+    true = 0.7
+    hits = 0
+    for _ in range(4000):
+        load = rng.lognormal(0.0, 0.5, size=6)  # both sides of a pair slowed alike
+        ref = 0.2 * load * rng.lognormal(0.0, 0.08, size=6)
+        cand = true * 0.2 * load * rng.lognormal(0.0, 0.08, size=6)
+        r = ti.ratio_interval(cand, ref)
+        hits += r.low <= true <= r.high
+    assert hits / 4000 == pytest.approx(0.95, abs=0.025)
+    # exact ratios: zero width
+    r = ti.ratio_interval([1.0, 2.0, 4.0], [2.0, 4.0, 8.0])
+    assert (r.value, r.low, r.high) == pytest.approx((0.5, 0.5, 0.5), rel=1e-12)
+
+
+def test_is_cheaper_needs_the_whole_interval_below_the_margin():
+    assert ti.is_cheaper(ti.Interval(0.5, 0.4, 0.6, 5))
+    assert not ti.is_cheaper(ti.Interval(0.9, 0.8, 1 - ti.SAVING_MIN, 5))
+    assert not ti.is_cheaper(ti.Interval(0.5, 0.5, 0.5, 1))  # one pair says nothing
+    m = ti.mean_interval([1.0, 2.0, 3.0])
+    # t(0.975, 2) = 4.303; s = 1
+    assert (m.low, m.high) == pytest.approx((2 - 4.303 / 3**0.5, 2 + 4.303 / 3**0.5), rel=1e-3)
+
+
+def test_paired_costs_alternate_the_order():
+    """Reference first in even pairs, second in odd ones, the same seed in a pair."""
+    calls = []
+
+    def timer(fid, seed):
+        calls.append((fid["name"], seed))
+        return ti.Sample(0.0, 1.0, 1.0)
+
+    ti.paired_costs(timer, {"name": "ref"}, [{"name": "a"}, {"name": "b"}], [7, 8], 2)
+    assert calls == [("ref", 7), ("a", 7), ("ref", 7), ("b", 7),
+                     ("b", 8), ("ref", 8), ("a", 8), ("ref", 8)]
+
+
+def test_unread_choices_and_the_block_without_them():
+    s = parse_scenario(LIT)
+    ref = fi.reference_fidelity(s)
+    assert fi.unread_choices(s, ref) == ("improvement_grid", "clutter_fa_model")
+    assert fi.unread_choices(s, {**ref, "propagation": "two_ray"}) == (
+        "pe_grid", "improvement_grid", "clutter_fa_model")
+    block = fi.fidelity_yaml({**ref, "propagation": "two_ray"}, ("pe_grid",))
+    assert "pe_grid:" not in block and "# not read by this scene with this block: pe_grid" in block
+
+
+def test_labels_do_not_collide():
+    """Twelve labels on points close together: every label finds a place that meets no
+    other label."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6, 4))
+    x = [1.0, 1.02, 1.04, 0.98, 1.0, 0.5, 0.52, 0.5, 2.0, 2.0, 1.01, 0.99]
+    y = [0.01, 0.011, 0.0105, 0.0102, 0.012, 0.001, 0.001, 0.0011, 0.1, 0.1, 0.0101, 0.0099]
+    ax.scatter(x, y)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    labels = [f"setting_{i}=value" for i in range(len(x))]
+    anns = fi.place_labels(ax, x, y, labels)
+    fig.canvas.draw()
+    r = fig.canvas.get_renderer()
+    boxes = [fi.text_box(a, r) for a in anns]
+    assert len(anns) == 11  # the two points at (2.0, 0.1) share one label
+    assert any(", " in a.get_text() for a in anns)
+    for i in range(len(boxes)):
+        for j in range(i):
+            assert not boxes[i].overlaps(boxes[j]), (anns[i].get_text(), anns[j].get_text())
+    plt.close(fig)
+
+
+def test_pareto_front_is_drawn_over_points_inside_the_tolerances():
+    ok = [True, False, True, True]
+    cost = [1.0, 0.2, 0.5, 0.3]
+    err = [0.0, 0.001, 0.01, 0.05]
+    assert fi.tolerated_front(cost, err, ok) == [3, 2, 0]

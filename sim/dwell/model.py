@@ -106,6 +106,16 @@ _FA_SPECTRA: dict[tuple, tuple[weakref.ref, weakref.ref | None,
 _TWO_RAY: dict[tuple, _TwoRayFallback] = {}
 
 
+def forget_process_caches() -> None:
+    """Forget what runs set up once per process (the caches above): the next run pays its
+    set-up again, as the first run of a new process does. Changes no result (the caches hold
+    pure values); the fidelity study's first-run timing uses it
+    (:mod:`shipradar.sim.studies.timing`)."""
+    for cache in (_DENSITY_CACHE, _DENSITY_BY_TABLE, _READERS, _GENERATORS, _FA_SPECTRA,
+                  _TWO_RAY):
+        cache.clear()
+
+
 def _remember(cache: dict, key: tuple, value: object) -> None:
     if len(cache) >= _DENSITY_CACHE_MAX:
         cache.pop(next(iter(cache)))

@@ -22,8 +22,11 @@ What is measured per setting, per (radar, target) and in total
 * false alarms per scan by origin: the model's expected count per scan (noise: cells × P_fa
   [90]; sea clutter: Σ η of the P_fac map, seed 7.2), exact and dice-free, and the counts the
   run drew;
-* the tables' time (built or loaded, and whether any was built), the run's wall and CPU time
-  (best of the runs), and its real-time factor.
+* the cost, as a user pays it (:mod:`shipradar.sim.studies.timing`): the run's CPU, warm
+  (a Monte Carlo study's later replications) and first (table load + the first run of a
+  process), each as the ratio to the reference's over alternating pairs with its interval;
+  the table load [s] per process and the table build [s] per cache (measured with
+  ``--cold``, else the cost model's estimate).
 
 Tolerances (the recommendation keeps every (radar, target) inside all of them): mean |ΔP_d|
 per look ≤ ``--tolerance-pd``; |Δ expected first-detection range| ≤ ``--tolerance-range-m``,
@@ -33,15 +36,14 @@ expected false alarms per scan of each radar and origin within ``--tolerance-fa`
 sectors per scan (one sector, the scan period over ``sectors_per_scan``) ≤
 ``--max-latency-s`` (default: the scene's own).
 
-The reference is timed twice, first and last, and keeps the better time.
-
-Recommendation: each choice takes the cheapest admissible value (its one-at-a-time run's
-measured cost: run CPU time plus the time of the tables it reads, each timed once per
-command, built or loaded; a value must save 10 % of the reference's run CPU time to displace
-a more accurate one, against timing noise); the combination is then run and checked, and while it
-is outside a tolerance the change with the largest error of its own goes back to the
-reference value. Cost of the command: one run per setting (the reference, each alternative,
-the scene's own setting, the combinations) plus the table builds.
+Recommendation (:func:`_recommend`): it minimises one stated cost, ``--optimise per-run``
+(default) or ``first-run``. A value is taken only when it is inside the tolerances and its
+cost ratio's whole interval lies below 1 - :data:`shipradar.sim.studies.timing.SAVING_MIN`;
+the combination is then run as a whole, for accuracy and, in fresh alternating pairs, for
+cost, and changes go back to the reference until both hold. Choices the block makes unread
+(``pe_grid`` beside ``propagation: two_ray``) are left out of it. A study shortened with
+``--duration`` says that its recommendation holds for the simulated span only, and
+``--apply`` refuses it unless ``--allow-shortened``.
 
 The parts of the model a scene exercises, and those it skips with the reason, are
 :func:`explain` (also ``shipradar validate --explain``).
@@ -57,7 +59,7 @@ import sys
 import tempfile
 import time
 import typing
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -65,6 +67,17 @@ from typing import Any
 import numpy as np
 
 from shipradar.sim.dwell.look import LookObserver, LookResults
+from shipradar.sim.studies.timing import (
+    CONFIDENCE,
+    SAVING_MIN,
+    Interval,
+    PairedCost,
+    SampleTimer,
+    SceneTimer,
+    is_cheaper,
+    mean_interval,
+    paired_costs,
+)
 from shipradar.sim.world.scenario import Fidelity, Jammer, Radar, Scenario, ScenarioError, Target
 
 __all__ = [
@@ -84,9 +97,6 @@ CHOICES = ("pd_method", "propagation", "pe_grid", "improvement_grid", "clutter_f
            "clutter", "atmosphere", "sectors_per_scan")
 #: Sectors per scan tried below the scene's own (cost only: the model is unchanged).
 SECTOR_CHOICES = (4, 12, 36)
-#: A cheaper value must save this fraction of the reference's run CPU time to displace a
-#: more accurate one (timing noise).
-COST_MARGIN = 0.10
 #: The false-alarm tolerance is relative to at least this many per scan [1/scan], so that a
 #: radar expecting almost none is not held to a fraction of a false alarm.
 FA_REL_FLOOR = 5.0
@@ -625,10 +635,6 @@ class Comparison:
     def ok(self) -> bool:
         return not self.violations
 
-    @property
-    def cost_s(self) -> float:
-        return self.result.run_cpu_s + self.result.table_s
-
 
 def _look_key(looks: dict[str, np.ndarray], n_targets: int) -> np.ndarray:
     n_r = int(looks["radar"].max()) + 1 if looks["radar"].size else 1
@@ -859,6 +865,25 @@ class Tolerances:
 
 
 # =========================================================================== study
+#: Table builds timed per distinct table with ``--cold`` (a Student-t interval needs two).
+BUILD_REPEATS = 3
+#: Alternating pairs per setting by default (reference and candidate, :mod:`.timing`).
+DEFAULT_PAIRS = 8
+#: What the recommendation can minimise: the CPU of every run of a Monte Carlo study after
+#: the first (``per-run``), or of one ``shipradar run`` (``first-run``: table load + run).
+OBJECTIVES = ("per-run", "first-run")
+
+
+@dataclass
+class Cost:
+    """A setting's measured cost: the paired timing against the reference, and its tables'
+    build (measured with an interval by ``--cold``, else the cost model's estimate)."""
+
+    paired: PairedCost | None
+    build: Interval | None = None
+    build_estimate_s: float = 0.0
+
+
 @dataclass
 class Study:
     """Everything the command measured."""
@@ -874,14 +899,35 @@ class Study:
     seeds: list[int]
     wall_s: float = 0.0
     notes: list[str] = field(default_factory=list)
-    table_s: float = 0.0
-    cost_margin_s: float = 0.0
+    objective: str = "per-run"
+    pairs: int = DEFAULT_PAIRS
+    costs: dict[str, Cost] = field(default_factory=dict)  # by setting label
+    recommended_cost: PairedCost | None = None
+    unread: tuple[str, ...] = ()
+    undecided: list[str] = field(default_factory=list)
+    builds_measured: bool = False
+
+    @property
+    def shortened(self) -> bool:
+        """The study simulated less than the scene's own duration."""
+        return self.duration_s < self.scenario.duration_s * (1 - 1e-12)
+
+    def cost(self, c: Comparison) -> Cost | None:
+        return self.costs.get(c.result.setting.label)
+
+    def ratio(self, c: Comparison) -> Interval | None:
+        """The setting's cost over the reference's, as the objective reads it."""
+        cost = self.cost(c)
+        if cost is None or cost.paired is None:
+            return None
+        return cost.paired.ratio(self.objective)
 
 
 def run_fidelity_study(scenario: Scenario, *, duration_s: float | None = None, runs: int = 1,
                        tolerances: Tolerances = Tolerances(), include_unexercised: bool = False,
-                       log=None) -> Study:
-    """Run the reference and every alternative, compare them, and recommend a setting.
+                       log=None, pairs: int = DEFAULT_PAIRS, objective: str = "per-run",
+                       timer: SampleTimer | None = None, measure_builds: bool = False) -> Study:
+    """Run the reference and every alternative, compare them, time them, recommend a setting.
 
     Parameters
     ----------
@@ -890,13 +936,25 @@ def run_fidelity_study(scenario: Scenario, *, duration_s: float | None = None, r
     duration_s : float, optional
         Simulated duration of each run [s]; default the scenario's.
     runs : int
-        Replications (seeds spawned from the scenario's seed, as ``shipradar montecarlo``).
+        Replications for the accuracy (seeds spawned from the scenario's seed, as
+        ``shipradar montecarlo``).
     tolerances : Tolerances
         The limits of the recommendation.
     include_unexercised : bool
         Also run choices the scene does not exercise.
     log : file-like, optional
         Progress lines.
+    pairs : int
+        Alternating timing pairs per setting (:func:`shipradar.sim.studies.timing.paired_costs`).
+    objective : str
+        ``per-run`` (warm run CPU, a Monte Carlo study's replications) or ``first-run``
+        (table load + first run of a process).
+    timer : SampleTimer, optional
+        Times one setting once; default :class:`shipradar.sim.studies.timing.SceneTimer`
+        (tests pass a cost model).
+    measure_builds : bool
+        Build every distinct table :data:`BUILD_REPEATS` times in a private empty cache and
+        report the build with its interval (else the cost model's estimate).
 
     Returns
     -------
@@ -904,6 +962,8 @@ def run_fidelity_study(scenario: Scenario, *, duration_s: float | None = None, r
     """
     from shipradar.sim.studies.montecarlo import run_seed
 
+    if objective not in OBJECTIVES:
+        raise ValueError(f"objective must be one of {OBJECTIVES}, got {objective!r}")
     t0 = time.perf_counter()
     duration = float(scenario.duration_s if duration_s is None else duration_s)
     seeds = [run_seed(c) for c in np.random.SeedSequence(scenario.seed).spawn(runs)]
@@ -918,69 +978,185 @@ def run_fidelity_study(scenario: Scenario, *, duration_s: float | None = None, r
         if log is not None:
             print(msg, file=log, flush=True)
 
-    # an untimed run first (ten of the slowest radar's scans, at least a tenth of the
-    # duration): imports, lazily built caches and the tables are then warm, so the
-    # reference, timed first, is not charged for them (with one scan it still read 50 %
-    # slower than the others on the demo); the tables' own time is measured on the way
-    warm = min(duration, max(10 * max(r.scan_period_s for _, r in scenario.radars()),
-                             0.1 * duration))
-    run_setting(scenario, settings[0], seeds[:1], warm, clock)
+    # accuracy: every setting once per seed, common random numbers (this also fills the
+    # table cache, so that the timing below reads every table from it)
     results: dict[str, RunResult] = {}
     for s in settings:
         say(f"fidelity: running {s.label} ...")
         results[s.label] = run_setting(scenario, s, seeds, duration, clock)
     ref = results["reference"]
-    # every cost is compared with the reference's, which was timed first: it is timed again
-    # last and keeps the better time (after a warm-up it still read up to 1.7x slower than
-    # its alternatives on the raid, the first full run of the process)
-    say("fidelity: timing the reference again ...")
-    again = run_setting(scenario, settings[0], seeds, duration, clock)
-    ref.run_wall_s = min(ref.run_wall_s, again.run_wall_s)
-    ref.run_cpu_s = min(ref.run_cpu_s, again.run_cpu_s)
     comps = [compare(ref, results[s.label], scenario, tolerances) for s in settings]
-    by_label = {c.result.setting.label: c for c in comps}
-    # ---- recommendation: cheapest admissible value per choice, then checked together
-    ref_cost = by_label["reference"].cost_s
-    # run times are the noisy part of a cost (tables are timed once per command): a value
-    # must save COST_MARGIN of the reference's run CPU time to displace a more accurate one
-    margin = COST_MARGIN * by_label["reference"].result.run_cpu_s + 1e-3
-    pick: dict[str, tuple[Any, float, float]] = {}  # choice -> (value, cost, own error)
-    for c in comps:
+    # cost: every setting against the reference, in alternation
+    timer = timer if timer is not None else SceneTimer(
+        lambda fid: _with_fidelity(scenario, fid), duration)
+    others = settings[1:]
+    paired = paired_costs(timer, ref_fid, [s.fidelity for s in others], seeds, pairs,
+                          log=say)
+    builds = _build_costs(scenario, settings, measure_builds, say)
+    costs = {s.label: Cost(p, *builds[s.label]) for s, p in zip(others, paired, strict=True)}
+    costs["reference"] = Cost(None, *builds["reference"])
+    study = Study(scenario, ref_fid, comps, skipped, dict(ref_fid), comps[0], tolerances,
+                  duration, seeds, objective=objective, pairs=pairs, costs=costs,
+                  builds_measured=measure_builds)
+    _recommend(study, timer, clock, results, say)
+    study.wall_s = time.perf_counter() - t0
+    return study
+
+
+def _build_costs(scenario: Scenario, settings: Sequence[Setting], measure: bool,
+                 say: Callable[[str], None]) -> dict[str, tuple[Interval | None, float]]:
+    """Each setting's table build: (measured interval or None, the cost model's estimate).
+
+    Measured: every distinct table built :data:`BUILD_REPEATS` times in a private empty
+    cache (CPU seconds), a setting's build the sum over its tables (intervals added in
+    quadrature: the builds are independent). Estimated: :func:`shipradar.tables.budget.
+    estimate_build` (the cost model of docs/stability.md), every table counted as missing.
+    """
+    from shipradar.tables.budget import estimate_build
+    from shipradar.tables.scene import table_specs
+    from shipradar.tables.store import cache_path, inputs_hash
+
+    out: dict[str, tuple[Interval | None, float]] = {}
+    per_table: dict[str, Interval] = {}
+    tmp = tempfile.TemporaryDirectory(prefix="shipradar-fidelity-build-") if measure else None
+    old = os.environ.get("SHIPRADAR_TABLES")
+    try:
+        for s in settings:
+            scene = _with_fidelity(scenario, s.fidelity)
+            est = sum(e.seconds for e in estimate_build(scene, include_pd=False))
+            if tmp is None:
+                out[s.label] = (None, est)
+                continue
+            os.environ["SHIPRADAR_TABLES"] = tmp.name
+            parts: list[Interval] = []
+            seen: set[str] = set()
+            for spec in table_specs(scene):
+                name, version, inputs = spec.key()
+                key = inputs_hash(name, version, inputs)
+                if key in seen:
+                    continue
+                seen.add(key)
+                if key not in per_table:
+                    say(f"fidelity: building {spec.radar_id} {spec.kind} "
+                        f"({BUILD_REPEATS} times) ...")
+                    samples = []
+                    for _ in range(BUILD_REPEATS):
+                        cache_path(name, key).unlink(missing_ok=True)
+                        c0 = time.process_time()
+                        spec.make()
+                        samples.append(time.process_time() - c0)
+                    per_table[key] = mean_interval(samples)
+                parts.append(per_table[key])
+            total = sum(p.value for p in parts)
+            half = math.sqrt(sum((p.high - p.value) ** 2 for p in parts))
+            out[s.label] = (Interval(total, total - half, total + half, BUILD_REPEATS), est)
+    finally:
+        if tmp is not None:
+            if old is None:
+                os.environ.pop("SHIPRADAR_TABLES", None)
+            else:
+                os.environ["SHIPRADAR_TABLES"] = old
+            tmp.cleanup()
+    return out
+
+
+def unread_choices(scenario: Scenario, fid: dict[str, Any]) -> tuple[str, ...]:
+    """The grid and model choices a scene under ``fid`` never reads (``pe_grid`` beside
+    ``propagation: two_ray``, ``improvement_grid`` without a processor or clutter, ...)."""
+    parts = explain(_with_fidelity(scenario, fid))
+    out = []
+    for choice in ("pe_grid", "improvement_grid", "clutter_fa_model"):
+        rel = [p for p in parts if p.choice == choice]
+        if not any(p.exercised for p in rel):
+            out.append(choice)
+    return tuple(out)
+
+
+def _recommend(study: Study, timer: SampleTimer, clock: _TableClock,
+               results: dict[str, RunResult], say: Callable[[str], None]) -> None:
+    """Pick each choice's value, then check the combination as a whole (accuracy and cost).
+
+    A value is a candidate when it is inside the tolerances and *measured* cheaper than
+    the reference (:func:`shipradar.sim.studies.timing.is_cheaper` on the objective's
+    ratio); of several, the most accurate one, unless a less accurate one's whole interval
+    lies below it. A choice the picks make unread (``pe_grid`` once ``propagation`` leaves
+    ``pe``) is dropped. The combination is then run against the reference for accuracy
+    (common random numbers) and timed again in fresh alternating pairs: outside a tolerance,
+    the change with the largest error of its own goes back to the reference value; not
+    measured cheaper, the change with the smallest saving of its own goes back. The
+    saving printed is the last timing's, of the block as printed.
+    """
+    ref_fid, tol, obj = study.reference, study.tolerances, study.objective
+    scenario = study.scenario
+    pick: dict[str, Comparison] = {}
+    for c in study.comparisons:
         s = c.result.setting
-        if s.kind != "alternative" or s.choice is None or not c.ok:
+        ratio = study.ratio(c)
+        if s.kind != "alternative" or s.choice is None or not c.ok or ratio is None:
             continue
-        best = pick.get(s.choice, (ref_fid[s.choice], ref_cost, 0.0))
-        if c.cost_s < best[1] - margin:
-            pick[s.choice] = (s.value, c.cost_s, _error_score(c, tolerances))
-    candidate = {**ref_fid, **{k: v[0] for k, v in pick.items()}}
-    changes = dict(pick)
-    rec_comp = None
-    notes = []
-    while True:
-        if candidate == ref_fid:
-            rec_comp = by_label["reference"]
-            break
-        label = "recommended"
-        existing = next((c for c in comps if c.result.setting.fidelity == candidate), None)
-        if existing is None:
-            say(f"fidelity: running the combination {_diff_label(candidate, ref_fid)} ...")
-            s = Setting(label, None, None, candidate, True, "combined")
-            comp = compare(ref, run_setting(scenario, s, seeds, duration, clock), scenario,
-                           tolerances)
-            comps.append(comp)
-        else:
-            comp = existing
-        if comp.ok:
-            rec_comp = comp
-            break
-        worst = max(changes, key=lambda k: changes[k][2])
-        notes.append(f"the combination {_diff_label(candidate, ref_fid)} was outside the "
-                     f"tolerances ({'; '.join(comp.violations[:3])}); {worst} back to "
-                     f"{_fmt(ref_fid[worst])}")
-        candidate[worst] = ref_fid[worst]
-        del changes[worst]
-    return Study(scenario, ref_fid, comps, skipped, candidate, rec_comp, tolerances, duration,
-                 seeds, time.perf_counter() - t0, notes, sum(clock.seconds.values()), margin)
+        if not is_cheaper(ratio):
+            if ratio.n >= 2 and ratio.low < 1.0 - SAVING_MIN:
+                study.undecided.append(f"{s.label} {ratio.fmt()}")
+            continue
+        best = pick.get(s.choice)
+        if best is None:
+            pick[s.choice] = c
+            continue
+        b_ratio = study.ratio(best)
+        assert b_ratio is not None
+        more_accurate = _error_score(c, tol) < _error_score(best, tol)
+        if (more_accurate and not ratio.low > b_ratio.high) or ratio.high < b_ratio.low:
+            pick[s.choice] = c
+    candidate = {**ref_fid, **{k: v.result.setting.value for k, v in pick.items()}}
+    for choice in unread_choices(scenario, candidate):
+        if choice in pick:
+            study.notes.append(f"{choice} dropped: not read with "
+                               f"{_diff_label(candidate, ref_fid)}")
+            del pick[choice]
+            candidate[choice] = ref_fid[choice]
+    ref = results["reference"]
+    while pick:
+        label = _diff_label(candidate, ref_fid)
+        comp = next((c for c in study.comparisons if c.result.setting.fidelity == candidate),
+                    None)
+        if comp is None:
+            say(f"fidelity: running the combination {label} ...")
+            s = Setting("recommended", None, None, dict(candidate), True, "combined")
+            comp = compare(ref, run_setting(scenario, s, study.seeds, study.duration_s, clock),
+                           scenario, tol)
+            study.comparisons.append(comp)
+        if not comp.ok:
+            worst = max(pick, key=lambda k: _error_score(pick[k], tol))
+            study.notes.append(f"the combination {label} was outside the tolerances "
+                               f"({'; '.join(comp.violations[:3])}); {worst} back to "
+                               f"{_fmt(ref_fid[worst])}")
+            candidate[worst] = ref_fid[worst]
+            del pick[worst]
+            continue
+        say(f"fidelity: timing the block {label} against the reference ...")
+        (cost,) = paired_costs(timer, ref_fid, [candidate], study.seeds, study.pairs)
+        ratio = cost.ratio(obj)
+        if not is_cheaper(ratio):
+            least = max(pick, key=lambda k: _ratio_value(study, pick[k]))
+            study.notes.append(f"the block {label} re-timed as a whole: {obj} CPU "
+                               f"{ratio.fmt()}x the reference's, not measurably cheaper; "
+                               f"{least} back to {_fmt(ref_fid[least])}")
+            candidate[least] = ref_fid[least]
+            del pick[least]
+            continue
+        study.recommended = dict(candidate)
+        study.recommended_comparison = comp
+        study.recommended_cost = cost
+        break
+    else:
+        study.recommended = dict(ref_fid)
+        study.recommended_comparison = study.comparisons[0]
+    study.unread = unread_choices(scenario, study.recommended)
+
+
+def _ratio_value(study: Study, c: Comparison) -> float:
+    r = study.ratio(c)
+    return math.inf if r is None else r.value
 
 
 def _error_score(c: Comparison, tol: Tolerances) -> float:
@@ -1000,12 +1176,17 @@ def _diff_label(fid: dict[str, Any], ref: dict[str, Any]) -> str:
 
 
 # =========================================================================== output
-def fidelity_yaml(fid: dict[str, Any]) -> str:
-    """A ready-to-paste ``fidelity:`` block (every choice explicit, schema order)."""
+def fidelity_yaml(fid: dict[str, Any], unread: Sequence[str] = ()) -> str:
+    """A ready-to-paste ``fidelity:`` block (every choice explicit, schema order); the
+    choices in ``unread`` (the scene does not read them under this block) are left out,
+    named in a comment."""
     block = Fidelity(**fid).model_dump()
     lines = ["fidelity:"]
     for k, v in block.items():
-        lines.append(f"  {k}: {_fmt(v)}")
+        if k not in unread:
+            lines.append(f"  {k}: {_fmt(v)}")
+    if unread:
+        lines.append(f"  # not read by this scene with this block: {', '.join(unread)}")
     return "\n".join(lines) + "\n"
 
 
@@ -1025,6 +1206,29 @@ def format_per_target(study: Study) -> str:
     return "\n".join(out)
 
 
+def _cost_cells(study: Study, c: Comparison) -> tuple[str, str, str, str]:
+    """Warm run CPU and first run as ratios to the reference, table load [s], build [s]."""
+    cost = study.cost(c)
+    if cost is None:
+        return "-", "-", "-", "-"
+    p = cost.paired
+    if p is None:  # the reference: its own seconds, over every pair
+        ref = study.costs
+        samples = [s for k in ref.values() if k.paired is not None for s in k.paired.reference]
+        warm = mean_interval([s.warm_run_s for s in samples])
+        first = mean_interval([s.first_s for s in samples])
+        load = mean_interval([s.load_s for s in samples])
+        run = f"{warm.fmt(3)} s"
+        first_s = f"{first.fmt(3)} s"
+    else:
+        run = p.warm_ratio.fmt() + "x" + ("*" if is_cheaper(p.warm_ratio) else "")
+        first_s = p.first_ratio.fmt() + "x" + ("*" if is_cheaper(p.first_ratio) else "")
+        load = p.seconds("load_s")
+    build = (cost.build.fmt(2) if cost.build is not None else
+             f"~{cost.build_estimate_s:.2g} est.")
+    return run, first_s, load.fmt(3), build
+
+
 def format_report(study: Study) -> str:
     """The stdout table, the skipped choices and the recommendation."""
     s = study.scenario
@@ -1033,10 +1237,17 @@ def format_report(study: Study) -> str:
            f"{len(study.seeds)} run(s); reference {_diff_label(study.reference, {})}",
            f"tolerances: mean |ΔP_d| per look <= {tol.pd:g} per target; |Δ expected "
            f"first-detection range| <= {tol.range_m:g} m; expected FA/scan within "
-           f"{tol.fa_rel:.0%}; latency <= {tol.latency_s:.3g} s", ""]
+           f"{tol.fa_rel:.0%}; latency <= {tol.latency_s:.3g} s",
+           f"cost: CPU seconds, {study.pairs} alternating pairs (reference, setting) per "
+           f"setting, {CONFIDENCE:.0%} intervals; the recommendation minimises the "
+           + ("per-run CPU (warm: the 2nd and later runs of a Monte Carlo study)"
+              if study.objective == "per-run" else
+              "first run's CPU (table load + the first run of a process)"), ""]
+    if study.shortened:
+        out[-1:] = [_shortened_warning(study), ""]
     head = ("setting", "mean|ΔPd|", "max|ΔPd|", "worst tgt", "ΔE[det]", "Δdet",
-            "max|ΔE[R1]|m", "max|ΔR1|m", "FA/scan n+c", "tables s", "run s", "cpu s", "RT x",
-            "ok")
+            "max|ΔE[R1]|m", "max|ΔR1|m", "FA/scan n+c", "run CPU (warm)", "first run",
+            "load s", "build s", "ok")
     rows = []
     for c in study.comparisons:
         t, r = c.total, c.result
@@ -1052,10 +1263,7 @@ def format_report(study: Study) -> str:
             ("inf" if math.isinf(t["max_realized_abs_dfirst_m"])
              else f"{t['max_realized_abs_dfirst_m']:.0f}"),
             f"{t['noise_fa_per_scan']:.3g}+{t['clutter_fa_per_scan']:.3g}",
-            f"{r.table_s:.2f}{'*' if r.tables_built else ''}", f"{r.run_wall_s:.2f}",
-            f"{r.run_cpu_s:.2f}",
-            f"{r.simulated_s / r.run_wall_s:.0f}" if r.run_wall_s > 0 else "-",
-            "yes" if c.ok else "no"))
+            *_cost_cells(study, c), "yes" if c.ok else "no"))
     widths = [max(len(h), *(len(x[i]) for x in rows)) for i, h in enumerate(head)]
     out.append("  ".join(h.ljust(w) if i == 0 else h.rjust(w)
                          for i, (h, w) in enumerate(zip(head, widths, strict=True))))
@@ -1064,8 +1272,13 @@ def format_report(study: Study) -> str:
                              for i, (v, w) in enumerate(zip(x, widths, strict=True))))
     out.append("(E[...]: expected from the looks' P_d, dice-free; Δdet, |ΔR1|: realized with "
                "common random numbers. FA/scan: expected noise + sea-clutter false alarms per "
-               "scan, all radars. * a table was built by this command, else read from the "
-               "cache; tables s counts each table the setting reads, as first timed)")
+               "scan, all radars. run CPU (warm), first run: the setting's CPU over the "
+               "reference's, geometric mean of the pairs [interval], * measurably cheaper "
+               f"(whole interval below {1 - SAVING_MIN:g}); the reference's row in seconds. "
+               "first run = table load + the first run on the loaded tables; load s: the "
+               "tables read from the cache, once per process; build s: once per cache, "
+               + ("measured (--cold)" if study.builds_measured else
+                  "the cost model's estimate (--cold measures it)") + ")")
     if study.skipped:
         out.append("")
         out.append("not run (the scene does not exercise them):")
@@ -1078,27 +1291,55 @@ def format_report(study: Study) -> str:
         for c in bad:
             out.append(f"  {c.result.setting.label}: {'; '.join(c.violations[:3])}"
                        + (f" (+{len(c.violations) - 3} more)" if len(c.violations) > 3 else ""))
+    if study.undecided:
+        out.append("")
+        out.append(f"within noise (inside the tolerances; the {study.objective} interval "
+                   f"straddles {1 - SAVING_MIN:g}x, so neither cheaper nor not: more --pairs "
+                   "may decide):")
+        for u in study.undecided:
+            out.append(f"  {u}x")
     for n in study.notes:
         out.append(f"note: {n}")
     out.append("")
-    rc = study.recommended_comparison
-    ref_c = study.comparisons[0]
-    out.append("recommended (cheapest setting inside the tolerances; "
-               f"{_diff_label(study.recommended, study.reference)}):")
-    if rc is not None:
-        out.append(f"  run {rc.result.run_wall_s:.2f} s wall / {rc.result.run_cpu_s:.2f} s CPU "
-                   f"against the reference's {ref_c.result.run_wall_s:.2f} / "
-                   f"{ref_c.result.run_cpu_s:.2f}; tables {rc.result.table_s:.2f} s against "
-                   f"{ref_c.result.table_s:.2f}; mean |ΔP_d| {rc.total['mean_abs_dpd']:.4f}, "
-                   f"worst target {rc.total['worst_target_mean_abs_dpd']:.4f}")
+    out += _recommendation_lines(study)
     out.append("")
-    out.append(fidelity_yaml(study.recommended).rstrip())
-    out.append("")
-    out.append(f"command: {len(study.comparisons)} settings run in {study.wall_s:.1f} s wall "
-               f"(runs {sum(c.result.run_wall_s for c in study.comparisons) * len(study.seeds):.1f}"
-               f" s, tables {study.table_s:.1f} s, each distinct table "
-               "once)")
+    out.append(f"command: {len(study.comparisons)} settings in {study.wall_s:.1f} s wall")
     return "\n".join(out)
+
+
+def _shortened_warning(study: Study) -> str:
+    return (f"WARNING: shortened study ({study.duration_s:g} s of the scene's "
+            f"{study.scenario.duration_s:g} s): the recommendation holds for the first "
+            f"{study.duration_s:g} s only; --apply refuses it unless --allow-shortened")
+
+
+def _recommendation_lines(study: Study) -> list[str]:
+    out = []
+    rc = study.recommended_comparison
+    label = _diff_label(study.recommended, study.reference)
+    if label == "reference":
+        out.append("recommended: the reference (no setting inside the tolerances is "
+                   f"measurably cheaper by {study.objective} CPU)")
+    else:
+        out.append(f"recommended (cheapest by {study.objective} CPU inside the tolerances; "
+                   f"{label}):")
+    cost = study.recommended_cost
+    if cost is not None:
+        out.append(f"  the block re-timed as a whole ({cost.warm_ratio.n} fresh alternating "
+                   f"pairs): run CPU (warm) {cost.warm_ratio.fmt()}x the reference's, first "
+                   f"run {cost.first_ratio.fmt()}x; the reference "
+                   f"{cost.seconds('warm_run_s', 'reference').fmt(3)} s per run, this block "
+                   f"{cost.seconds('warm_run_s').fmt(3)} s")
+    if rc is not None and rc.result.setting.kind != "reference":
+        t = rc.total
+        out.append(f"  accuracy of the block as a whole: mean |ΔP_d| {t['mean_abs_dpd']:.4f}, "
+                   f"worst target {t['worst_target_mean_abs_dpd']:.4f}, largest "
+                   f"|Δ expected first-detection range| {_fmt_m(t['max_abs_dfirst_m'])}")
+    if study.shortened:
+        out.append("  " + _shortened_warning(study))
+    out.append("")
+    out.append(fidelity_yaml(study.recommended, study.unread).rstrip())
+    return out
 
 
 CSV_COLUMNS = ("setting", "kind", "choice", "value", "exercised", "radar", "target", "looks",
@@ -1109,8 +1350,39 @@ CSV_COLUMNS = ("setting", "kind", "choice", "value", "exercised", "radar", "targ
                "first_range_ref_m", "first_range_m", "realized_abs_dfirst_m",
                "expected_noise_fa_per_scan",
                "expected_clutter_fa_per_scan", "drawn_noise_fa_per_scan",
-               "drawn_clutter_fa_per_scan", "latency_s", "table_s", "tables_built",
-               "run_wall_s", "run_cpu_s", "realtime_factor", "within_tolerance")
+               "drawn_clutter_fa_per_scan", "latency_s", "pairs",
+               "warm_run_ratio", "warm_run_ratio_low", "warm_run_ratio_high",
+               "first_run_ratio", "first_run_ratio_low", "first_run_ratio_high",
+               "warm_run_s", "load_s", "load_s_low", "load_s_high",
+               "build_s", "build_s_low", "build_s_high", "build_estimated_s",
+               "cheaper", "within_tolerance")
+
+
+def _cost_columns(study: Study, c: Comparison) -> dict[str, Any]:
+    """The CSV's cost columns of one setting (ratios to the reference with their
+    intervals; the reference's own rows hold its seconds)."""
+    cost = study.cost(c)
+    out: dict[str, Any] = {"pairs": study.pairs}
+    if cost is None:
+        return out
+    if cost.build is not None:
+        out.update(build_s=cost.build.value, build_s_low=cost.build.low,
+                   build_s_high=cost.build.high)
+    out["build_estimated_s"] = cost.build_estimate_s
+    p = cost.paired
+    if p is None:
+        samples = [s for k in study.costs.values() if k.paired is not None
+                   for s in k.paired.reference]
+        out["warm_run_s"] = mean_interval([s.warm_run_s for s in samples]).value
+        load = mean_interval([s.load_s for s in samples])
+    else:
+        for name, r in (("warm_run_ratio", p.warm_ratio), ("first_run_ratio", p.first_ratio)):
+            out.update({name: r.value, f"{name}_low": r.low, f"{name}_high": r.high})
+        out["warm_run_s"] = p.seconds("warm_run_s").value
+        out["cheaper"] = is_cheaper(p.ratio(study.objective))
+        load = p.seconds("load_s")
+    out.update(load_s=load.value, load_s_low=load.low, load_s_high=load.high)
+    return out
 
 
 def write_csv(study: Study, path: Path) -> None:
@@ -1126,10 +1398,7 @@ def write_csv(study: Study, path: Path) -> None:
                 "combined: " + _diff_label(s.fidelity, study.reference),
                 "kind": s.kind, "choice": s.choice or "", "value": "" if s.value is None
                 else _fmt(s.value), "exercised": s.exercised,
-                "latency_s": t["latency_s"], "table_s": r.table_s,
-                "tables_built": r.tables_built, "run_wall_s": r.run_wall_s,
-                "run_cpu_s": r.run_cpu_s,
-                "realtime_factor": r.simulated_s / r.run_wall_s if r.run_wall_s else "",
+                "latency_s": t["latency_s"], **_cost_columns(study, c),
                 "within_tolerance": c.ok,
             }
             for row in c.rows:
@@ -1172,19 +1441,31 @@ def pareto_front(cost: Sequence[float], error: Sequence[float]) -> list[int]:
     return front
 
 
+def tolerated_front(cost: Sequence[float], error: Sequence[float], ok: Sequence[bool]
+                    ) -> list[int]:
+    """:func:`pareto_front` over the points inside the tolerances only (indices into all)."""
+    inside = [i for i, good in enumerate(ok) if good]
+    return [inside[j] for j in pareto_front([cost[i] for i in inside],
+                                            [error[i] for i in inside])]
+
+
 def plot_pareto(study: Study, path: Path) -> None:
-    """PNG: error (worst target's mean |ΔP_d|; |Δ first-detection range|) against cost (run
-    CPU time plus table time), the Pareto front joined, the tolerances drawn."""
+    """PNG: error (worst target's mean |ΔP_d|; |Δ first-detection range|) against cost (the
+    objective's CPU over the reference's, with its interval), the Pareto front joined over
+    the settings inside the tolerances only, the tolerances drawn, labels placed apart."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     comps = study.comparisons
-    cost = [max(c.cost_s, 1e-3) for c in comps]
+    ratios = [study.ratio(c) for c in comps]
+    cost = [1.0 if r is None else r.value for r in ratios]
+    lo = [0.0 if r is None else r.value - r.low for r in ratios]
+    hi = [0.0 if r is None else r.high - r.value for r in ratios]
     err_pd = [c.total["worst_target_mean_abs_dpd"] for c in comps]
     err_r = [c.total["max_abs_dfirst_m"] for c in comps]
-    fig, axes = plt.subplots(1, 2, figsize=(13, 5.5), constrained_layout=True)
+    fig, axes = plt.subplots(1, 2, figsize=(14, 6), constrained_layout=True)
     for ax, err, tol, name in ((axes[0], err_pd, study.tolerances.pd,
                                 "worst target's mean |ΔP_d| per look"),
                                (axes[1], err_r, study.tolerances.range_m,
@@ -1194,39 +1475,107 @@ def plot_pareto(study: Study, path: Path) -> None:
         ceiling = 3 * max([tol, *finite])
         # zero drawn at a floor below everything, "never detected by one side" above
         shown = [floor if e <= 0 else (ceiling if math.isinf(e) else e) for e in err]
-        front = pareto_front(cost, err)
+        front = tolerated_front(cost, err, [c.ok for c in comps])
         for i, c in enumerate(comps):
             rec = c is study.recommended_comparison
             marker = "*" if rec else ("^" if math.isinf(err[i]) else
                                       ("v" if err[i] <= 0 else "o"))
-            ax.scatter(cost[i], shown[i], s=90 if rec else 30,
-                       c="tab:green" if rec else ("tab:blue" if c.ok else "tab:red"),
-                       marker=marker, zorder=3)
-            label = c.result.setting.label
-            if c.result.setting.kind == "combined":
-                label = "combined"
-            ax.annotate(label, (cost[i], shown[i]), fontsize=6.5, rotation=20,
-                        xytext=(4, 3), textcoords="offset points")
+            color = "tab:green" if rec else ("tab:blue" if c.ok else "tab:red")
+            ax.errorbar(cost[i], shown[i], xerr=[[lo[i]], [hi[i]]], fmt="none",
+                        ecolor=color, elinewidth=0.8, alpha=0.6, zorder=2)
+            ax.scatter(cost[i], shown[i], s=110 if rec else 30, c=color, marker=marker,
+                       zorder=3)
+        labels = [("combined" if c.result.setting.kind == "combined"
+                   else c.result.setting.label) for c in comps]
         ax.plot([cost[i] for i in front], [shown[i] for i in front], "k--", lw=1,
-                label="Pareto front")
+                label="Pareto front (inside the tolerances)")
         ax.axhline(tol, color="tab:orange", lw=1, label="tolerance")
+        ax.axvline(1.0 - SAVING_MIN, color="0.6", lw=0.8, ls=":",
+                   label=f"cheaper: interval left of {1 - SAVING_MIN:g}")
         ax.set_xscale("log")
         ax.set_yscale("log")
-        ax.set_xlabel("cost: run CPU time + table time [s]")
+        ax.set_xlabel(f"{study.objective} CPU / the reference's ({CONFIDENCE:.0%} interval)")
         ax.set_ylabel(name)
         ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=8, title="▼ zero, ▲ detected by one side only", title_fontsize=7)
+        # below the axes: the labels then have the whole plot
+        ax.legend(fontsize=8, title="▼ zero, ▲ detected by one side only", title_fontsize=7,
+                  loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=2)
+        place_labels(ax, cost, shown, labels)
     fig.suptitle(f"{study.scenario.name}: error against cost ({study.duration_s:g} s, "
-                 f"{len(study.seeds)} run(s); blue inside the tolerances, red outside, "
-                 "star recommended)", fontsize=10)
+                 f"{len(study.seeds)} run(s), {study.pairs} timing pairs; blue inside the "
+                 "tolerances, red outside, star recommended)", fontsize=10)
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
 
+#: Label offsets tried around a point, in points (nearest first).
+_LABEL_OFFSETS = [(dx * r, dy * r) for r in (1, 1.6, 2.4, 3.5, 5, 7)
+                  for dx, dy in ((5, 4), (5, -11), (-5, 4), (-5, -11), (0, 12), (0, -18))]
+
+
+def place_labels(ax: Any, x: Sequence[float], y: Sequence[float], labels: Sequence[str]
+                 ) -> list[Any]:
+    """Annotate each point with its label where it overlaps no other label or point.
+
+    Greedy: the offsets of :data:`_LABEL_OFFSETS` are tried nearest first, and a label
+    goes to the first place whose box (as drawn) lies inside the axes and meets no placed
+    label and no marker; a label with no free place takes the farthest, with a leader line.
+    Points at the same place share one label. Returns the annotations.
+    """
+    fig = ax.figure
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    groups: dict[tuple[float, float], list[str]] = {}
+    for xi, yi, lb in zip(x, y, labels, strict=True):
+        groups.setdefault((xi, yi), []).append(lb)
+    pts = ax.transData.transform(np.array(list(groups), dtype=float))
+    dots = [matplotlib_bbox(px - 4, py - 4, px + 4, py + 4) for px, py in pts]
+    frame = ax.get_window_extent(renderer)
+    placed: list[Any] = []
+    boxes: list[Any] = []
+    for (xy, names) in groups.items():
+        text = ", ".join(names)
+        ann = None
+        for k, (dx, dy) in enumerate(_LABEL_OFFSETS):
+            far = k == len(_LABEL_OFFSETS) - 1
+            ann = ax.annotate(text, xy, xytext=(dx, dy), textcoords="offset points",
+                              fontsize=6.5, ha="left" if dx >= 0 else "right",
+                              arrowprops={"arrowstyle": "-", "lw": 0.4, "color": "0.5"}
+                              if abs(dx) > 10 or abs(dy) > 20 else None)
+            box = text_box(ann, renderer).expanded(1.02, 1.1)
+            inside = (frame.x0 <= box.x0 and box.x1 <= frame.x1 and frame.y0 <= box.y0
+                      and box.y1 <= frame.y1)
+            if far or (inside and not any(box.overlaps(b) for b in boxes + dots)):
+                break
+            ann.remove()
+        assert ann is not None
+        boxes.append(text_box(ann, renderer))
+        placed.append(ann)
+    return placed
+
+
+def text_box(ann: Any, renderer: Any) -> Any:
+    """The box of an annotation's text alone (its leader line left out) [display units]."""
+    from matplotlib.text import Text
+
+    ann.update_positions(renderer)  # what Annotation.get_window_extent does first
+    return Text.get_window_extent(ann, renderer)
+
+
+def matplotlib_bbox(x0: float, y0: float, x1: float, y1: float) -> Any:
+    """A display-coordinate box (matplotlib's Bbox)."""
+    from matplotlib.transforms import Bbox
+
+    return Bbox([[x0, y0], [x1, y1]])
+
+
 # =========================================================================== --apply
 def apply_fidelity(scenario_path: Path, fid: dict[str, Any], out: Path, *,
-                   overwrite: bool = False) -> Path | None:
+                   overwrite: bool = False, unread: Sequence[str] = ()) -> Path | None:
     """Write the scenario file with its ``fidelity:`` block replaced by ``fid``.
+
+    ``unread``: choices the scene does not read under ``fid``, left out of the block
+    (:func:`fidelity_yaml`; the schema's defaults then stand for them, unread).
 
     Everything else of the file is kept as written (comments included): a top-level
     ``fidelity:`` block is replaced in place, else the block is appended. The result is
@@ -1250,7 +1599,7 @@ def apply_fidelity(scenario_path: Path, fid: dict[str, Any], out: Path, *,
 
     text = Path(scenario_path).read_text(encoding="utf-8")
     lines = text.splitlines(keepends=True)
-    block = fidelity_yaml(fid)
+    block = fidelity_yaml(fid, unread)
     start = next((i for i, ln in enumerate(lines) if ln.startswith("fidelity:")), None)
     if start is None:
         new = text + ("" if text.endswith("\n") or not text else "\n") + block
@@ -1274,7 +1623,8 @@ def apply_fidelity(scenario_path: Path, fid: dict[str, Any], out: Path, *,
         with os.fdopen(fd, "w", encoding="utf-8") as fh:
             fh.write(new)
         check = load_scenario(tmp)  # raises ScenarioError: nothing written
-        if check.fidelity.model_dump() != Fidelity(**fid).model_dump():
+        read = set(Fidelity.model_fields) - set(unread)
+        if check.fidelity.model_dump(include=read) != Fidelity(**fid).model_dump(include=read):
             raise ScenarioError(["--apply: the fidelity block did not round-trip"])
         if out.exists():
             backup = out.with_name(out.name + ".bak")
@@ -1336,7 +1686,20 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--all", action="store_true", dest="include_unexercised",
                    help="also run the choices the scene does not exercise")
     p.add_argument("--cold", action="store_true",
-                   help="build every table in a private empty cache (true build times)")
+                   help=f"also measure the table builds: every distinct table built "
+                        f"{BUILD_REPEATS} times in a private empty cache (else the cost "
+                        "model's estimate is shown)")
+    p.add_argument("--pairs", type=_number("--pairs", 2, 1000, integer=True),
+                   default=DEFAULT_PAIRS, metavar="N",
+                   help="alternating timing pairs (reference, setting) per setting "
+                        f"(default {DEFAULT_PAIRS})")
+    p.add_argument("--optimise", choices=OBJECTIVES, default="per-run",
+                   help="the cost the recommendation minimises: per-run (warm run CPU, a "
+                        "Monte Carlo study's replications; default) or first-run (table load "
+                        "+ the first run of a process)")
+    p.add_argument("--allow-shortened", action="store_true",
+                   help="let --apply write a recommendation measured over a shortened "
+                        "--duration (it holds for that span only)")
     p.add_argument("--out", default=None, metavar="DIR",
                    help="write fidelity.csv and fidelity.png there")
     p.add_argument("--apply", default=None, metavar="OUT.yaml",
@@ -1401,6 +1764,13 @@ def cli_main(argv: Sequence[str]) -> int:
     if args.apply and not Path(args.apply).resolve().parent.is_dir():
         print(f"--apply: the folder of {args.apply} does not exist", file=sys.stderr)
         return 2
+    if (args.apply and args.duration is not None and args.duration < scenario.duration_s
+            and not args.allow_shortened):
+        print(f"--apply: --duration {args.duration:g} s is shorter than the scene's "
+              f"{scenario.duration_s:g} s; a recommendation measured over the first "
+              f"{args.duration:g} s holds for that span only (drop --duration, or pass "
+              "--allow-shortened)", file=sys.stderr)
+        return 2
     tol = Tolerances(args.tolerance_pd, args.tolerance_range_m, args.tolerance_fa,
                      args.max_latency_s)
     from shipradar.tables.budget import BuildTimeError
@@ -1412,22 +1782,10 @@ def cli_main(argv: Sequence[str]) -> int:
         return 2
     for line in lines:
         print(line, file=sys.stderr)
-    old_env = os.environ.get("SHIPRADAR_TABLES")
-    tmpdir = tempfile.TemporaryDirectory(prefix="shipradar-fidelity-") if args.cold else None
-    try:
-        if tmpdir is not None:
-            os.environ["SHIPRADAR_TABLES"] = tmpdir.name
-        study = run_fidelity_study(scenario, duration_s=args.duration, runs=args.runs,
-                                   tolerances=tol,
-                                   include_unexercised=args.include_unexercised,
-                                   log=None if args.quiet else sys.stderr)
-    finally:
-        if tmpdir is not None:
-            if old_env is None:
-                os.environ.pop("SHIPRADAR_TABLES", None)
-            else:
-                os.environ["SHIPRADAR_TABLES"] = old_env
-            tmpdir.cleanup()
+    study = run_fidelity_study(scenario, duration_s=args.duration, runs=args.runs,
+                               tolerances=tol, include_unexercised=args.include_unexercised,
+                               log=None if args.quiet else sys.stderr, pairs=args.pairs,
+                               objective=args.optimise, measure_builds=args.cold)
     print(format_report(study))
     if args.per_target:
         print()
@@ -1440,7 +1798,7 @@ def cli_main(argv: Sequence[str]) -> int:
     if args.apply:
         try:
             backup = apply_fidelity(Path(path), study.recommended, Path(args.apply),
-                                    overwrite=args.overwrite)
+                                    overwrite=args.overwrite, unread=study.unread)
         except FileExistsError as exc:
             print(str(exc), file=sys.stderr)
             return 2
