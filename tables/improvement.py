@@ -540,9 +540,11 @@ def _read(table: Table, s: NDArray, d: NDArray, arrays: Sequence[str | None]) ->
         cells = _cells(table, s, d)
         return _read_cells(table, cells, arrays)
     # 5.1.4: the linear mean of the two bounding constant-PRF systems, each read from the
-    # table in its own PRF (the products are those of staggered_improvement_factor)
-    lo, hi = (_read_cells(table, _cells(table, s * k, d * k), arrays) for k in scales)
-    return [_mean_power_db(a, b) for a, b in zip(lo, hi, strict=True)]
+    # table in its own PRF (the products are those of staggered_improvement_factor); both
+    # bounds in one pass over the points stacked
+    both = _read_cells(table, _cells(table, np.stack([s * k for k in scales]),
+                                     np.stack([d * k for k in scales])), arrays)
+    return [_mean_power_db(x[0], x[1]) for x in both]
 
 
 def _mean_power_db(a_db: NDArray, b_db: NDArray) -> NDArray:
