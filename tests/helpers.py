@@ -9,6 +9,7 @@ import socket
 import subprocess
 from pathlib import Path
 
+import numpy as np
 import pytest
 import yaml
 
@@ -171,3 +172,25 @@ class KeepingPublisher:
     @property
     def stats(self):
         return {}
+
+
+def first_crossings(geometry_at, t_start, beam0, omega, n, speed_m_s):
+    """The first beam crossing of each of ``n`` objects in the revolution from ``t_start``
+    [s] (NaN if none), by :func:`shipradar.sim.world.kinematics.beam_crossings`;
+    ``geometry_at(t, rows)`` gives their azimuth [rad] and ground range [m] (no rate: the
+    Newton steps then take the beam's alone), ``speed_m_s`` bounds their speed relative to
+    the antenna."""
+    from shipradar.sim.world.kinematics import beam_crossings
+
+    def look_at(t, rows):
+        az, ground = geometry_at(t, rows)
+        return az, np.zeros(t.size), ground
+
+    period = 2 * np.pi / omega
+    pair, t = beam_crossings(look_at, np.full(n, t_start), np.full(n, t_start + period),
+                             np.full(n, beam0), np.full(n, beam0 + 2 * np.pi), omega,
+                             np.full(n, speed_m_s))
+    first = np.full(n, np.nan)
+    keep = np.r_[True, pair[1:] != pair[:-1]] if pair.size else pair.astype(bool)
+    first[pair[keep]] = t[keep]
+    return first

@@ -14,13 +14,14 @@ from shipradar.sim.world.kinematics import (
     LocalFrame,
     Trajectories,
     antenna_geometry,
-    beam_crossing_times,
     ship_motion,
     slant_range_elevation,
     waypoint_enu,
     wrap_pi,
 )
 from shipradar.sim.world.scenario import Origin, Waypoint
+
+from .helpers import first_crossings
 
 ORIGIN = Origin(lat_deg=44.6, lon_deg=-63.0)
 FRAME = LocalFrame(ORIGIN)
@@ -101,8 +102,14 @@ def test_beam_crossing_exact_moving_ship_and_targets(rpm):
         sp, sv, _ = ship.state(t, np.zeros(rows.size, dtype=int))
         return antenna_geometry(sp, sv, 25.0, tp, tv, FRAME).azimuth
 
+    def geometry_at(t, rows):
+        tp, tv, _ = tg.state(t, rows)
+        sp, sv, _ = ship.state(t, np.zeros(rows.size, dtype=int))
+        g = antenna_geometry(sp, sv, 25.0, tp, tv, FRAME)
+        return g.azimuth, g.ground_range
+
     t_start, beam0 = 37.3, 1.1
-    tc = beam_crossing_times(az_at, t_start, beam0, omega, n)
+    tc = first_crossings(geometry_at, t_start, beam0, omega, n, 10.0 + 300 * math.sqrt(2))
     period = 2 * math.pi / omega
     assert np.all(tc >= t_start - 1e-9) and np.all(tc < t_start + 1.5 * period)
     for i in range(n):
@@ -125,12 +132,13 @@ def test_beam_crossing_flat_analytic():
         d = tgt_p0 + tgt_v * t - ship_v * t
         return math.atan2(d[0], d[1])
 
-    def az_at(t):
+    def geometry_at(t, rows):
         tp, tv, _ = tg.state(t)
         sp, sv, _ = ship.state(t, np.zeros(1, dtype=int))
-        return antenna_geometry(sp, sv, 0.0, tp, tv, FRAME).azimuth
+        g = antenna_geometry(sp, sv, 0.0, tp, tv, FRAME)
+        return g.azimuth, g.ground_range
 
-    tc = beam_crossing_times(az_at, 10.0, 0.0, omega, 1)[0]
+    tc = first_crossings(geometry_at, 10.0, 0.0, omega, 1, 300.0)[0]
     root = brentq(lambda t: wrap_pi(az_flat(t) - omega * (t - 10.0)), tc - 0.2, tc + 0.2)
     # flat frame vs ellipsoid: meridian convergence a few 1e-3 deg at 2.5 km
     assert tc == pytest.approx(root, abs=2e-4)

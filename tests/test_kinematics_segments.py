@@ -19,14 +19,13 @@ from shipradar.sim.world.kinematics import (
     LocalFrame,
     Trajectories,
     antenna_azimuth,
-    beam_crossing_times,
     wrap_pi,
 )
 from shipradar.sim.world.scenario import STANDARD_GRAVITY as G
 from shipradar.sim.world.scenario import Origin, Target
 from shipradar.sim.world.trajectory import object_pieces, trajectories
 
-from .helpers import quiet_radar
+from .helpers import first_crossings, quiet_radar
 
 FRAME = LocalFrame(Origin(lat_deg=44.6, lon_deg=-63.0))
 
@@ -292,8 +291,13 @@ def test_beam_crossing_of_a_turning_target_against_brute_force():
         sp, _, _ = ship.state(t, np.zeros(rows.size, dtype=int))
         return antenna_azimuth(sp, tp, FRAME)[0]
 
+    def geometry_at(t, rows):
+        tp, _, _ = tg.state(t, rows)
+        sp, _, _ = ship.state(t, np.zeros(rows.size, dtype=int))
+        return antenna_azimuth(sp, tp, FRAME)
+
     for t_start in (3.3, 17.9, 41.0):
-        tc = beam_crossing_times(az_at, t_start, 0.4, omega, n)
+        tc = first_crossings(geometry_at, t_start, 0.4, omega, n, 612.0)
         grid = t_start + np.arange(0.0, 1.0, 1e-3)
         for i in range(n):
             rows = np.full(grid.size, i)

@@ -4,7 +4,7 @@ Each antenna revolution is cut into ``fidelity.sectors_per_scan`` sectors.  Ahea
 beam, a block of revolutions (:data:`_BLOCK_S` of simulated time, at least one revolution) is
 computed at once: (1) for every target and revolution, the exact time at which the rotating
 beam crosses it (moving ship and moving targets,
-:func:`shipradar.sim.world.kinematics.beam_crossing_times`), (2) the dwell model on every crossing
+:func:`shipradar.sim.world.kinematics.beam_crossings`), (2) the dwell model on every crossing
 of the block in one vectorized call (S/I, P_d, noisy contacts; targets of different revolutions are
 never merged), (3) the noise and sea-clutter false alarms of every revolution of the block, drawn
 together and timed when the beam sweeps their azimuths.  The process
@@ -73,7 +73,7 @@ from shipradar.sim.world.kinematics import (
     LocalFrame,
     antenna_azimuth,
     antenna_geometry,
-    beam_crossing_times,
+    beam_crossings,
 )
 from shipradar.sim.world.scenario import Platform, Radar, Scenario
 from shipradar.sim.world.traffic import scene_targets
@@ -1025,24 +1025,9 @@ class _RadarProcess:
         rows, scan_of = (self._plan_scans(t_as) if sim.targets.n
                          else (np.zeros(0, np.int64), np.zeros(0, np.int64)))
         if rows.size:
-            # the search starts a hair before the revolution, and a revolution owns the
-            # crossings in [start - ε, end - ε): a crossing on the boundary between two
-            # revolutions (a target on the start azimuth) is found once, by the later one
-            t_start = np.array([t_a - _CROSSING_EPS_S for t_a in t_as])[scan_of]
-            beam_start = np.array([self.beam_azimuth(t_a) - self.omega * _CROSSING_EPS_S
-                                   for t_a in t_as])[scan_of]
-
-            def az_at(t, rows=rows):
-                tpos, _, _ = sim.targets.state(t, rows)
-                ppos, _ = self.platform_state(t)
-                return antenna_azimuth(ppos, tpos, sim.frame)[0]
-
-            tc = beam_crossing_times(az_at, t_start, beam_start, self.omega, rows.size)
-            t_end = np.array([b for _, b in bounds])[scan_of]
-            last = t_end >= sim.duration  # the run's end: nothing comes after it
-            sel = (tc >= t_start) & ((tc < t_end - _CROSSING_EPS_S) | (last & (tc < t_end)))
-            if sel.any():
-                target_part = self._dwell(rows[sel], tc[sel], scan_of[sel], bounds)
+            idx, tc = self._crossings(rows, scan_of, t_as)
+            if idx.size:
+                target_part = self._dwell(rows[idx], tc, scan_of[idx], bounds)
                 if target_part is not None:
                     target_part["revolution"] = target_part.pop("batch")
         parts = [] if target_part is None else [target_part]
@@ -1056,6 +1041,58 @@ class _RadarProcess:
         edges = np.searchsorted(merged["revolution"], np.arange(len(bounds) + 1)).tolist()
         self._block_plots = (scan0, merged, edges)  # for _frame_block
         return list(zip(edges[:-1], edges[1:], strict=True))
+
+    def _crossings(self, rows: np.ndarray, scan_of: np.ndarray, t_as: list[float]
+                   ) -> tuple[np.ndarray, np.ndarray]:
+        """Every beam crossing of the (target ``rows``, revolution ``scan_of``) pairs: the
+        pair of each and its time [s], by pair then time
+        (:func:`shipradar.sim.world.kinematics.beam_crossings`).
+
+        Revolution j, starting at t_j as the process counts it, owns the crossings in
+        [t_j - ε, t_j+1 - ε) (the run's end for the last): every crossing is counted once,
+        and one on a boundary (a target on the start azimuth) by the later revolution,
+        whatever the rounding of the azimuths there.  Two crossings of one target less than
+        a dwell θ_b/ω apart (a target keeping pace with the beam) are one look.
+        """
+        sim = self.sim
+        starts = np.array(t_as + [(self._block_scan0 + len(t_as)) * self.n_sectors
+                                  * self.sector_s]) - _CROSSING_EPS_S
+        if starts[-1] >= sim.duration - _CROSSING_EPS_S:
+            starts[-1] = sim.duration
+        t_a, t_b = starts[:-1][scan_of], starts[1:][scan_of]
+        beam = self.beam_azimuth(starts)
+        speed = _SPEED_MARGIN * (sim.targets.max_speed[rows]
+                                 + sim.platforms.max_speed[self.p_index])
+
+        def look_at(t, i):
+            tpos, tvel, active = sim.targets.state(t, rows[i])
+            ppos, pvel = self.platform_state(t)
+            az, ground = antenna_azimuth(ppos, tpos, sim.frame)
+            # the plane's angular rate east/north, for Newton's steps only (a target outside
+            # its track's times holds its end position)
+            de, dn = tpos[:, 0] - ppos[:, 0], tpos[:, 1] - ppos[:, 1]
+            ve = np.where(active, tvel[:, 0], 0.0) - pvel[:, 0]
+            vn = np.where(active, tvel[:, 1], 0.0) - pvel[:, 1]
+            rho2 = de * de + dn * dn
+            rate = (dn * ve - de * vn) / np.where(rho2 > 0.0, rho2, 1.0)
+            return az, rate, ground
+
+        # each target's azimuth at each revolution boundary, once (one revolution's end is
+        # the next one's start): the same numbers on both sides of a boundary
+        key = np.concatenate([rows * starts.size + scan_of, rows * starts.size + scan_of + 1])
+        uniq, inv = np.unique(key, return_inverse=True)
+        ut = starts[uniq % starts.size]
+        ur = uniq // starts.size
+        tpos, _, _ = sim.targets.state(ut, ur)
+        az, ground = antenna_azimuth(self.platform_state(ut)[0], tpos, sim.frame)
+        n = rows.size
+        ends = (az[inv[:n]], ground[inv[:n]], az[inv[n:]], ground[inv[n:]])
+        pair, tc = beam_crossings(look_at, t_a, t_b, beam[:-1][scan_of], beam[1:][scan_of],
+                                  self.omega, speed, rate_slack_rad_s=_RATE_SLACK_RAD_S,
+                                  min_separation_s=self.model.theta_b / self.omega, ends=ends)
+        # the first revolution's margin lies before the run: a target on the start azimuth
+        # (met at -2e-15 s by rounding) is met at the start, where it exists
+        return pair, np.maximum(tc, 0.0)
 
     def _sector_cuts(self, scan0: int, times: np.ndarray, edges: list[int]) -> np.ndarray:
         """Where each sector's plots end in a block's plot ``times`` (revolution ``scan0 +
@@ -1321,6 +1358,13 @@ class _ScanEnds:
 
 #: Margin of the beam-crossing search at the boundary between two revolutions [s].
 _CROSSING_EPS_S = 1e-6
+#: The beam-crossing search bounds a target's angular rate from the antenna by v/ρ on the
+#: plane: the sphere raises it by (ρ/R)²/6 (1e-3 at 500 km), a factor the speed bound
+#: covers with room to spare ...
+_SPEED_MARGIN = 1.01
+#: ... and the true-north frame turns along a moving antenna's track, v tan(lat)/R
+#: (4e-5 rad/s at 40 m/s and 80° of latitude), an added rate [rad/s].
+_RATE_SLACK_RAD_S = 1e-3
 #: Simulated time whose revolutions are computed together [s] (at least one revolution).
 _BLOCK_S = 64.0
 #: Expected false alarms a block of revolutions holds at most (fewer revolutions, at least

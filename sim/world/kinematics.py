@@ -224,6 +224,18 @@ def piece_state(p0, vel0, kind, par, tau, accel=True):
     return pos, vel, acc
 
 
+def pieces_max_speed(kind: np.ndarray, vel: np.ndarray, par: np.ndarray,
+                     dt: np.ndarray) -> np.ndarray:
+    """The largest horizontal speed along each piece [m/s] (any shape of pieces): a constant
+    velocity's (``vel`` [..., 3]), an arc's at either end (its along-track acceleration is
+    constant), a sine piece's path speed (``par`` [..., 6], ``dt`` [s] as in :class:`Piece`)."""
+    out = np.hypot(vel[..., 0], vel[..., 1])
+    arc = kind == ARC
+    v0, a = par[..., 1], par[..., 2]
+    out = np.where(arc, np.maximum(np.abs(v0), np.abs(v0 + a * dt)), out)
+    return np.where(kind == SINE, np.abs(v0), out)
+
+
 def linear_pieces(track: np.ndarray) -> list[Piece]:
     """Constant-velocity pieces between the waypoints of a ``(W, 4)`` track (one
     zero-length piece for a single waypoint)."""
@@ -292,6 +304,11 @@ class Trajectories:
         if ends is not None and self.n:
             self.t_last = ends
         self.linear = not bool(np.any(self.kind != LINEAR))
+        #: a bound on each object's horizontal speed over its whole track [m/s] (the
+        #: beam-crossing search's bound on a target's angular rate)
+        speed = pieces_max_speed(self.kind, self.vel, self.par, self.seg_dt)
+        speed[np.arange(w)[None, :] >= self.count[:, None]] = 0.0  # the padding
+        self.max_speed = speed.max(axis=1, initial=0.0)
         # Every object on one linear piece (at most two waypoints: the usual case): the piece
         # search of :meth:`state` is skipped, with the first piece's columns kept contiguous.
         self._one_segment = w <= 1 and self.linear
@@ -506,35 +523,228 @@ def wrap_pi(a: np.ndarray) -> np.ndarray:
     return np.mod(np.asarray(a) + np.pi, TWO_PI) - np.pi
 
 
-def beam_crossing_times(
-    azimuth_at: Callable[[np.ndarray], np.ndarray],
-    t_start: float | np.ndarray,
-    beam_azimuth_start: float | np.ndarray,
-    rate_rad_s: float,
-    n: int,
-    iterations: int = 6,
-) -> np.ndarray:
-    """First time at or after ``t_start`` when a clockwise-rotating beam meets each object.
+#: Time tolerance of the beam-crossing solver [s]: its safeguarded Newton iteration stops
+#: when a step or the root's bracket is shorter (the root is then exact to the last bits).
+CROSSING_TOL_S = 1e-9
+#: The crossing search's resolution [s]: an interval the rate bound cannot certify is split
+#: until it is this short; its crossings are sign changes at this resolution (a tangency rule).
+CROSSING_RESOLUTION_S = 1e-6
 
-    Solves β(t) ≡ az_i(t) (mod 2π) with β(t) = β_start + ω (t - t_start), for all objects
-    at once: a first estimate from the azimuths at ``t_start``, then Newton-like refinements
-    t ← t + wrap(az(t) - β(t))/ω, exact when the objects' angular rates are small against ω
-    (a target at 300 m/s and 1 km moves 0.3 rad/s; a 6 rpm antenna turns 0.63 rad/s).
+
+def beam_crossings(
+    look_at: Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]],
+    t_a: np.ndarray,
+    t_b: np.ndarray,
+    beam_a: np.ndarray,
+    beam_b: np.ndarray,
+    rate_rad_s: float,
+    speed_m_s: np.ndarray,
+    rate_slack_rad_s: float = 0.0,
+    min_separation_s: float = 0.0,
+    tol_s: float = CROSSING_TOL_S,
+    resolution_s: float = CROSSING_RESOLUTION_S,
+    ends: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Every time in ``[t_a, t_b)`` at which a clockwise beam meets each of N objects.
+
+    The beam turns as β(t) = β_a + ω (t - t_a); object i's true-north azimuth az_i(t) from
+    the antenna has a rate |az_i'| ≤ A = v_i/ρ_min + slack on any interval, with v_i a bound
+    on its horizontal speed relative to the antenna and ρ_min ≥ (ρ_0 + ρ_1 - v_i h)/2 the
+    least ground range the interval's end ranges allow.  A crossing is a root of
+    D(t) = β(t) - az(t) - 2πk, the beam's lead over the object, unwrapped; D' = ω - az'.
+
+    The search works on intervals, all objects at once, every interval a revolution at first:
+
+    * ``A h < π`` unwraps the azimuth over the interval (D at its end is known, not only
+      modulo 2π); else the interval is split;
+    * ``A < ω``: D increases, its roots are the multiples of 2π in [D(t0), D(t1)) (0, 1, 2 or
+      more: an object moving against the rotation can be met twice in a revolution, one
+      moving with it faster than the beam not at all), each bracketed;
+    * otherwise (the object may outrun the beam) the interval is dropped when the envelope
+      D(t0) ± (ω + A)(t - t0), D(t1) ∓ (ω + A)(t1 - t) holds no multiple of 2π, else split;
+      at ``resolution_s`` each sign change of D - 2πk is a crossing (tangency rule: the beam
+      reaching the azimuth without passing it within the resolution is no crossing, nor are
+      two crossings closer than the resolution; an object passing within v × resolution of
+      the antenna's vertical, where the azimuth is undefined, is not met there).
+
+    Each bracketed root is then solved by Newton's method with the object's own angular rate
+    in the step, t ← t - D/(ω - az'), bisecting whenever a step leaves the bracket, to
+    ``tol_s``.  A root lies in [t0, t1) of the interval holding it, and a revolution owns
+    the crossings in its half-open [t_a, t_b): β and az at a shared boundary are the same
+    numbers for both revolutions (``beam_b`` of one is ``beam_a`` of the next), so a
+    crossing on the boundary is counted once, by the later revolution.
 
     Parameters
     ----------
-    azimuth_at : callable(t (N,) [s]) -> (N,) true-north azimuth from the antenna [rad]
-    t_start : start of the search [s], one for all objects or one per object
-    beam_azimuth_start : beam azimuth at ``t_start`` [rad], scalar or one per object
+    look_at : callable(t (M,) [s], idx (M,) object indices) -> azimuth [rad], its rate
+        [rad/s] (an estimate: it only speeds the Newton steps up) and ground range [m]
+    t_a, t_b : (N,) start and end of each object's search [s]
+    beam_a, beam_b : (N,) beam azimuth at ``t_a`` and ``t_b`` [rad]
     rate_rad_s : rotation rate ω > 0 [rad/s]
-    n : number of objects
+    speed_m_s : (N,) bound on each object's horizontal speed relative to the antenna [m/s]
+    rate_slack_rad_s : added to the azimuth-rate bound (the true-north frame's own rotation
+        along a moving antenna's track, the sphere's departure from the plane) [rad/s]
+    min_separation_s : crossings of one object closer than this are one (the first) [s]
+    tol_s, resolution_s : see :data:`CROSSING_TOL_S`, :data:`CROSSING_RESOLUTION_S`
+    ends : optional (N,) azimuths [rad] and ground ranges [m] at ``t_a`` and at ``t_b``
+        (az_a, ground_a, az_b, ground_b), when the caller has them (one revolution's end is
+        the next one's start); else ``look_at`` gives them
+
+    Returns
+    -------
+    idx, t : the object index and time [s] of every crossing, sorted by object then time
     """
-    t0 = np.array(np.broadcast_to(np.asarray(t_start, dtype=float), (n,)))
-    t = t0 + np.mod(azimuth_at(t0) - beam_azimuth_start, TWO_PI) / rate_rad_s
-    for _ in range(iterations):
-        beam = beam_azimuth_start + rate_rad_s * (t - t_start)
-        step = wrap_pi(azimuth_at(t) - beam) / rate_rad_s
-        t = t + step
-        if (np.abs(step) < 1e-10).all():
+    w = float(rate_rad_s)
+    t_a = np.asarray(t_a, dtype=float)
+    t_b = np.asarray(t_b, dtype=float)
+    beam_a = np.asarray(beam_a, dtype=float)
+    speed = np.asarray(speed_m_s, dtype=float)
+    n = t_a.size
+    ids = np.arange(n)
+    if ends is None:
+        az_a, _, rho_a = look_at(t_a, ids)
+        az_b, _, rho_b = look_at(t_b, ids)
+    else:
+        az_a, rho_a, az_b, rho_b = ends
+    d_a = _beam_lead(np.asarray(beam_a) - az_a)
+    d_b = _beam_lead(np.asarray(beam_b, dtype=float) - az_b)
+    # the intervals to search: object, ends, azimuth, ground range and beam lead at the ends
+    iv: tuple[np.ndarray, ...] = (ids, t_a, t_b, az_a, az_b, rho_a, rho_b, d_a, d_b)
+    brackets: list[tuple[np.ndarray, ...]] = []
+    while iv[0].size:
+        i, t0, t1, az0, az1, rho0, rho1, d0, d1 = iv
+        h = t1 - t0
+        v = speed[i]
+        rho_min = 0.5 * (rho0 + rho1 - v * h)
+        with np.errstate(divide="ignore"):
+            bound = np.where(rho_min > 0.0, v / np.where(rho_min > 0.0, rho_min, 1.0), np.inf)
+        bound = bound + rate_slack_rad_s
+        unwraps = bound * h < np.pi
+        # D at t1 with D(t0) = d0 in [0, 2π): d1 plus the whole turns between
+        turns = np.round((d0 + w * h - wrap_pi(az1 - az0) - d1) / TWO_PI)
+        big_d1 = d1 + TWO_PI * turns
+        rising = unwraps & (bound < w)
+        # an increasing D: roots k = (0 if d0 = 0 else 1) ... (turns if d1 > 0 else turns - 1)
+        if rising.any():
+            r = np.flatnonzero(rising)
+            k_lo = (d0[r] > 0.0).astype(np.int64)
+            k_hi = turns[r].astype(np.int64) - (d1[r] <= 0.0)
+            count = np.maximum(k_hi - k_lo + 1, 0)
+            if count.any():
+                rr = np.repeat(r, count)
+                k = np.repeat(k_lo, count) + _ranks(count)
+                target = TWO_PI * k
+                a = bound[rr]
+                lo = np.maximum(t0[rr] + (target - d0[rr]) / (w + a),
+                                t1[rr] - (big_d1[rr] - target) / (w - a))
+                hi = np.minimum(t0[rr] + (target - d0[rr]) / (w - a),
+                                t1[rr] - (big_d1[rr] - target) / (w + a))
+                lo = np.clip(lo, t0[rr], t1[rr])
+                hi = np.clip(hi, lo, t1[rr])
+                brackets.append((i[rr], lo, hi, t0[rr], az0[rr], d0[rr] - target,
+                                 np.ones(rr.size)))
+        # the others: dropped when no multiple of 2π is within the envelope, else split
+        rest = ~rising
+        half = 0.5 * (w + bound) * h
+        mid_d = 0.5 * (d0 + big_d1)
+        near = np.ceil((mid_d - half) / TWO_PI) <= np.floor((mid_d + half) / TWO_PI)
+        rest &= ~unwraps | near
+        leaf = rest & (h <= resolution_s)
+        if leaf.any():
+            brackets.append(_sign_changes(np.flatnonzero(leaf & unwraps), iv, big_d1))
+        split = np.flatnonzero(rest & ~leaf)
+        if not split.size:
             break
-    return t
+        tm = 0.5 * (t0[split] + t1[split])
+        js = i[split]
+        azm, _, rhom = look_at(tm, js)
+        dm = _beam_lead(beam_a[js] + w * (tm - t_a[js]) - azm)
+        iv = tuple(np.concatenate([x, y]) for x, y in zip(
+            (js, t0[split], az0[split], rho0[split], d0[split], tm, azm, rhom, dm),
+            (js, tm, azm, rhom, dm, t1[split], az1[split], rho1[split], d1[split]),
+            strict=True))
+        # back to the order (object, t0, t1, az0, az1, rho0, rho1, d0, d1)
+        iv = (iv[0], iv[1], iv[5], iv[2], iv[6], iv[3], iv[7], iv[4], iv[8])
+    if not brackets:
+        return np.zeros(0, np.int64), np.zeros(0)
+    b_i, lo, hi, ref_t, ref_az, ref_d, sign = (np.concatenate(c) for c in zip(*brackets,
+                                                                           strict=True))
+    t = _solve_brackets(look_at, b_i, lo, hi, ref_t, ref_az, ref_d, sign, w, tol_s)
+    order = np.lexsort((t, b_i))
+    b_i, t = b_i[order], t[order]
+    if b_i.size > 1 and min_separation_s > 0.0:
+        keep = np.ones(b_i.size, dtype=bool)
+        same = b_i[1:] == b_i[:-1]
+        close = same & (t[1:] - t[:-1] < min_separation_s)
+        if close.any():  # a run of close crossings is one: keep its first
+            last_kept = t[0]
+            for j in range(1, t.size):
+                if b_i[j] == b_i[j - 1] and t[j] - last_kept < min_separation_s:
+                    keep[j] = False
+                else:
+                    last_kept = t[j]
+            b_i, t = b_i[keep], t[keep]
+    return b_i.astype(np.int64), t
+
+
+def _beam_lead(x: np.ndarray) -> np.ndarray:
+    """The beam's lead over an azimuth modulo 2π, in [0, 2π) [rad] (2π itself, which np.mod
+    gives for a tiny negative lead, is 0: the beam is on the object)."""
+    d = np.mod(x, TWO_PI)
+    return np.where(d >= TWO_PI, 0.0, d)
+
+
+def _ranks(count: np.ndarray) -> np.ndarray:
+    """0, 1, ..., c - 1 for each c of ``count``, concatenated."""
+    total = int(count.sum())
+    starts = np.repeat(np.cumsum(count) - count, count)
+    return np.arange(total) - starts
+
+
+def _sign_changes(r: np.ndarray, iv: tuple[np.ndarray, ...], big_d1: np.ndarray
+                  ) -> tuple[np.ndarray, ...]:
+    """Brackets of the sign changes of D - 2πk over the intervals ``r`` of ``iv`` (the
+    search's leaves): D from d0 at t0 to ``big_d1`` at t1, up or down; a root at t0 itself
+    (d0 = 0) counts, one at t1 belongs to the next interval."""
+    i, t0, t1, az0, _, _, _, d0, _ = (x[r] for x in iv)
+    d1 = big_d1[r]
+    up = d1 >= d0
+    # up: multiples in [d0, d1); down: in (d1, d0]
+    k_lo = np.where(up, np.ceil(d0 / TWO_PI), np.floor(d1 / TWO_PI) + 1).astype(np.int64)
+    k_hi = np.where(up, np.ceil(d1 / TWO_PI) - 1, np.floor(d0 / TWO_PI)).astype(np.int64)
+    count = np.maximum(k_hi - k_lo + 1, 0)
+    rr = np.repeat(np.arange(r.size), count)
+    k = np.repeat(k_lo, count) + _ranks(count)
+    target = TWO_PI * k
+    return (i[rr], t0[rr], t1[rr], t0[rr], az0[rr], d0[rr] - target,
+            np.where(up[rr], 1.0, -1.0))
+
+
+def _solve_brackets(look_at, i, lo, hi, ref_t, ref_az, ref_d, sign, w, tol_s):
+    """Roots of D(t) = ref_d + ω (t - ref_t) - wrap(az(t) - ref_az) on brackets [lo, hi]
+    where D goes from ``-sign`` to ``sign`` (``sign`` 1: increasing): safeguarded Newton
+    with the object's own rate, D' = ω - az', bisecting whenever a step leaves the bracket."""
+    lo, hi = lo.copy(), hi.copy()
+    # first guess: where the beam would meet the object frozen at the bracket's reference
+    t = np.clip(ref_t - ref_d / w, lo, hi)
+    out = t.copy()
+    act = np.arange(i.size)
+    for _ in range(200):
+        az, rate, _ = look_at(t, i[act])
+        f = (ref_d[act] + w * (t - ref_t[act]) - wrap_pi(az - ref_az[act])) * sign[act]
+        below = f < 0.0
+        lo[act] = np.where(below, t, lo[act])
+        hi[act] = np.where(below, hi[act], t)
+        slope = (w - rate) * sign[act]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            step = -f / slope
+        nt = t + step
+        newton = (slope > 0.0) & (nt >= lo[act]) & (nt <= hi[act])
+        nt = np.where(newton, nt, 0.5 * (lo[act] + hi[act]))
+        done = (newton & (np.abs(step) <= tol_s)) | (hi[act] - lo[act] <= tol_s) | (f == 0.0)
+        out[act] = np.where(f == 0.0, t, nt)
+        keep = ~done
+        act, t = act[keep], nt[keep]
+        if not act.size:
+            break
+    return out

@@ -43,7 +43,13 @@ import numpy as np
 
 from shipradar.sim.world import geodesy
 from shipradar.sim.world.errors import BadInputError
-from shipradar.sim.world.kinematics import LINEAR, LocalFrame, Trajectories, piece_state
+from shipradar.sim.world.kinematics import (
+    LINEAR,
+    LocalFrame,
+    Trajectories,
+    piece_state,
+    pieces_max_speed,
+)
 from shipradar.sim.world.scenario import Rcs, Scenario, Target, Traffic, swerling_case
 
 __all__ = ["CUBIC", "PieceTable", "SceneTargets", "TrafficError", "hermite_coefficients",
@@ -207,6 +213,14 @@ class PieceTable:
         self.t_last = self.t0[last] + self.dt[last] if self.n else np.zeros(0)
         self._only_cubic = bool(np.all((self.kind == CUBIC) | (self.kind == LINEAR)))
         self.max_pieces = int(np.diff(self.offsets).max()) if self.n else 0
+        #: a bound on each object's horizontal speed [m/s] (the beam-crossing search's bound
+        #: on its angular rate): a cubic piece's |v0| + 2|c2| dt + 3|c3| dt²
+        speed = pieces_max_speed(self.kind, self.v0, self.par, self.dt)
+        c2, c3 = np.hypot(self.par[:, 0], self.par[:, 1]), np.hypot(self.par[:, 3], self.par[:, 4])
+        cubic = np.hypot(self.v0[:, 0], self.v0[:, 1]) + self.dt * (2.0 * c2 + 3.0 * self.dt * c3)
+        speed = np.where(self.kind == CUBIC, cubic, speed)
+        self.max_speed = (np.maximum.reduceat(speed, self.offsets[:-1]) if self.n and speed.size
+                          else np.zeros(self.n))
 
     @property
     def nbytes(self) -> int:
