@@ -639,23 +639,29 @@ class DwellModel:
 
         One-way to each jammer: the propagation factor F_j of the scene's model (PE table,
         two-ray or free space; it holds the elevation pattern, as for targets) at the jammer's
-        height, and the atmospheric loss [16] along the path, computed once per call for the
-        jammers (not per beam position).  The azimuth pattern toward the jammer is the
-        sidelobe envelope beyond the first null ([13]), so S/J does not swing tens of dB
-        between beam positions in the sinc nulls, floored at the seed's constant sidelobe
-        level L_sl (``pattern_az.jamming_sidelobe_db``, default S_L): g_az² ≥ L_sl.
+        height, and the atmospheric loss [16] along the path.  The azimuth pattern toward the
+        jammer is the sidelobe envelope beyond the first null ([13]), so S/J does not swing
+        tens of dB between beam positions in the sinc nulls, floored at the seed's constant
+        sidelobe level L_sl (``pattern_az.jamming_sidelobe_db``, default S_L): g_az² ≥ L_sl.
 
         Parameters
         ----------
         beam_azimuth : (N,) beam azimuths [rad, true north]
-        jam_geom : Geometry of the M jammers from the antenna, or None
-        jam_pos : (M, 3) jammer east/north/up in the origin frame [m]; None: F_j from a
-            jammer at the sea surface and no atmospheric loss (unit tests)
-        antenna_en : (2,) the antenna's east/north [m] (rain path); None: the origin
+        jam_geom : Geometry of the M jammers from the antenna, or None: arrays of M entries
+            (one geometry for every beam position), or of N M entries, beam position after
+            beam position, jammer after jammer (the jammers where they are at each look's
+            own time, as the engine gives them)
+        jam_pos : (M, 3) or (N M, 3) jammer east/north/up in the origin frame [m]; None: F_j
+            from a jammer at the sea surface and no atmospheric loss (unit tests)
+        antenna_en : (2,) or (N M, 2) the antenna's east/north [m] (rain path); None: the
+            origin
         """
         if jam_geom is None:
             return np.zeros_like(beam_azimuth)
-        off = beam_azimuth[:, None] - jam_geom.azimuth[None, :]
+        m = self.jam.power_w.size
+        # (1, M) or (N, M): one row per beam position when each look has its own geometry
+        jam_az = jam_geom.azimuth.reshape(-1, m)
+        off = beam_azimuth[:, None] - jam_az
         off = np.mod(off + np.pi, 2.0 * np.pi) - np.pi
         g_az = self.azimuth_pattern(off, envelope=True)
         height = np.zeros(jam_geom.ground_range.shape) if jam_pos is None else jam_pos[:, 2]
@@ -668,9 +674,9 @@ class DwellModel:
                                           jam_pos[:, :2], height)
         p = jamming.jammer_power_w(
             self.jam.power_w[None, :], self.jam.gain[None, :], self.gain, g_az, 1.0,
-            self.wavelength, jam_geom.slant_range[None, :], self.bandwidth,
-            self.jam.bandwidth_hz[None, :], f_j=f_j[None, :], l_r=self.l_r,
-            l_atm=l_atm[None, :], sidelobe_floor=self.jam_sidelobe_floor)
+            self.wavelength, jam_geom.slant_range.reshape(-1, m), self.bandwidth,
+            self.jam.bandwidth_hz[None, :], f_j=f_j.reshape(-1, m), l_r=self.l_r,
+            l_atm=l_atm.reshape(-1, m), sidelobe_floor=self.jam_sidelobe_floor)
         return p.sum(axis=1)
 
     def target_doppler_hz(self, geom, platform_vel=None):
@@ -835,7 +841,7 @@ class DwellModel:
         ``fallbacks``.
 
         ``jam_power_w`` (N,) [W], when given, replaces the jamming computed from ``jam_geom``
-        (the engine computes it per revolution when it processes several at once), and
+        (the engine computes it with the jammers where they are at each look's time), and
         ``batch`` (N,) integers keep targets of different batches (revolutions) from ever
         being merged as unresolved; contacts come out ordered by batch.  ``platform_vel``
         (N, 3) [m/s], the platform's instantaneous velocity at each look, moves the clutter
@@ -902,7 +908,8 @@ class DwellModel:
 
     def look_jamming(self, look: Look, jam_geom=None, jam_power_w=None) -> np.ndarray:
         """The jamming step: P_j [W] at each target's beam azimuth [47]; ``jam_power_w`` when
-        the caller computed it (per revolution), else :meth:`jamming_power` from ``jam_geom``."""
+        the caller computed it (the engine: the jammers at each look's time), else
+        :meth:`jamming_power` from ``jam_geom``."""
         if jam_power_w is None:
             return self.jamming_power(look.geom.azimuth, jam_geom)
         return np.asarray(jam_power_w, dtype=float)

@@ -543,20 +543,28 @@ class _RadarProcess:
                                 self.sim.frame)
         return geom, active, tpos
 
-    def jammer_geometry(self, t: float):
-        """Geometry from the antenna to every jammer at time ``t``, the jammers' positions
-        (M, 3) and the antenna's east/north (2,); None without jammers.
+    def jammer_geometry(self, t, ppos: np.ndarray | None = None,
+                        pvel: np.ndarray | None = None):
+        """Geometry from the antenna to every jammer at each time of ``t`` (N,) [s], the
+        jammers' positions (N M, 3) and the antenna's east/north (N M, 2), look after look,
+        jammer after jammer (the layout :meth:`DwellModel.jamming_power` reads); None
+        without jammers.  ``ppos``, ``pvel`` (N, 3): the platform's state at those times, when
+        the caller has it.
 
-        Stand-off jammers move slowly against a sector's duration: one geometry per sector.
+        Each look sees the jammers where they are at its own time: at 6 rpm a 250 m/s jammer
+        crossing at 20 km moves 3.6° in half a revolution, which is the whole main beam.
         """
         jam = self.sim.jammers
         if jam.n == 0:
             return None
-        jpos, jvel, _ = jam.state(t)
-        ppos, pvel = self.platform_state(np.full(jam.n, t))
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        jpos, jvel, _ = jam.state(np.repeat(t, jam.n), np.tile(np.arange(jam.n), t.size))
+        if ppos is None or pvel is None:
+            ppos, pvel = self.platform_state(t)
+        ppos, pvel = np.repeat(ppos, jam.n, axis=0), np.repeat(pvel, jam.n, axis=0)
         geom = antenna_geometry(ppos, pvel, self.radar.antenna_height_m, jpos, jvel,
                                 self.sim.frame)
-        return geom, jpos, ppos[0, :2]
+        return geom, jpos, ppos[:, :2]
 
     @property
     def scans_in_run(self) -> int:
@@ -921,13 +929,12 @@ class _RadarProcess:
         near = ground <= self.radar.instrumented_range_m + reach
         return rows[near], scan_of[near]
 
-    def _dwell(self, rows: np.ndarray, tc: np.ndarray, scan_of: np.ndarray,
-               bounds: list[tuple[float, float]]) -> dict | None:
+    def _dwell(self, rows: np.ndarray, tc: np.ndarray, scan_of: np.ndarray) -> dict | None:
         """Run the dwell model on the targets crossed at times ``tc``; update the counters.
 
-        ``scan_of`` is the index in ``bounds`` (the [start, end) of each revolution of the
-        block) of each crossing; targets of different revolutions are never merged, and each
-        revolution sees the stand-off jammers where they are at its middle.
+        ``scan_of`` is the index of each crossing's revolution in the block; targets of
+        different revolutions are never merged.  Each look sees the stand-off jammers where
+        they are at its own time (:meth:`jammer_geometry`).
         """
         sim = self.sim
         geom, active, tpos = self.geometry(tc, rows)
@@ -940,12 +947,8 @@ class _RadarProcess:
         geom, scan_of = _take(geom, idx), scan_of[idx]
         jam_w = None
         if sim.jammers.n:
-            jam_w = np.zeros(idx.size)
-            for j, (t_a, t_b) in enumerate(bounds):
-                sel = scan_of == j
-                if sel.any():
-                    jam_w[sel] = self.model.jamming_power(
-                        geom.azimuth[sel], *self.jammer_geometry(0.5 * (t_a + t_b)))
+            jam_w = self.model.jamming_power(
+                geom.azimuth, *self.jammer_geometry(tc[idx], ppos[idx], pvel[idx]))
         res = self.model.process_targets(
             geom, rows[idx], tc[idx], tpos[idx], self.rng,
             antenna_en=ppos[idx, :2], jam_power_w=jam_w, batch=scan_of,
@@ -1027,7 +1030,7 @@ class _RadarProcess:
         if rows.size:
             idx, tc = self._crossings(rows, scan_of, t_as)
             if idx.size:
-                target_part = self._dwell(rows[idx], tc, scan_of[idx], bounds)
+                target_part = self._dwell(rows[idx], tc, scan_of[idx])
                 if target_part is not None:
                     target_part["revolution"] = target_part.pop("batch")
         parts = [] if target_part is None else [target_part]
