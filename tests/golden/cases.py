@@ -27,10 +27,12 @@ LOCK = ROOT / "requirements" / "lock.txt"
 MADE_WITH = HERE / "made_with.json"
 
 # Largest relative difference |a - b| / max(|a|, |b|) allowed between a golden value and a
-# rerun's when the install or the CPU differs from the golden files' own: far above the low
-# bits that other installs move (measured in docs/stability.md section 6), far below what a
-# change of the physics moves (a 0.01 dB change of a loss is 2e-3).
-RTOL = 1e-6
+# rerun's when the install or the CPU differs from the golden files' own: about 8 times the
+# largest difference measured between installs and CPUs (1.3e-6, a P_d deep in its tail, on
+# 60 s runs; docs/stability.md section 6). A change of the physics can move values by less
+# (issue 40 moved the manoeuvres case by 4.6e-9): on the golden files' own install and CPU the
+# test asks for the same bytes.
+RTOL = 1e-5
 
 
 @dataclass(frozen=True)
