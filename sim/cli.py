@@ -538,6 +538,27 @@ def cmd_recording_repair(args) -> int:
     return EXIT_OK
 
 
+def cmd_recording_compare(args) -> int:
+    from shipradar.sim.stream.compare import compare_recordings
+
+    for path in (args.expected, args.actual):
+        if not Path(path).is_file():
+            raise BadInput(f"recording compare: {path} does not exist or is not a file")
+    if not args.rtol >= 0.0:
+        raise BadInput(f"recording compare: --rtol must be >= 0, got {args.rtol}")
+    same_bytes = Path(args.expected).read_bytes() == Path(args.actual).read_bytes()
+    c = compare_recordings(args.expected, args.actual, rtol=args.rtol)
+    first = None if c.first is None else {
+        "message": c.first.index, "topic": c.first.topic, "t": c.first.t_sim,
+        "where": c.first.where, "kind": c.first.kind, "detail": c.first.detail}
+    print(json.dumps({"same_bytes": same_bytes, "equal": c.equal, "rtol": c.rtol,
+                      "messages": c.messages, "max_rel": c.max_rel, "worst": c.worst,
+                      "by_key": c.by_key, "first_difference": first}))
+    if c.first is not None:
+        print(f"{args.actual}: {c.first}", file=sys.stderr)
+    return EXIT_OK if c.equal else EXIT_FAILURE
+
+
 def cmd_keys_generate(args) -> int:
     from shipradar.sim.stream.security import generate_keys
 
@@ -811,6 +832,16 @@ def _add_recording(sub: _Subcommands) -> None:
     rr.add_argument("--compress", choices=_COMPRESSIONS, default="none",
                     help="compression of OUT")
     rr.set_defaults(func=cmd_recording_repair)
+    rp = rcsub.add_parser("compare", help="compare two recordings by value: the same messages, "
+                                          "plot ids and integers, floats within --rtol (exit 0 "
+                                          "equal, 1 different; docs/stability.md section 6)")
+    rp.add_argument("expected")
+    rp.add_argument("actual")
+    rp.add_argument("--rtol", type=float, default=1e-5,
+                    help="largest relative difference of a float (a dB level's as a power); "
+                         "default 1e-5, above what installs and CPUs move (README, "
+                         "'Reproducibility')")
+    rp.set_defaults(func=cmd_recording_compare)
 
 
 def _add_keys(sub: _Subcommands) -> None:

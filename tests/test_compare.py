@@ -7,6 +7,7 @@ the expected answer (message, key, relative difference) is known independently o
 from __future__ import annotations
 
 import copy
+import json
 import math
 
 import numpy as np
@@ -133,3 +134,23 @@ def test_an_snr_near_0_db_is_compared_as_a_power(stream):
     assert result.equal
     assert result.by_key["plots.snr_db"] == pytest.approx(1e-7 * math.log(10.0) / 10.0,
                                                           rel=1e-6)
+
+
+def test_the_command_line_compares_two_recordings(tmp_path, capsys):
+    from shipradar.sim.cli import main
+
+    same = tmp_path / "same.rec"
+    same.write_bytes(GOLDEN.read_bytes())
+    assert main(["recording", "compare", str(GOLDEN), str(same)]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["same_bytes"] and report["equal"] and report["first_difference"] is None
+    other = CASES[0].file  # another scene: its meta differs from the first message
+    assert main(["recording", "compare", str(GOLDEN), str(other), "--rtol", "1"]) == 1
+    out = capsys.readouterr()
+    report = json.loads(out.out)
+    assert not report["equal"] and report["first_difference"]["message"] == 0
+    assert report["first_difference"]["kind"] == "structure"
+    assert "message 0 (meta at t=0.0 s) differs" in out.err
+    assert main(["recording", "compare", str(GOLDEN), str(tmp_path / "nope.rec")]) == 2
+    assert main(["recording", "compare", str(GOLDEN), str(same), "--rtol", "-1"]) == 2
+    assert "--rtol must be >= 0, got -1.0" in capsys.readouterr().err
