@@ -3,6 +3,18 @@ elevation (off-line level), and its per-dwell lookup.
 
 The physics (ITU-R P.676 / P.840 through ``itur``) is :mod:`shipradar.sensors.atmosphere`; rain
 depends on the rain cell's geometry and is computed on-line there, not tabulated.
+
+What the lookup interpolates and what it evaluates (issue 36):
+
+* the gaseous loss, a quadrature per point, is read bilinearly from the table;
+* the fog loss is γ_f/c (one number per scene, kept in the table) times the length of the
+  path below the fog top, a closed form (:func:`shipradar.sensors.atmosphere.layer_path_length_m`)
+  evaluated per point: the length has a kink along the range where the ray leaves the layer,
+  which moves by ~150 km per degree of elevation near the horizon, so no affordable
+  elevation axis holds it (a 0.5° axis read 21.45 dB for 28.38 dB at 35 GHz in a 100 m fog);
+* outside the table's axes (a range beyond the last node, an elevation below the first) the
+  gaseous loss is the direct quadrature from the P.676 coefficients kept in the table: no
+  clamp and no extrapolation.
 """
 
 from __future__ import annotations
@@ -25,7 +37,7 @@ __all__ = ["TABLE_NAME", "TABLE_VERSION", "atmospheric_loss_grid", "atmospheric_
 #: Table builder name and version (bump on any change of the model in
 #: :mod:`shipradar.sensors.atmosphere`).
 TABLE_NAME = "atmospheric_loss"
-TABLE_VERSION = 1
+TABLE_VERSION = 2
 
 #: The ITU-R recommendation versions each itur release selects by default (P.676, P.840), so
 #: that a table's key is computed without importing itur, which imports astropy, scipy.stats
@@ -76,11 +88,11 @@ def _build_grid(freq_hz, ranges_m, elevations_rad, inputs) -> Table:
     # same total to within 1e-15 relative, in either direction: keep the table exactly
     # non-decreasing in range, as the loss is.
     gas = np.maximum.accumulate(gas, axis=0)
+    gamma_fog = 0.0
     if inputs["fog_lwc_g_m3"] > 0.0:
-        gamma_fog = atm.fog_specific_attenuation_db_per_km(freq_hz, inputs["fog_lwc_g_m3"], t)
-        fog = gamma_fog * atm.layer_path_length_m(rr, ee, inputs["fog_top_m"], ha) / constants.kilo
-    else:
-        fog = np.zeros_like(gas)
+        gamma_fog = float(atm.fog_specific_attenuation_db_per_km(freq_hz, inputs["fog_lwc_g_m3"],
+                                                                 t))
+    fog = _fog_loss_db(gamma_fog, rr, ee, inputs["fog_top_m"], ha)
     return Table(
         name=TABLE_NAME,
         version=TABLE_VERSION,
@@ -92,7 +104,17 @@ def _build_grid(freq_hz, ranges_m, elevations_rad, inputs) -> Table:
         value_unit="dB",
         inputs=inputs,
         extra={"gaseous_db": gas, "fog_db": fog},
+        # what the lookup evaluates itself: the gas integral outside the axes, the fog
+        attached={"gas_coefficients": np.array([float(go), float(gw), float(ho), float(hw)]),
+                  "fog_db_per_km": np.array([gamma_fog])},
     )
+
+
+def _fog_loss_db(gamma_fog_db_per_km: float, slant_range_m: ArrayLike, elevation_rad: ArrayLike,
+                 fog_top_m: float, antenna_height_m: float) -> NDArray[np.float64]:
+    """Fog loss [dB]: γ_f/c [dB/km] times the path length below the fog top [16] (exact)."""
+    length = atm.layer_path_length_m(slant_range_m, elevation_rad, fog_top_m, antenna_height_m)
+    return gamma_fog_db_per_km * length / constants.kilo
 
 
 def atmospheric_loss_grid(
@@ -196,12 +218,18 @@ def lookup_gas_fog_loss_db(
 ) -> NDArray[np.float64]:
     """One-way gas + fog loss [dB] from a table of :func:`atmospheric_loss_grid`, per dwell.
 
+    The gaseous loss is interpolated bilinearly on the table's grid, or, outside its axes,
+    integrated directly (:func:`shipradar.sensors.atmosphere.gaseous_loss_db` with the P.676
+    coefficients the table keeps: no clamp, no extrapolation); the fog loss is evaluated
+    exactly at every point (see the module docstring).  Against the direct functions on the
+    axes of :func:`shipradar.tables.scene.atmosphere_axes`: docs/accuracy.md.
+
     Parameters
     ----------
     table : Table
         The scene's atmospheric-loss table.
     slant_range_m : array_like
-        Slant range [m].
+        Slant range [m] (below 0 read as 0).
     elevation_rad : array_like
         Elevation of the ray at the antenna [rad], on the table's 4/3 earth: for a target
         use :func:`shipradar.sensors.atmosphere.ray_elevation_rad`.
@@ -209,21 +237,19 @@ def lookup_gas_fog_loss_db(
     Returns
     -------
     ndarray
-        Loss [dB], ≥ 0.  Elevations outside the axis are clamped to its ends; ranges beyond
-        the last node are extrapolated with the last segment's dB/m slope (the loss keeps
-        growing; build the table to the instrumented range to avoid it); ranges below the
-        first node scale linearly to 0 at R = 0.
+        Loss [dB], ≥ 0.
     """
-    r_axis, e_axis = table.axes
-    r = np.asarray(slant_range_m, dtype=float)
-    el = np.clip(np.asarray(elevation_rad, dtype=float), e_axis[0], e_axis[-1])
-    r, el = np.broadcast_arrays(r, el)
-    rc = np.clip(r, r_axis[0], r_axis[-1])
-    loss = table.lookup(rc, el)
-    slope_end = np.interp(
-        el, e_axis, (table.values[-1] - table.values[-2]) / (r_axis[-1] - r_axis[-2])
-    )
-    loss = loss + slope_end * np.maximum(r - r_axis[-1], 0.0)
-    if r_axis[0] > 0.0:
-        loss = np.where(r < r_axis[0], loss * np.maximum(r, 0.0) / r_axis[0], loss)
-    return np.maximum(loss, 0.0)
+    r, el = np.broadcast_arrays(np.maximum(np.asarray(slant_range_m, dtype=float), 0.0),
+                                np.asarray(elevation_rad, dtype=float))
+    ha = float(table.inputs["antenna_height_m"])
+    gas = table.lookup(r, el, array="gaseous_db")
+    outside = np.isnan(gas) & ~np.isnan(r) & ~np.isnan(el)
+    if outside.any():
+        go, gw, ho, hw = (float(x) for x in table.attached["gas_coefficients"])
+        gas[outside] = atm.gaseous_loss_db(r[outside], el[outside], gamma_o_db_per_km=go,
+                                           gamma_w_db_per_km=gw, h_o_m=ho, h_w_m=hw,
+                                           antenna_height_m=ha)
+    gamma_fog = float(table.attached["fog_db_per_km"][0])
+    if gamma_fog > 0.0:
+        gas += _fog_loss_db(gamma_fog, r, el, float(table.inputs["fog_top_m"]), ha)
+    return np.maximum(gas, 0.0)

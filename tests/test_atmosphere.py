@@ -223,14 +223,16 @@ def test_grid_table_build_cache_and_lookup(table_cache, gas10):
     assert again.key == table.key
     assert len(list(table_cache.glob("atmospheric_loss-*.npz"))) == 1
     assert np.array_equal(again.values, table.values)
-    # Lookup: exact at nodes, clamps elevation, extrapolates beyond the last range.
+    # Lookup: exact at nodes; beyond the last range and above the last elevation the direct
+    # integral (no extrapolation, no clamp); the fog is the exact chord below its top.
     r_q = np.array([ranges[50], ranges[-1] + 10e3, 100e3])
     e_q = np.array([els[j], els[j], np.deg2rad(80.0)])
     got = atm_table.lookup_gas_fog_loss_db(table, r_q, e_q)
     assert got[0] == pytest.approx(table.values[50, j], rel=1e-12)
-    assert got[1] > table.values[-1, j]
-    assert got[2] == pytest.approx(atm_table.lookup_gas_fog_loss_db(table, 100e3, els[-1]),
-                                   rel=1e-12)
+    gamma_fog = atm.fog_specific_attenuation_db_per_km(F_HZ, 0.2)
+    direct = (atm.gaseous_loss_db(r_q[1:], e_q[1:], antenna_height_m=20.0, **gas10)
+              + gamma_fog * atm.layer_path_length_m(r_q[1:], e_q[1:], 150.0, 20.0) / 1e3)
+    assert got[1:] == pytest.approx(direct, rel=1e-9)
 
 
 @settings(max_examples=100, deadline=None)
