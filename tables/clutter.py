@@ -54,7 +54,7 @@ from shipradar.tables.store import Table, get_or_build
 SEA_MAP_NAME = "sea_clutter_map"
 WEATHER_MAP_NAME = "weather_clutter_map"
 #: Builder versions (part of the cache key): bump when the model changes.
-SEA_MAP_VERSION = 1
+SEA_MAP_VERSION = 2
 WEATHER_MAP_VERSION = 3
 #: Default grid: 1501 ranges (100 m steps at 150 km) and 1° in azimuth.
 DEFAULT_N_RANGE = 1501
@@ -229,45 +229,18 @@ def build_sea_clutter_map(*, elevation_directivity: Directivity, **kwargs: Any) 
     """
     inputs = sea_clutter_map_inputs(**kwargs)
     p = inputs
-    ranges, azimuths = map_axes(p["max_range_m"], p["n_range"], p["n_azimuth"])
-    h_a, f, k = p["antenna_height_m"], p["freq_hz"], p["k_factor"]
-    w_s, w_h = p["wind_speed_mps"], p["wave_height_m"]
-    lam = SPEED_OF_LIGHT_MPS / f
-    c_r = range_cell_m(p["pulse_width_s"])
-    theta_b = p["beamwidth_az_rad"]
-
-    phi = (azimuths - p["wind_direction_rad"])[None, :]
-    d = ranges[:, None]
-    sigma0_db = sc.ducted_reflectivity_db(
-        d, h_a, f, w_s, phi, w_h, p["polarization"], p["duct_height_m"], p["sea_state"], k
-    )
-    slant = sc.slant_range_m(ranges, h_a, k)
-    depression = sc.depression_angle_rad(ranges, h_a, k)
-    g = np.asarray(elevation_directivity(-depression), dtype=float)
-    power = sc.sea_clutter_power_w(
-        p["radar_constant_w_m2"], g[:, None], slant[:, None], theta_b, c_r, sc.from_db(sigma0_db)
-    )
-
-    sigma0_ref_db = sc.to_db(sc.reference_reflectivity(w_s, w_h))
-    sigma0_diff_db = sigma0_db - sigma0_ref_db
-    if not bool(sc.is_medium_high_resolution(theta_b, p["pulse_width_s"])):
-        a = np.full(power.shape, sc.RAYLEIGH_A)
-    elif p["polarization"] == "V":
-        a = sc.weibull_a_vp(sigma0_diff_db, w_s, p["a_min"])
-    else:
-        r_ref = sc.ground_range_at_grazing_m(sc.REFERENCE_GRAZING_RAD, h_a, k)
-        r_noise = _noise_limit_range(ranges, power, sc.HP_NOISE_LIMIT_FACTOR * p["noise_power_w"])
-        a = sc.weibull_a_hp(d, r_ref, r_noise[None, :], p["a_min"])
-
-    f1 = sc.platform_doppler_hz(
-        p["ship_speed_mps"], azimuths[None, :] - p["ship_heading_rad"], depression[:, None], lam
-    )
-    mean = sc.mean_clutter_doppler_hz(f1, phi, lam, p["motion_compensated"])
-    spread = sc.clutter_spread_hz(
-        sc.wind_spread_hz(w_s, phi, lam) + np.zeros_like(d),
-        sc.rotation_spread_hz(p["rotation_rate_rad_s"], theta_b),
-    )
+    ranges = sea_map_ranges(p["max_range_m"], p["n_range"], p["antenna_height_m"])
+    _, azimuths = map_axes(p["max_range_m"], p["n_range"], p["n_azimuth"])
+    cells = sea_clutter_cells(ranges[:, None], azimuths[None, :], inputs, elevation_directivity)
+    power = cells["power_w"]
     shape = power.shape
+    if (p["polarization"] == "H"
+            and bool(sc.is_medium_high_resolution(p["beamwidth_az_rad"], p["pulse_width_s"]))):
+        r_ref = sc.ground_range_at_grazing_m(sc.REFERENCE_GRAZING_RAD, p["antenna_height_m"],
+                                             p["k_factor"])
+        r_noise = _noise_limit_range(ranges, power, sc.HP_NOISE_LIMIT_FACTOR * p["noise_power_w"])
+        cells["weibull_a"] = sc.weibull_a_hp(ranges[:, None], r_ref, r_noise[None, :],
+                                             p["a_min"])
     return Table(
         name=SEA_MAP_NAME,
         version=SEA_MAP_VERSION,
@@ -278,14 +251,96 @@ def build_sea_clutter_map(*, elevation_directivity: Directivity, **kwargs: Any) 
         value_name="sea_clutter_power_w",
         value_unit="W",
         inputs=inputs,
-        extra={
-            "sigma0_db": np.broadcast_to(sigma0_db, shape).copy(),
-            "sigma0_diff_db": np.broadcast_to(sigma0_diff_db, shape).copy(),
-            "weibull_a": np.broadcast_to(a, shape).astype(float),
-            "doppler_mean_hz": np.broadcast_to(mean, shape).copy(),
-            "doppler_spread_hz": np.broadcast_to(spread, shape).copy(),
-        },
+        extra={name: np.broadcast_to(cells[name], shape).astype(float)
+               for name in ("sigma0_db", "sigma0_diff_db", "weibull_a", "doppler_mean_hz",
+                            "doppler_spread_hz")},
     )
+
+
+#: Near-range nodes of the sea map (issue 36): from ``SEA_NEAR_FIRST`` h_a, geometric with
+#: ratio ``SEA_NEAR_RATIO`` out to where that step reaches the uniform one.  Within a few
+#: tens of h_a the depression angle, hence the pattern g⁴(-ψ_d) (its lobes and nulls below
+#: the beam), the 1/R³ and f1's cos ψ_d [34], change by a large fraction within one 100 m
+#: step (40.7 dB and 142 Hz read wrong there).
+SEA_NEAR_FIRST = 0.01
+SEA_NEAR_RATIO = 1.02
+#: ... and no further than ``SEA_NEAR_LAST`` h_a (ψ_d = 1.4°: beyond, 100 m steps hold it).
+SEA_NEAR_LAST = 40.0
+
+
+def sea_map_ranges(max_range_m: float, n_range: int, antenna_height_m: float) -> np.ndarray:
+    """Ground-range axis of the sea map [m]: the uniform nodes of :func:`map_axes`, and
+    geometric nodes near the radar (from :data:`SEA_NEAR_FIRST` h_a, ratio
+    :data:`SEA_NEAR_RATIO`) up to where that ratio's step reaches the uniform one; a
+    geometric node closer than half its step to a uniform node is left out."""
+    uniform, _ = map_axes(max_range_m, n_range, 2)
+    d_end = min(float(uniform[1]) / (SEA_NEAR_RATIO - 1.0), SEA_NEAR_LAST * antenna_height_m,
+                float(max_range_m))
+    first = SEA_NEAR_FIRST * max(antenna_height_m, 1.0)
+    if first >= d_end:
+        return uniform
+    n = int(np.ceil(np.log(d_end / first) / np.log(SEA_NEAR_RATIO)))
+    near = np.geomspace(first, d_end, n + 1)[:-1]
+    gap = np.min(np.abs(near[:, None] - uniform[None, :]), axis=1)
+    near = near[gap >= 0.5 * (SEA_NEAR_RATIO - 1.0) * near]
+    return np.sort(np.concatenate([near, uniform]))
+
+
+def sea_clutter_cells(d: ArrayLike, azimuth: ArrayLike, inputs: dict[str, Any],
+                      elevation_directivity: Directivity) -> dict[str, NDArray[np.float64]]:
+    """The sea-clutter map's quantities evaluated directly at ground ranges and azimuths.
+
+    What :func:`build_sea_clutter_map` tabulates, at any (broadcast) points: ``power_w``
+    P_sc [W] [21], ``sigma0_db`` σ0* [dB] [22], ``sigma0_diff_db`` σ0d [dB], ``weibull_a``
+    (VP [32]; Rayleigh at coarse resolution; for HP the 4.1.2 heuristic needs the map's
+    noise-limit range, so the builder sets it and this returns ``nan``), ``doppler_mean_hz``
+    μ_c [34]-[35] and ``doppler_spread_hz`` σ_s [36]-[38].
+
+    Parameters
+    ----------
+    d : array_like
+        Ground range [m], ≥ 0.
+    azimuth : array_like
+        Beam azimuth from true north [rad].
+    inputs : dict
+        :func:`sea_clutter_map_inputs`.
+    elevation_directivity : callable
+        The pattern ``inputs["elevation_pattern"]`` describes.
+    """
+    p = inputs
+    d = np.asarray(d, dtype=float)
+    az = np.asarray(azimuth, dtype=float)
+    h_a, f, k = p["antenna_height_m"], p["freq_hz"], p["k_factor"]
+    w_s, w_h = p["wind_speed_mps"], p["wave_height_m"]
+    lam = SPEED_OF_LIGHT_MPS / f
+    c_r = range_cell_m(p["pulse_width_s"])
+    theta_b = p["beamwidth_az_rad"]
+    phi = az - p["wind_direction_rad"]
+    sigma0_db = sc.ducted_reflectivity_db(
+        d, h_a, f, w_s, phi, w_h, p["polarization"], p["duct_height_m"], p["sea_state"], k
+    )
+    slant = sc.slant_range_m(d, h_a, k)
+    depression = sc.depression_angle_rad(d, h_a, k)
+    g = np.asarray(elevation_directivity(-depression), dtype=float)
+    power = sc.sea_clutter_power_w(p["radar_constant_w_m2"], g, slant, theta_b, c_r,
+                                   sc.from_db(sigma0_db))
+    shape = np.shape(power)
+    sigma0_diff_db = sigma0_db - sc.to_db(sc.reference_reflectivity(w_s, w_h))
+    if not bool(sc.is_medium_high_resolution(theta_b, p["pulse_width_s"])):
+        a = np.full(shape, sc.RAYLEIGH_A)
+    elif p["polarization"] == "V":
+        a = np.broadcast_to(sc.weibull_a_vp(sigma0_diff_db, w_s, p["a_min"]), shape)
+    else:
+        a = np.full(shape, np.nan)
+    f1 = sc.platform_doppler_hz(p["ship_speed_mps"], az - p["ship_heading_rad"], depression, lam)
+    mean = sc.mean_clutter_doppler_hz(f1, phi, lam, p["motion_compensated"])
+    spread = sc.clutter_spread_hz(sc.wind_spread_hz(w_s, phi, lam) + np.zeros_like(d),
+                                  sc.rotation_spread_hz(p["rotation_rate_rad_s"], theta_b))
+    return {"power_w": np.broadcast_to(power, shape),
+            "sigma0_db": np.broadcast_to(sigma0_db, shape),
+            "sigma0_diff_db": np.broadcast_to(sigma0_diff_db, shape), "weibull_a": a,
+            "doppler_mean_hz": np.broadcast_to(mean, shape),
+            "doppler_spread_hz": np.broadcast_to(spread, shape)}
 
 
 def sea_clutter_map(
