@@ -219,3 +219,25 @@ def test_close_crossings_within_a_dwell_are_one_look():
         if x - kept[-1] >= 2.0:
             kept.append(x)
     assert t_one == pytest.approx(kept, abs=0.0)
+
+
+@pytest.mark.parametrize("rate", [-0.392, 0.296, 0.55, -2.0])
+def test_a_constant_angular_rate_against_the_closed_form(rate):
+    """The issue's cases: at 6 rpm a target at azimuth 1 rad turning at a constant rate
+    (the old fixed-point iteration erred by +36, -15.5 and -5028 ms on the first three).
+    β0 + ω t = 1 + r t + 2πk gives every crossing t_k = (1 - β0 + 2πk)/(ω - r)."""
+    omega, beam0, rho = 0.2 * math.pi, 0.3, 1000.0
+
+    def look_at(t, idx):
+        return np.mod(1.0 + rate * t, TWO_PI), np.full(t.size, rate), np.full(t.size, rho)
+
+    starts = np.arange(0.0, 200.0 + 1e-9, 10.0)
+    beam = np.mod(beam0 + omega * starts, TWO_PI)
+    n = starts.size - 1
+    _, t = beam_crossings(look_at, starts[:-1], starts[1:], beam[:-1], beam[1:], omega,
+                          np.full(n, abs(rate) * rho))
+    k = np.arange(-100, 100)
+    want = (1.0 - beam0 + TWO_PI * k) / (omega - rate)
+    want = np.sort(want[(want >= 0.0) & (want < 200.0)])
+    assert t.size == want.size
+    assert np.sort(t) == pytest.approx(want, abs=1e-9)

@@ -67,6 +67,7 @@ from shipradar.sim.dwell.look import (
     Propagation,
     TargetPower,
 )
+from shipradar.sim.world.kinematics import wrap_pi
 from shipradar.sim.world.scenario import Platform, Radar, Scenario
 from shipradar.tables.sky import rain_attenuation_db_per_km, scene_radar_constants
 from shipradar.tables.store import StackedLookup2D, Table
@@ -915,12 +916,13 @@ class DwellModel:
         return np.asarray(jam_power_w, dtype=float)
 
     def processing(self, look: Look, power: TargetPower, clutter: dict | None) -> Contacts:
-        """The processing step: unresolved targets (2.2.1), one contact per range cell, beam
-        and Doppler filter (and batch), each led by its strongest target, whose Doppler sets
-        the processor's I_F [57], L_d [63]-[64] and coherent gain for the contact."""
-        group, n_groups = self._resolution_groups(look.geom, clutter, look.batch,
-                                                  look.platform_vel)
+        """The processing step: unresolved targets (2.2.1, :meth:`_resolution_groups`: looks
+        of one dwell, within a range cell, a beamwidth and one Doppler filter of each other),
+        each contact led by its strongest target, whose Doppler sets the processor's I_F
+        [57], L_d [63]-[64] and coherent gain for the contact."""
         p_r = power.received_power_w
+        group, n_groups = self._resolution_groups(look.geom, clutter, look.batch,
+                                                  look.platform_vel, look.time_s, p_r)
         p_sum = np.bincount(group, weights=p_r, minlength=n_groups)
         lead = _argmax_by_group(group, p_r, n_groups)
         if clutter is None:
@@ -1049,26 +1051,76 @@ class DwellModel:
                                                               fd - rel),
                 "sigma_range_rate_mps": np.full(lead.size, self.range_rate_sigma_mps)}
 
-    def _resolution_groups(self, geom, clutter, batch=None, platform_vel=None):
-        """Group index of each target: same batch, range cell, beam and Doppler filter."""
+    def _resolution_groups(self, geom, clutter, batch=None, platform_vel=None, time_s=None,
+                           power_w=None):
+        """Contact index of each look and the number of contacts (seed 2.2.1).
+
+        Two looks are unresolved when the beam makes them together and nothing tells them
+        apart: crossing times within a dwell t_ot = θ_b/ω, slant ranges within a range cell
+        C_R, azimuths within a beamwidth θ_b (across north too), the same Doppler filter
+        and the same batch (revolution).  Contacts are formed greedily, strongest look
+        first (``power_w``): a look joins the first contact, in the order they were opened,
+        with every member of which it is unresolved, else opens one; so no contact holds
+        two looks more than a dwell, a cell or a beamwidth apart.  Without ``time_s`` every
+        look is taken as made at once.  Contacts are numbered (and so draw their random
+        numbers) in the order of their lead look's (batch, range cell, azimuth cell,
+        filter), then of the lead look itself.
+        """
         n = geom.slant_range.size
         if n == 1:
             return np.zeros(1, dtype=np.int64), 1
-        rc = np.floor(geom.slant_range / self.range_cell).astype(np.int64)
-        ac = np.floor(geom.azimuth / self.theta_b).astype(np.int64)
         fc = self._doppler_filter(self.target_doppler_hz(geom, platform_vel) if clutter is None
                                   else clutter["doppler_relative_hz"])
-        # One integer per (range cell, azimuth cell, filter), ordered as the triples are
-        # lexicographically (all three are >= 0), so the groups are numbered as
-        # np.unique(axis=0) would number them, at a fraction of its cost.
-        n_ac = int(ac.max()) + 1
-        n_fc = int(fc.max()) + 1
-        keys = (rc * n_ac + ac) * n_fc + fc
+        t = np.zeros(n) if time_s is None else np.broadcast_to(np.asarray(time_s, float), (n,))
+        bt = (np.zeros(n, dtype=np.int64) if batch is None
+              else np.asarray(batch, dtype=np.int64))
+        pairs = self._unresolved_pairs(geom.slant_range, geom.azimuth, fc, t, bt)
+        group = np.arange(n, dtype=np.int64)
+        if pairs[0].size:
+            p = (np.ones(n) if power_w is None else np.asarray(power_w, float))
+            group = _greedy_contacts(n, pairs, p)
+        # numbered by the lead look's (batch, range cell, azimuth cell, filter), then by the
+        # lead itself: contacts are numbered by their first look, the strongest, so a stable
+        # sort on one integer key does it (the numbers the grid gave when no two looks merge)
+        n_groups = int(group.max()) + 1
+        lead = (np.arange(n) if n_groups == n
+                else _argmax_by_group(group, np.ones(n) if power_w is None
+                                      else np.asarray(power_w, float), n_groups))
+        rc = np.floor(geom.slant_range[lead] / self.range_cell).astype(np.int64)
+        ac = np.floor(geom.azimuth[lead] / self.theta_b).astype(np.int64)
+        f = fc[lead]
+        n_ac, n_fc = int(ac.max()) + 1, int(f.max()) + 1
+        keys = (rc * n_ac + ac) * n_fc + f
         if batch is not None:
-            keys = np.asarray(batch, dtype=np.int64) * (int(keys.max()) + 1) + keys
-        _, group = np.unique(keys, return_inverse=True)
-        group = group.ravel().astype(np.int64)
-        return group, int(group.max()) + 1
+            keys = bt[lead] * (int(keys.max()) + 1) + keys
+        order = np.argsort(keys, kind="stable")
+        rank = np.empty(n_groups, dtype=np.int64)
+        rank[order] = np.arange(n_groups)
+        return rank[group], n_groups
+
+    def _unresolved_pairs(self, range_m, azimuth_rad, filt, t, batch):
+        """The pairs (i, j), i < j, of looks the radar cannot tell apart (see
+        :meth:`_resolution_groups`): found among the looks within a dwell of each other in
+        time, sorted."""
+        t_ot = self.theta_b * self.radar.scan_period_s / (2.0 * math.pi)
+        # one line of time, the batches apart by more than a dwell
+        t0 = float(t.min())
+        key = batch * (float(t.max()) - t0 + 2.0 * t_ot + 1.0) + (t - t0)
+        order = np.argsort(key, kind="stable")
+        key = key[order]
+        end = np.searchsorted(key, key + t_ot, side="right")
+        count = end - np.arange(key.size) - 1
+        if not count.any():
+            return np.zeros(0, np.int64), np.zeros(0, np.int64)
+        a = np.repeat(np.arange(key.size), count)
+        b = a + 1 + (np.arange(a.size) - np.repeat(np.cumsum(count) - count, count))
+        i, j = order[a], order[b]
+        near = ((batch[i] == batch[j]) & (np.abs(t[i] - t[j]) <= t_ot)
+                & (np.abs(range_m[i] - range_m[j]) < self.range_cell)
+                & (np.abs(wrap_pi(azimuth_rad[i] - azimuth_rad[j])) < self.theta_b)
+                & (filt[i] == filt[j]))
+        i, j = i[near], j[near]
+        return np.minimum(i, j), np.maximum(i, j)
 
     def _doppler_filter(self, doppler_hz):
         """Doppler filter index of each target (0 for a radar without a filter bank).
@@ -1292,6 +1344,38 @@ def _overlap_fraction(edges: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.n
     inside = np.clip(np.minimum(b, hi) - np.maximum(a, lo), 0.0, None)
     point = ((lo >= a) & (lo < b)).astype(float)
     return np.where(span > 0.0, inside / np.where(span > 0.0, span, 1.0), point)
+
+
+def _greedy_contacts(n: int, pairs: tuple[np.ndarray, np.ndarray],
+                     power: np.ndarray) -> np.ndarray:
+    """Contact index of each of ``n`` looks given the ``pairs`` (i, j) the radar cannot tell
+    apart: strongest look first (then by index), each joins the first contact opened whose
+    every member it is paired with, else opens one.  Looks in no pair are contacts of
+    their own; only the others are visited one by one."""
+    group = np.arange(n, dtype=np.int64)
+    i, j = pairs
+    linked = np.unique(np.concatenate([i, j]))
+    with_: dict[int, set[int]] = {int(k): set() for k in linked}
+    for a, b in zip(i.tolist(), j.tolist(), strict=True):
+        with_[a].add(b)
+        with_[b].add(a)
+    contacts: list[list[int]] = []
+    contact_of: dict[int, int] = {}
+    for k in linked[np.lexsort((linked, -power[linked]))].tolist():
+        near = with_[k]
+        # a contact k may join holds one of its pairs at least: the first opened of those
+        for c in sorted({contact_of[m] for m in near if m in contact_of}):
+            if near.issuperset(contacts[c]):
+                contacts[c].append(k)
+                contact_of[k] = c
+                group[k] = contacts[c][0]
+                break
+        else:
+            contact_of[k] = len(contacts)
+            contacts.append([k])
+    # contiguous numbers 0..m-1, in the order of the looks' first member
+    _, group = np.unique(group, return_inverse=True)
+    return group.ravel().astype(np.int64)
 
 
 def _argmax_by_group(group: np.ndarray, value: np.ndarray, n_groups: int) -> np.ndarray:

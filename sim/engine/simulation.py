@@ -2,8 +2,8 @@
 
 Each antenna revolution is cut into ``fidelity.sectors_per_scan`` sectors.  Ahead of the
 beam, a block of revolutions (:data:`_BLOCK_S` of simulated time, at least one revolution) is
-computed at once: (1) for every target and revolution, the exact time at which the rotating
-beam crosses it (moving ship and moving targets,
+computed at once: (1) for every target and revolution, every time at which the rotating
+beam crosses it (none, once, or more; moving ship and moving targets,
 :func:`shipradar.sim.world.kinematics.beam_crossings`), (2) the dwell model on every crossing
 of the block in one vectorized call (S/I, P_d, noisy contacts; targets of different revolutions are
 never merged), (3) the noise and sea-clutter false alarms of every revolution of the block, drawn
