@@ -20,11 +20,14 @@ TAIL_ARGS ?=
 # on; pyproject.toml keeps lower bounds for library users. A changed lock reinstalls.
 LOCK := requirements/lock.txt
 
-$(STAMP): pyproject.toml shipradar/_frames.c $(LOCK)
+$(STAMP): pyproject.toml shipradar/_frames.c $(LOCK) requirements/dis.txt
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --require-hashes --no-deps -r $(LOCK)
 	$(PY) -m pip install -qq --no-deps --no-build-isolation -e .
+	$(PY) -m pip uninstall -q -y opendis 2>/dev/null || true
 	$(PY) -m pip check
+	# opendis (--dis) after the check: its metadata's numpy<2 is not what it needs (requirements/dis.txt)
+	$(PY) -m pip install -q --require-hashes --no-deps -r requirements/dis.txt
 	touch $(STAMP)
 
 install: $(STAMP)

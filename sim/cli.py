@@ -291,7 +291,54 @@ def _check_run(args, s):
         if problems:
             raise BadInput("\n".join(f"--asterix: {p}" for p in problems))
     args.insecure_remote = _insecure_remote(args, curve)
+    _check_entities(args, s)
     return curve
+
+
+def _check_entities(args, s) -> None:
+    """``--entities``: a live feed implies ``--realtime 1`` (refused with another factor or
+    several processes); a recording runs in fast mode; the scene's targets come from it."""
+    dis = getattr(args, "dis", None)
+    spec = getattr(args, "entities", None)
+    if dis is not None:
+        from shipradar.sim.adapters.dis import parse_dis_url
+
+        if spec is not None:
+            raise BadInput(f"--dis and --entities: give one live source, got both ({dis!r} "
+                           f"and {spec!r})")
+        _host, _port, insecure = parse_dis_url(dis, allow_remote=args.allow_remote)
+        if insecure:
+            args.insecure_remote = True
+            print(f"warning: INSECURE: listening for DIS on {dis}: anyone who can reach this "
+                  f"machine can inject entities (DIS has no security of its own)",
+                  file=sys.stderr)
+        args.dis_address = None
+        if args.dis_site_app is not None:
+            try:
+                site, app = (int(x) for x in args.dis_site_app.split(":"))
+                if not (0 <= site <= 65535 and 0 <= app <= 65535):
+                    raise ValueError
+            except ValueError:
+                raise BadInput(f"--dis-site-app: expected SITE:APP, two integers in [0, "
+                               f"65535], got {args.dis_site_app!r}") from None
+            args.dis_address = (site, app)
+        spec = dis
+    if spec is None:
+        return
+    if s.targets or s.traffic:
+        raise BadInput(f"--entities: the targets come from {spec!r}; a scene with targets: or "
+                       f"traffic: of its own is not supported with it (remove them), got "
+                       f"{len(s.targets)} target(s) and {len(s.traffic)} traffic file(s)")
+    if args.processes > 1:
+        raise BadInput(f"--entities: one process only, got --processes {args.processes}")
+    if "://" in spec:  # a live feed: the wall clock
+        if args.realtime not in (None, 1.0):
+            raise BadInput(f"--entities: a live feed runs at the wall clock's pace "
+                           f"(--realtime 1); got --realtime {args.realtime:g}")
+        args.realtime = 1.0
+    elif args.realtime is not None:
+        raise BadInput(f"--entities: a recording re-simulates in fast mode; drop --realtime "
+                       f"(got {args.realtime:g})")
 
 
 def _stopped_summary(sim, core_bus, wall0: float, signum) -> dict:
@@ -329,6 +376,7 @@ def cmd_run(args) -> int:
         # and recovers from, instead of the signal killing the process mid-record
         signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
     publisher = recorder = None
+    entities: Any = None  # a live source: DIS, a ZeroMQ feed or a recording's entities
     core_bus: Bus | None = None  # ZeroMQ and the recording
     asterix_bus: AsterixBus | None = None
     bus: Bus | AsterixBus | None = None  # what the simulation emits to
@@ -348,10 +396,25 @@ def cmd_run(args) -> int:
             bus = asterix_bus = AsterixBus(
                 bus, UdpSender(args.asterix, allow_remote=args.allow_remote),
                 args.asterix_max_datagram)
+        if args.dis is not None:
+            from shipradar.sim.adapters.dis import DisReceiver
+            from shipradar.sim.world.kinematics import LocalFrame
+            from shipradar.sim.world.scenario import External
+
+            entities = DisReceiver(args.dis, LocalFrame(s.origin), exercise_id=args.dis_exercise,
+                                   site_app=args.dis_address,
+                                   queue_size=(s.external or External()).queue_size,
+                                   allow_remote=args.allow_remote)
+        elif args.entities is not None:
+            from shipradar.sim.stream.entities import entity_source
+            from shipradar.sim.world.scenario import External
+
+            entities = entity_source(args.entities,
+                                     (s.external or External()).queue_size)
         sim = Simulation(s, bus=bus, seed=args.seed, duration_s=args.duration,
                          realtime=args.realtime, tables=tables,
                          progress=sys.stderr.isatty() and not args.quiet,
-                         processes=args.processes)
+                         processes=args.processes, entities=entities)
         for line in sim.tables.missing_lines():
             print(f"note: {line}", file=sys.stderr)
         if publisher is not None and args.wait_subscribers:
@@ -370,6 +433,8 @@ def cmd_run(args) -> int:
                 summary["error"] = str(exc)
                 summary["simulated_s"] = getattr(core_bus, "t_last", None)
     finally:
+        if entities is not None:
+            entities.close()
         try:
             if bus is not None:
                 bus.close()
@@ -754,6 +819,20 @@ def _add_run(sub: _Subcommands) -> None:
                    metavar="N",
                    help="run the radars in N processes (fast mode; same bytes as one)")
     _asterix_arguments(r)
+    r.add_argument("--dis", metavar="udp://ADDRESS:PORT", default=None,
+                   help="targets from a DIS simulation's Entity State PDUs (port 3000 by "
+                        "default; loopback unless --allow-insecure-remote; the run is paced "
+                        "to the wall clock); docs/external.md")
+    r.add_argument("--dis-exercise", type=_int_range("--dis-exercise", 0, 255), default=None,
+                   metavar="N", help="keep only DIS exercise N")
+    r.add_argument("--dis-site-app", default=None, metavar="SITE:APP",
+                   help="this radar's DIS site and application numbers, for Start/Resume and "
+                        "Stop/Freeze PDUs addressed to it (those addressed to all apply "
+                        "anyway)")
+    r.add_argument("--entities", metavar="ENDPOINT|RECORDING", default=None,
+                   help="targets from a live ZeroMQ feed (topic entities; the run is paced "
+                        "to the wall clock) or the entities of a recording (fast mode, any "
+                        "seed); docs/external.md")
     r.set_defaults(func=cmd_run)
 
 

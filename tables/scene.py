@@ -479,6 +479,8 @@ def pe_table_height_m(scenario: Scenario, radar: Radar) -> float:
         from shipradar.sim.world.traffic import scene_targets
 
         top = max(top, scene_targets(scenario).max_altitude_m)
+    if scenario.external is not None:  # the declared envelope of live entities
+        top = max(top, scenario.external.max_altitude_m)
     return min(PE_MAX_HEIGHT_M, max(100.0, 1.2 * top + 20.0))
 
 
@@ -565,6 +567,9 @@ def pe_table_range_m(scenario: Scenario, radar: Radar, grid: dict[str, Any] | No
     if g["n"] * g["n_steps"] <= LARGE_GRID_WORK:
         return full
     reach = farthest_mover_range_m(scenario, radar)
+    ext = scenario.external
+    if ext is not None:  # live entities anywhere in their declared envelope
+        reach = max(reach, full if ext.max_range_m is None else ext.max_range_m)
     return float(min(full, reach * (1 + PE_RANGE_MARGIN) + PE_RANGE_MARGIN_M))
 
 

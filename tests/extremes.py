@@ -432,6 +432,15 @@ VARIANTS: tuple[Variant, ...] = (
                        "rcs": {"type": "constant", "sigma_m2": 50.0}}],
         "columns": {"speed_unit": "knots", "time_unit": "iso"}, "limits": {}}]},
         why="six AIS ships around the frigate from the shipped sample file"),
+    # -- live entities: the type table and the envelope (a run without --entities keeps
+    # the scene's own targets; the envelope sizes the PE table)
+    Variant("entity-types", (), {"entity_types": [
+        {"match": "ship*", "kind": "ship", "swerling": 1,
+         "rcs": {"type": "constant", "sigma_m2": 1000.0}}]},
+        why="one entity type (read only by a live run; the scene must still validate)"),
+    Variant("external", (), {"external": {"max_altitude_m": 1000.0, "max_range_m": 40000.0,
+                                          "timeout_s": 12.0, "queue_size": 100000}},
+            why="the envelope of live entities: the PE table covers 1000 m and 40 km"),
     # -- platform: manoeuvres and smoothing of the ship
     Variant("ship-turn", _PLATFORM, {**_SHIP_START, "segments": [
         {"type": "turn", "turn_rate_deg_s": 3.0, "duration_s": 10.0, "direction": "right"}]},

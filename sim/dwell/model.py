@@ -209,8 +209,9 @@ class DwellModel:
             # the exact P_d tabulated against (N_e, S/I) for this P_fa, N_e in [1, N_n]
             from shipradar.tables.pd import PdTables
 
-            self._pd_tables = PdTables(self.pfa, self.n_pulses,
-                                       [int(c) for c in self.targets.swerling])
+            cases = (self.targets.swerling_cases() if hasattr(self.targets, "swerling_cases")
+                     else [int(c) for c in self.targets.swerling])  # live: any case it may get
+            self._pd_tables = PdTables(self.pfa, self.n_pulses, cases)
         self._prepare_targets()
         self._prepare_jammers(scenario)
         self._prepare_propagation(scenario)
@@ -242,6 +243,10 @@ class DwellModel:
                 radar.frequency_hz, _rain_equivalent_rate(env.rain), radar.polarization)
 
     # ------------------------------------------------------------------ set-up
+    def refresh_targets(self) -> None:
+        """Take the scene's target list again (a live source's grew)."""
+        self._prepare_targets()
+
     def _prepare_targets(self) -> None:
         n = self.targets.n
         self.rcs_kind = np.zeros(n, dtype=np.int8)

@@ -137,6 +137,7 @@ class Simulation:
         progress: bool = False,
         processes: int = 1,
         only_radars=None,
+        entities=None,
     ):
         from shipradar.sim.dwell.model import DwellModel  # the on-line radar model
         from shipradar.tables.scene import load_scene_tables
@@ -163,8 +164,20 @@ class Simulation:
         self.frame = LocalFrame(origin)
         # waypoints (as before), segments or rounded corners: analytic pieces
         # (shipradar.sim.world.trajectory)
-        # the scenario's own targets and its traffic files' (shipradar.sim.world.traffic)
-        self.target_set = scene_targets(scenario)
+        # the scenario's own targets and its traffic files' (shipradar.sim.world.traffic), or
+        # the entities of a live source (shipradar.sim.world.live: a list that grows)
+        #: the live source of entity states (shipradar.sim.stream.entities), None without
+        self.live_source = entities
+        self._live_refreshed = -math.inf
+        self.target_set: Any
+        if entities is not None:
+            from shipradar.sim.world.live import LiveTargets
+
+            if processes > 1:
+                raise ValueError("processes > 1 is not for a live source (--entities)")
+            self.target_set = LiveTargets(scenario)
+        else:
+            self.target_set = scene_targets(scenario)
         self.targets = self.target_set.trajectories(self.frame)
         self.platforms = trajectories(scenario.platforms, self.frame, hold=True)
         self.jammers = trajectories(scenario.jammers, self.frame, hold=True)
@@ -190,7 +203,22 @@ class Simulation:
             env = simpy.Environment()
         for r in self.radars:
             env.process(r.run(env))
+        if self.live_source is not None and hasattr(self.live_source, "wait_while_frozen"):
+            env.process(self._simulation_management(env))
         return env
+
+    def _simulation_management(self, env: simpy.Environment) -> Generator[Any, Any, None]:
+        """A DIS simulation manager's Stop/Freeze holds the run's clock until Start/Resume
+        (shipradar.sim.adapters.dis): looked at every tenth of a second; after a freeze the
+        wall clock is taken again where it stopped (no catching up)."""
+        source = self.live_source
+        while True:
+            yield env.timeout(0.1)
+            waited = source.wait_while_frozen()
+            if waited > 0.0 and isinstance(env, simpy.rt.RealtimeEnvironment):
+                # the wall clock's origin moved on by the freeze (SimPy's sync() would also
+                # replay the time already run)
+                env.real_start += waited
 
     def run(self) -> dict[str, Any]:
         """Run to the end; returns the summary (the JSON line ``shipradar run`` prints)."""
@@ -334,6 +362,38 @@ class Simulation:
             bar.n = min(round(env.now), bar.total)
             bar.refresh()
 
+    def refresh_live(self, now: float) -> None:
+        """Take the live source's entity states that arrived up to ``now`` [s] (once per
+        time, whichever radar asks first): checked, applied to the target list
+        (:class:`shipradar.sim.world.live.LiveTargets`), and those applied sent as one
+        ``entities`` message at ``now`` (the recording keeps what the run used)."""
+        if self.live_source is None or now <= self._live_refreshed:
+            return
+        from shipradar.sim.stream.schema import ENTITIES
+        from shipradar.sim.world.live import check_states
+
+        self._live_refreshed = now
+        live = self.target_set
+        used = []
+        for payload in self.live_source.drain(now):
+            rows = check_states(payload, live.bad)
+            if rows is not None and rows["id"]:
+                applied = live.apply(rows, now)
+                if applied["id"]:
+                    used.append(applied)
+        if not used or self.bus is None:
+            return
+        cols: dict[str, Any] = {"id": [i for u in used for i in u["id"]]}
+        for key in ENTITIES.columns("n"):
+            if ENTITIES[key].required or key == "active":
+                cols[key] = np.concatenate([u[key] for u in used])
+            elif any(key in u for u in used):  # accelerations: 0 where a batch has none
+                cols[key] = np.concatenate([u.get(key, np.zeros(len(u["id"]))) for u in used])
+        for key in ("type", "name"):
+            if any(key in u for u in used):
+                cols[key] = [x for u in used for x in u.get(key, [""] * len(u["id"]))]
+        self.bus.emit(protocol.TOPIC_ENTITIES, now, ENTITIES.message(**cols))
+
     def summary(self, wall_s: float) -> dict[str, Any]:
         s = self.stats
         out = {
@@ -354,7 +414,9 @@ class Simulation:
             "realtime_factor": round(self.duration / wall_s, 2) if wall_s > 0 else None,
         }
         ts = self.target_set
-        if ts.files:  # what the traffic files gave (shipradar.sim.world.traffic)
+        if self.live_source is not None:  # the live source and what it gave
+            out["live"] = {**ts.summary(), "source": self.live_source.stats()}
+        elif ts.files:  # what the traffic files gave (shipradar.sim.world.traffic)
             out["traffic"] = {"targets": ts.from_files, "rows": ts.traffic_rows,
                               "left_out": dict(sorted(ts.dropped.items()))}
         if self.bus is not None and hasattr(self.bus, "stats"):
@@ -493,6 +555,8 @@ class _RadarProcess:
             "clutter_false_alarms_per_scan", 0.0)
         self.scans_per_block = max(1, min(int(_BLOCK_S // radar.scan_period_s),
                                           int(_BLOCK_PLOTS // max(expected, 1.0))))
+        if sim.live_source is not None:  # the entities known at each revolution's start
+            self.scans_per_block = 1
         # a ship whose velocity changes (several legs, turns): the clutter spectrum's platform
         # terms [33]-[38] follow its instantaneous velocity, not the tables' first leg
         plat = sim.platforms
@@ -547,7 +611,8 @@ class _RadarProcess:
                         pvel: np.ndarray | None = None):
         """Geometry from the antenna to every jammer at each time of ``t`` (N,) [s], the
         jammers' positions (N M, 3) and the antenna's east/north (N M, 2), look after look,
-        jammer after jammer (the layout :meth:`DwellModel.jamming_power` reads); None
+        jammer after jammer (the layout
+        :meth:`shipradar.sim.dwell.model.DwellModel.jamming_power` reads); None
         without jammers.  ``ppos``, ``pvel`` (N, 3): the platform's state at those times, when
         the caller has it.
 
@@ -684,6 +749,7 @@ class _RadarProcess:
         sim.active_radar = self.index
         if self.resume_times is not None:
             self.resume_times.append(env.now)
+        self._live_update(0.0)
         self._emit_meta(0.0, scan=0)
         # alone under SimPy (a publisher, a wall clock), a resumption orders nothing but
         # this radar's own messages: the end of a sector that sends none is not waited for
@@ -702,6 +768,7 @@ class _RadarProcess:
             if k * self.sector_s >= sim.duration:
                 return
             if scan > 0:
+                self._live_update(k * self.sector_s)
                 self._emit_meta(k * self.sector_s, scan)
             rev = self._next_revolution(scan)
             if per_sector:
@@ -791,12 +858,36 @@ class _RadarProcess:
                 self._end_of_scan(t_b, scan)
         return k
 
+    def _live_update(self, t: float) -> None:
+        """At a revolution's start ``t`` [s] with a live source: the entity states that
+        arrived (:meth:`Simulation.refresh_live`), and this radar's per-target state grown to
+        the new entities (target ids, last looks, the dwell model's RCS and Swerling)."""
+        sim = self.sim
+        if sim.live_source is None:
+            return
+        sim.refresh_live(t)
+        n, old = sim.targets.n, len(self.target_ids)
+        if n <= old:
+            return
+        self.target_ids.extend(sim.target_set.ids[old:n])
+        t_look, pd, si, code = self._last_look
+        more = n - old
+        self._last_look = (np.concatenate([t_look, np.full(more, np.nan)]),
+                           np.concatenate([pd, np.full(more, np.nan)]),
+                           np.concatenate([si, np.full(more, np.nan)]),
+                           np.concatenate([code, np.full(more, -1, np.int8)]))
+        self.model.refresh_targets()
+        self._meta_items = None  # target_ids and target_names changed
+        self.__dict__.pop("_target_names", None)
+
     @functools.cached_property
     def _target_names(self) -> dict[str, list[str]]:
-        """``meta.target_names`` when traffic files name their targets (vessel names,
-        callsigns); {} for a scene of its own targets only (their names are their ids)."""
+        """``meta.target_names`` when traffic files or a live source name their targets
+        (vessel names, callsigns); {} for a scene of its own targets only (their names are
+        their ids)."""
         targets = self.sim.target_set
-        return {"target_names": list(targets.names)} if targets.files else {}
+        live = self.sim.live_source is not None
+        return {"target_names": list(targets.names)} if targets.files or live else {}
 
     @functools.cached_property
     def _clutter_fa_meta(self) -> dict:

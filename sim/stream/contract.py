@@ -200,7 +200,12 @@ _CHANNELS = {
              "(kind `targets`, after each `eos`).",
     "tracks": "A tracker's tracks, published by the tracker on its own endpoint (read by "
               "`shipradar view --tracks`), not by shipradar.",
+    "entities": "Entity states a program publishes on its own endpoint for shipradar to "
+                "read (`shipradar run SCENARIO --entities ENDPOINT`): an input channel. "
+                "shipradar's recording holds the updates a run used on this topic too.",
 }
+#: Channels shipradar reads (a tracker's tracks, a feed's entities) and the server of each.
+_INPUTS = {"tracks": "tracker", "entities": "feed"}
 
 
 def asyncapi_document() -> dict[str, Any]:
@@ -229,14 +234,12 @@ def asyncapi_document() -> dict[str, Any]:
             "description": _CHANNELS.get(topic, f"Topic `{topic}` (docs/protocol.md section 4)."),
             "messages": {}})
         ch["messages"][name] = {"$ref": f"#/components/messages/{name}"}
-        if topic == "tracks":
-            ch["servers"] = [{"$ref": "#/servers/tracker"}]
-        else:
-            ch["servers"] = [{"$ref": "#/servers/shipradar"}]
+        ch["servers"] = [{"$ref": f"#/servers/{_INPUTS.get(topic, 'shipradar')}"}]
     operations = {}
     for topic, ch in channels.items():
-        operations[f"{'receive' if topic == 'tracks' else 'send'}_{topic}"] = {
-            "action": "receive" if topic == "tracks" else "send",
+        action = "receive" if topic in _INPUTS else "send"
+        operations[f"{action}_{topic}"] = {
+            "action": action,
             "channel": {"$ref": f"#/channels/{topic}"},
             "messages": [{"$ref": f"#/channels/{topic}/messages/{m}"} for m in ch["messages"]],
         }
@@ -274,6 +277,12 @@ def asyncapi_document() -> dict[str, Any]:
                 "title": "a tracker's publisher",
                 "description": "The endpoint a tracker publishes its tracks on "
                                "(`shipradar view --tracks ENDPOINT`)."},
+            "feed": {
+                "host": "127.0.0.1:5560", "protocol": "zmq", "protocolVersion": "3.1",
+                "title": "an entity feed's publisher",
+                "description": "The endpoint a program publishes entity states on "
+                               "(`shipradar run SCENARIO --entities ENDPOINT`); shipradar "
+                               "connects a SUB socket and subscribes to `entities`."},
         },
         "channels": channels,
         "operations": operations,

@@ -24,6 +24,7 @@ import msgpack
 import numpy as np
 
 from shipradar import _frames
+from shipradar.sim.stream import schema as _schema
 
 __all__ = [
     "EXT_NDARRAY",
@@ -32,6 +33,7 @@ __all__ = [
     "SCHEMA_VERSION",
     "SUPPORTED_SCHEMA_VERSIONS",
     "TOPICS",
+    "TOPIC_ENTITIES",
     "TOPIC_END",
     "TOPIC_EOS",
     "TOPIC_META",
@@ -69,6 +71,9 @@ TOPIC_END: bytes = b"end"
 #: a prefix of another (a new topic must not start with ``meta``, ``plots``, ``eos``,
 #: ``truth``, ``end``).
 TOPICS: tuple[bytes, ...] = (TOPIC_META, TOPIC_PLOTS, TOPIC_EOS, TOPIC_TRUTH, TOPIC_END)
+#: Entity states a program feeds in (``shipradar run --entities ENDPOINT``), and the updates a
+#: run used, in its recording (docs/protocol.md section 4.7; declared in the schema).
+TOPIC_ENTITIES: bytes = _schema.TOPIC_ENTITIES
 
 #: Largest body :func:`encode` produces and :func:`decode` accepts [bytes] (64 MiB).
 MAX_BODY_BYTES: int = 64 * 1024 * 1024

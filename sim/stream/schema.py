@@ -32,12 +32,14 @@ import numpy as np
 
 __all__ = [
     "END",
+    "ENTITIES",
     "EOS",
     "META",
     "PAYLOADS",
     "PLOTS",
     "PLOT_COLUMNS",
     "PLOT_TRUTH_COLUMNS",
+    "TOPIC_ENTITIES",
     "TOPIC_TRACKS",
     "TRACKS",
     "TRUTH_PLOTS",
@@ -235,7 +237,9 @@ META = Payload(b"meta", None, (
        "(float64[r, a], expected sea-clutter false alarms per scan in each cell; the plots' "
        "`range_m` and `azimuth_rad` fall in these cells)", required=False),
     _f("target_ids", "list[str]", "", "scenario target ids; `truth` refers to targets by index "
-       "in this list"),
+       "in this list. Fixed for the run, except with a live source (`--entities`): then new "
+       "ids are appended at a scan's `meta` (an index never changes its id; each list extends "
+       "the one before), and `truth` refers to the list of the sensor's latest `meta`"),
     _f("target_names", "list[str]", "", "display names of the targets, in the order of "
        "`target_ids` (a traffic file's vessel name or callsign, else the id); present when "
        "the scenario has `traffic:` files", required=False),
@@ -371,8 +375,39 @@ TRACKS = Payload(TOPIC_TRACKS, None, (
     _f("sigma_north_m", "float64[n]", "m", "1σ north position error (covariance diagonal)"),
 ))
 
+#: Topic of the entity states a program feeds in (``shipradar run --entities ENDPOINT``).
+TOPIC_ENTITIES: bytes = b"entities"
+
+#: ``entities``: entity states fed in by another program (an input of shipradar), and the
+#: updates a run used, as its recording holds them.
+ENTITIES = Payload(TOPIC_ENTITIES, None, (
+    _f("source", "str", "", "name of the sending program", required=False),
+    _f("id", "list[str]", "", "entity ids, one per row, stable over an entity's life (1 to 64 "
+       "characters); a new id is a new target"),
+    _f("time_s", "float64[n]", "s", "time of each state, since the run's start (the `t` of "
+       "shipradar's own messages); NaN: the time shipradar receives it. An update older than "
+       "the entity's last one is ignored (counted)"),
+    _f("east_m", "float64[n]", "m", "east position, local frame (`meta.origin`)"),
+    _f("north_m", "float64[n]", "m", "north position, local frame"),
+    _f("up_m", "float64[n]", "m", "height above the sea"),
+    _f("v_east_mps", "float64[n]", "m/s", "east velocity: the entity moves at constant "
+       "velocity from its state until the next (dead reckoning)"),
+    _f("v_north_mps", "float64[n]", "m/s", "north velocity"),
+    _f("v_up_mps", "float64[n]", "m/s", "up velocity"),
+    _f("a_east_mps2", "float64[n]", "m/s²", "east acceleration: with it the dead reckoning "
+       "is second order (DIS FVW/RVW); absent: 0", required=False),
+    _f("a_north_mps2", "float64[n]", "m/s²", "north acceleration", required=False),
+    _f("a_up_mps2", "float64[n]", "m/s²", "up acceleration", required=False),
+    _f("type", "list[str]", "", "entity type, matched against the scenario's "
+       "`entity_types[].match` for its RCS and Swerling case", required=False),
+    _f("name", "list[str]", "", "display name (`meta.target_names`)", required=False),
+    _f("active", "bool[n]", "", "false: the entity leaves at `time_s` (its last state)",
+       required=False),
+))
+
 #: Every payload, in the order docs/protocol.md section 4 shows their tables.
-PAYLOADS: tuple[Payload, ...] = (META, PLOTS, EOS, END, TRUTH_PLOTS, TRUTH_TARGETS, TRACKS)
+PAYLOADS: tuple[Payload, ...] = (META, PLOTS, EOS, END, TRUTH_PLOTS, TRUTH_TARGETS, TRACKS,
+                                 ENTITIES)
 
 #: The per-plot columns the radar model makes (the ``plots`` columns but ``plot_id``, which
 #: the engine numbers when a sector is framed), in message order.

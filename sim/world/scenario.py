@@ -855,6 +855,44 @@ class Traffic(_Model):
         return out
 
 
+# --------------------------------------------------------------------------- live entities
+#: RCS and Swerling case of a live entity whose type no ``entity_types`` entry matches:
+#: 10 m² (a small aircraft or a patrol boat seen broadside is 1-100 m²), Swerling 1.
+DEFAULT_ENTITY_RCS_M2 = 10.0
+DEFAULT_ENTITY_SWERLING = 1
+
+
+class EntityType(_Model):
+    """RCS model and Swerling case of the live entities (ZeroMQ ``--entities``) whose type
+    matches ``match``: a shell-style pattern (``*`` any text, ``?`` one character) on the
+    entity's type text (a ZeroMQ feed's ``type`` column, e.g. ``ship`` or ``aircraft:*``)."""
+
+    match: str = Field(min_length=1, max_length=200, description="pattern on the type text")
+    kind: Literal["missile", "aircraft", "helicopter", "ship", "other"] = "other"
+    rcs: Rcs
+    swerling: int | None = Field(
+        None, ge=0, le=4, description="Swerling case 0-4; default 3 for a missile model, else 1")
+
+
+class External(_Model):
+    """The envelope of targets not known before the run (live entities): the tables are
+    built for it (the PE table's height and range); a look outside falls back to the
+    two-ray model, counted."""
+
+    max_altitude_m: float = Field(
+        1500.0, ge=0.0, le=30_000.0, description="highest altitude of an external target [m]; "
+        "above the PE table's top (1500 m at most) the two-ray model answers")
+    max_range_m: float | None = Field(
+        None, gt=0.0, le=2.0e6, description="farthest ground range of an external target "
+        "from the origin [m]; default each radar's instrumented range")
+    timeout_s: float = Field(
+        12.0, gt=0.0, le=3600.0, description="an entity with no update for this long leaves "
+        "[s] (DIS's 5 s heartbeat x 2.4)")
+    queue_size: int = Field(
+        100_000, ge=100, le=10_000_000, description="entity updates held between two "
+        "revolutions; beyond, updates are dropped and counted")
+
+
 # --------------------------------------------------------------------------- platforms, jammers
 class Platform(_Model):
     """A ship: stationary (one waypoint) or moving along timed waypoints."""
@@ -1041,6 +1079,13 @@ class Scenario(_Model):
     traffic: list[Traffic] = Field(
         default_factory=list, max_length=64,
         description="recorded traffic files (AIS, ADS-B, ...): each id a target")
+    entity_types: list[EntityType] = Field(
+        default_factory=list, max_length=1000,
+        description="RCS and Swerling case of live entities by type (the first match wins)")
+    external: External | None = Field(
+        None, description="the envelope of live entities the tables are built for, their "
+        "timeout and queue; None: the tables cover the scene's own targets only, and the "
+        "defaults of External for the rest")
     environment: Environment = Environment()
     fidelity: Fidelity = Fidelity()
 

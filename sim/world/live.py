@@ -1,0 +1,324 @@
+"""Live entities as targets: a target list that grows during the run, dead-reckoned states.
+
+A live source (a ZeroMQ feed, ``shipradar run --entities ENDPOINT``, or the ``entities``
+topic of a recording) hands the run batches of entity states (:data:`shipradar.sim.stream.schema
+.ENTITIES` columns).  :class:`LiveTargets` keeps each entity's latest state and is both the
+scene's target catalogue (ids, names, kinds, RCS, Swerling, as
+:class:`shipradar.sim.world.traffic.SceneTargets`) and its motion (the interface of
+:class:`shipradar.sim.world.kinematics.Trajectories`):
+
+* an entity is a target from its first state on; its row (the index in ``meta.target_ids``)
+  never changes;
+* between states it moves at the constant velocity of its latest state, or with its constant
+  acceleration when the state has one (first- or second-order dead reckoning, DIS's FPW or
+  FVW), evaluated at the exact time asked (a beam crossing);
+* an update older than the entity's latest one is ignored (counted ``out_of_order``): a late
+  or out-of-order update never moves an entity back in time;
+* it leaves at a state whose ``active`` is false, or ``timeout_s`` after its latest state
+  (never extrapolated without bound); a later update brings it back.
+"""
+
+from __future__ import annotations
+
+import fnmatch
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from shipradar.sim.world.scenario import (
+    DEFAULT_ENTITY_RCS_M2,
+    DEFAULT_ENTITY_SWERLING,
+    ConstantRcs,
+    External,
+    Rcs,
+    Scenario,
+    swerling_case,
+)
+
+__all__ = ["MACH_30_MPS", "LiveTargets", "check_states"]
+
+#: Fastest entity accepted [m/s]: Mach 30 at sea level (343 m/s); faster is "absurd".
+MACH_30_MPS = 30.0 * 343.0
+#: Lowest accepted height [m]: below it a state is "inside the earth".
+MIN_UP_M = -500.0
+#: Farthest accepted horizontal distance from the origin [m] (the local frame's reach).
+MAX_FRAME_M = 2.0e6
+#: Longest id [characters] (as a scenario id).
+MAX_ID_CHARS = 64
+_COLUMNS = ("time_s", "east_m", "north_m", "up_m", "v_east_mps", "v_north_mps", "v_up_mps")
+#: Optional accelerations (second-order dead reckoning; 0 when absent).
+_ACCEL = ("a_east_mps2", "a_north_mps2", "a_up_mps2")
+
+
+def check_states(payload: dict[str, Any], bad: dict[str, int]) -> dict[str, Any] | None:
+    """The usable rows of one ``entities`` payload as arrays, the others counted in ``bad``
+    by reason; None when the message as a whole is unusable (counted).
+
+    Returns a dict with ``id`` (list of str), the :data:`_COLUMNS` (float64 arrays),
+    ``type`` and ``name`` (lists, None where absent) and ``active`` (bool array).
+    """
+    def count(reason: str, k: int = 1) -> None:
+        if k:
+            bad[reason] = bad.get(reason, 0) + k
+
+    ids = payload.get("id")
+    if not isinstance(ids, (list, tuple)):
+        count("no id column")
+        return None
+    n = len(ids)
+    cols: dict[str, np.ndarray] = {}
+    for key in _COLUMNS:
+        v = payload.get(key)
+        if v is None:
+            count(f"no {key} column")
+            return None
+        try:
+            a = np.asarray(v, dtype=float).reshape(-1)
+        except (TypeError, ValueError):
+            count(f"{key} not numbers")
+            return None
+        if a.size != n:
+            count("columns of unequal lengths")
+            return None
+        cols[key] = a
+    for key in _ACCEL:
+        v = payload.get(key)
+        try:
+            a = np.zeros(n) if v is None else np.asarray(v, dtype=float).reshape(-1)
+        except (TypeError, ValueError):
+            count(f"{key} not numbers")
+            return None
+        if a.size != n:
+            count("columns of unequal lengths")
+            return None
+        cols[key] = a
+    extra: dict[str, Any] = {}
+    for key in ("type", "name"):
+        v = payload.get(key)
+        if v is not None and (not isinstance(v, (list, tuple)) or len(v) != n):
+            count("columns of unequal lengths")
+            return None
+        extra[key] = list(v) if v is not None else [None] * n
+    act = payload.get("active")
+    try:
+        active = np.ones(n, bool) if act is None else np.asarray(act, dtype=bool).reshape(-1)
+    except (TypeError, ValueError):
+        count("active not booleans")
+        return None
+    if active.size != n:
+        count("columns of unequal lengths")
+        return None
+    ok = np.array([isinstance(i, str) and 0 < len(i) <= MAX_ID_CHARS for i in ids], bool)
+    count("bad id", int(np.count_nonzero(~ok)))
+    state = np.column_stack([cols[k] for k in (*_COLUMNS[1:], *_ACCEL)])
+    finite = np.isfinite(state).all(axis=1) & ~np.isinf(cols["time_s"])
+    count("not finite", int(np.count_nonzero(ok & ~finite)))
+    ok &= finite
+    with np.errstate(invalid="ignore"):
+        under = cols["up_m"] < MIN_UP_M
+        far = np.hypot(cols["east_m"], cols["north_m"]) > MAX_FRAME_M
+        fast = np.sqrt(cols["v_east_mps"] ** 2 + cols["v_north_mps"] ** 2
+                       + cols["v_up_mps"] ** 2) > MACH_30_MPS
+    for mask, reason in ((under, "inside the earth"), (far, "beyond the frame"),
+                         (fast, "faster than Mach 30")):
+        count(reason, int(np.count_nonzero(ok & mask)))
+        ok &= ~mask
+    keep = np.flatnonzero(ok)
+    out: dict[str, Any] = {k: cols[k][keep] for k in (*_COLUMNS, *_ACCEL)}
+    out["accelerated"] = any(payload.get(k) is not None for k in _ACCEL)
+    out["id"] = [ids[i] for i in keep]
+    for key in ("type", "name"):
+        out[key] = [extra[key][i] for i in keep]
+    out["active"] = active[keep]
+    return out
+
+
+@dataclass
+class LiveTargets:
+    """The entities of a live source: catalogue and dead-reckoned motion (module notes).
+
+    Parameters
+    ----------
+    scenario : the scenario (its ``entity_types`` and ``external``)
+    """
+
+    scenario: Scenario
+    ids: list[str] = field(default_factory=list)
+    names: list[str] = field(default_factory=list)
+    kinds: list[str] = field(default_factory=list)
+    rcs: list[Rcs] = field(default_factory=list)
+    bad: dict[str, int] = field(default_factory=dict)
+    updates: int = 0
+    outside_envelope: int = 0
+
+    hold = False
+    files: tuple = ()
+    yaml_targets: tuple = ()
+    traffic_rows = 0
+
+    def __post_init__(self) -> None:
+        self.external = self.scenario.external or External()
+        self.timeout_s = self.external.timeout_s
+        self._row: dict[str, int] = {}
+        cap = 64
+        self.swerling = np.zeros(0, np.int8)
+        self._t_u = np.zeros(cap)
+        self._p = np.zeros((cap, 3))
+        self._v = np.zeros((cap, 3))
+        self._a = np.zeros((cap, 3))
+        self._t_first = np.zeros(cap)
+        self._t_end = np.full(cap, np.inf)
+        self._default = ConstantRcs(sigma_m2=DEFAULT_ENTITY_RCS_M2)
+
+    # ------------------------------------------------------------------ catalogue
+    @property
+    def n(self) -> int:
+        return len(self.ids)
+
+    @property
+    def from_files(self) -> int:
+        return 0
+
+    @property
+    def dropped(self) -> dict[str, int]:
+        return {}
+
+    @property
+    def max_altitude_m(self) -> float:
+        return self.external.max_altitude_m
+
+    def trajectories(self, frame: Any) -> LiveTargets:
+        return self
+
+    def swerling_cases(self) -> list[int]:
+        """Every Swerling case an entity may get (the table's and the default)."""
+        cases = {DEFAULT_ENTITY_SWERLING}
+        for e in self.scenario.entity_types:
+            cases.add(swerling_case(e.rcs, e.kind, e.swerling))
+        return sorted(cases)
+
+    def _classify(self, type_text: str | None) -> tuple[str, Rcs, int]:
+        text = "" if type_text is None else str(type_text)
+        for e in self.scenario.entity_types:
+            if fnmatch.fnmatchcase(text, e.match):
+                return e.kind, e.rcs, swerling_case(e.rcs, e.kind, e.swerling)
+        return "other", self._default, DEFAULT_ENTITY_SWERLING
+
+    # ------------------------------------------------------------------ updates
+    def _grow(self, need: int) -> None:
+        cap = self._t_u.size
+        if need <= cap:
+            return
+        new = max(need, 2 * cap)
+
+        def more(a: np.ndarray, fill: float) -> np.ndarray:
+            b = np.full((new, *a.shape[1:]), fill, dtype=a.dtype)
+            b[:cap] = a
+            return b
+
+        self._t_u, self._p, self._v = more(self._t_u, 0.0), more(self._p, 0.0), more(self._v, 0.0)
+        self._a = more(self._a, 0.0)
+        self._t_first, self._t_end = more(self._t_first, 0.0), more(self._t_end, np.inf)
+
+    def apply(self, rows: dict[str, Any], now: float) -> dict[str, Any]:
+        """Apply checked rows (:func:`check_states`), in order; NaN times are ``now``.
+
+        Returns the rows applied (the same columns, times resolved), for the recording.
+        """
+        t = np.where(np.isnan(rows["time_s"]), now, rows["time_s"])
+        state = np.column_stack([rows[k] for k in (*_COLUMNS[1:], *_ACCEL)])
+        applied = []
+        new_sw: list[int] = []
+        for i, eid in enumerate(rows["id"]):
+            r = self._row.get(eid)
+            if r is None:
+                r = self._row[eid] = len(self.ids)
+                self._grow(r + 1)
+                kind, model, case = self._classify(rows["type"][i])
+                name = rows["name"][i]
+                self.ids.append(eid)
+                self.names.append(str(name).strip() if name else eid)
+                self.kinds.append(kind)
+                self.rcs.append(model)
+                new_sw.append(case)
+                self._t_first[r] = t[i]
+            elif t[i] <= self._t_u[r]:
+                self.bad["out_of_order"] = self.bad.get("out_of_order", 0) + 1
+                continue
+            self._t_u[r] = t[i]
+            self._p[r] = state[i, :3]
+            self._v[r] = state[i, 3:6]
+            self._a[r] = state[i, 6:]
+            self._t_end[r] = np.inf if rows["active"][i] else t[i]
+            applied.append(i)
+        if new_sw:
+            self.swerling = np.concatenate([self.swerling, np.asarray(new_sw, np.int8)])
+        self.updates += len(applied)
+        ext = self.external
+        if applied:
+            idx = np.asarray(applied)
+            reach = ext.max_range_m
+            over = state[idx, 2] > ext.max_altitude_m
+            if reach is not None:
+                over |= np.hypot(state[idx, 0], state[idx, 1]) > reach
+            self.outside_envelope += int(np.count_nonzero(over))
+        keep = np.asarray(applied, dtype=np.int64)
+        out: dict[str, Any] = {"id": [rows["id"][i] for i in applied],
+                               "time_s": t[keep]}
+        for j, k in enumerate(_COLUMNS[1:]):
+            out[k] = state[keep, j]
+        if rows.get("accelerated"):
+            for j, k in enumerate(_ACCEL):
+                out[k] = state[keep, 6 + j]
+        types = [rows["type"][i] for i in applied]
+        names = [rows["name"][i] for i in applied]
+        if any(x is not None for x in types):
+            out["type"] = ["" if x is None else str(x) for x in types]
+        if any(x is not None for x in names):
+            out["name"] = ["" if x is None else str(x) for x in names]
+        out["active"] = np.asarray(rows["active"], bool)[keep]
+        return out
+
+    # ------------------------------------------------------------------ motion
+    @property
+    def t_first(self) -> np.ndarray:
+        return self._t_first[:self.n]
+
+    @property
+    def t_last(self) -> np.ndarray:
+        n = self.n
+        return np.minimum(self._t_end[:n], self._t_u[:n] + self.timeout_s)
+
+    @property
+    def max_speed(self) -> np.ndarray:
+        """A bound on each entity's horizontal speed [m/s] while it exists (the beam-crossing
+        search's bound on its angular rate): |v| + |a| (timeout + the longest revolution,
+        120 s at the schema's 0.5 rpm), the farthest from its latest state a revolution
+        asks for."""
+        n = self.n
+        return (np.hypot(self._v[:n, 0], self._v[:n, 1])
+                + np.hypot(self._a[:n, 0], self._a[:n, 1]) * (self.timeout_s + 120.0))
+
+    def state(self, t, rows=None):
+        """Positions (M, 3) [m], velocities (M, 3) [m/s], activity (M,) at times ``t``."""
+        pos, vel, _, active = self.state_acc(t, rows, accel=False)
+        return pos, vel, active
+
+    def state_acc(self, t, rows=None, accel: bool = True):
+        """:meth:`state` with the accelerations (zero: constant-velocity dead reckoning)."""
+        rows = np.arange(self.n) if rows is None else np.asarray(rows, dtype=np.int64)
+        t = np.broadcast_to(np.asarray(t, dtype=float), rows.shape)
+        dt = (t - self._t_u[rows])[:, None]
+        acc = self._a[rows]
+        pos = self._p[rows] + dt * (self._v[rows] + 0.5 * dt * acc)
+        vel = self._v[rows] + dt * acc
+        last = np.minimum(self._t_end[rows], self._t_u[rows] + self.timeout_s)
+        active = (t >= self._t_first[rows]) & (t <= last)
+        return pos, vel, (acc.copy() if accel else None), active
+
+    def summary(self) -> dict[str, Any]:
+        """The run summary's ``live`` item (the source's own counts added by the caller)."""
+        return {"entities": self.n, "updates": self.updates,
+                "outside_envelope": self.outside_envelope,
+                "bad": dict(sorted(self.bad.items()))}

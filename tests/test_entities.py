@@ -1,0 +1,243 @@
+"""Live entities (``shipradar run --entities``): the checks on fed states, dead reckoning,
+a ZeroMQ feed from another process, the recording of what a run used, and its re-simulation."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+import yaml
+
+from shipradar.sim.engine.simulation import Simulation
+from shipradar.sim.stream import protocol
+from shipradar.sim.stream.bus import Bus
+from shipradar.sim.stream.entities import EntityFeed, RecordedEntities
+from shipradar.sim.stream.recording import Recorder, read_recording
+from shipradar.sim.world.live import MACH_30_MPS, LiveTargets, check_states
+from shipradar.sim.world.scenario import parse_scenario
+
+from .helpers import CaptureBus, free_port, quiet_radar
+
+
+def _scene(**over) -> dict:
+    d = {"name": "live", "duration_s": 4.0, "seed": 3,
+         "origin": {"lat_deg": 44.6, "lon_deg": -63.0},
+         "platforms": [{"id": "ship", "waypoints": [{"east_m": 0, "north_m": 0}],
+                        "radars": [quiet_radar()]}],
+         "entity_types": [{"match": "ship*", "kind": "ship",
+                           "rcs": {"type": "constant", "sigma_m2": 1000.0}},
+                          {"match": "missile", "kind": "missile",
+                           "rcs": {"type": "constant", "sigma_m2": 0.1}}],
+         "fidelity": {"propagation": "free_space", "atmosphere": False, "clutter": False}}
+    d.update(over)
+    return d
+
+
+def _rows(ids, t, pos, vel, **extra) -> dict:
+    pos, vel = np.atleast_2d(pos).astype(float), np.atleast_2d(vel).astype(float)
+    out = {"id": list(ids), "time_s": np.asarray(t, float),
+           "east_m": pos[:, 0], "north_m": pos[:, 1], "up_m": pos[:, 2],
+           "v_east_mps": vel[:, 0], "v_north_mps": vel[:, 1], "v_up_mps": vel[:, 2]}
+    out.update(extra)
+    return out
+
+
+# ------------------------------------------------------------------ checks and motion
+def test_bad_states_are_counted_by_reason_and_never_raise():
+    bad: dict[str, int] = {}
+    p = _rows(["a", "b", "c", "d", "", "f"], [1.0] * 6,
+              [[0, 1e4, 10], [np.nan, 0, 0], [0, 0, -7e6], [0, 0, 0], [0, 0, 0], [3e6, 0, 0]],
+              [[10, 0, 0], [0, 0, 0], [0, 0, 0], [MACH_30_MPS * 1.01, 0, 0], [0, 0, 0],
+               [0, 0, 0]])
+    rows = check_states(p, bad)
+    assert rows is not None and rows["id"] == ["a"]
+    assert bad == {"not finite": 1, "inside the earth": 1, "faster than Mach 30": 1,
+                   "bad id": 1, "beyond the frame": 1}
+    assert check_states({"id": ["a"], "time_s": [1.0, 2.0]}, bad) is None
+    assert check_states({"nothing": 1}, bad) is None
+    assert bad["no id column"] == 1
+
+
+def test_dead_reckoning_out_of_order_leaving_and_timeout():
+    live = LiveTargets(parse_scenario(_scene()))
+    live.apply(check_states(_rows(["s1", "m"], [1.0, 1.0], [[1000, 0, 0], [0, 5e3, 5]],
+                                  [[0, 10, 0], [0, -300, 0]], type=["ship A", "missile"],
+                                  name=["Alpha", None]), live.bad), now=1.0)
+    assert live.ids == ["s1", "m"] and live.names == ["Alpha", "m"]
+    assert live.kinds == ["ship", "missile"] and list(live.swerling) == [1, 3]
+    assert live.rcs[0].sigma_m2 == 1000.0 and live.rcs[1].sigma_m2 == 0.1
+    pos, vel, act = live.state(np.array([3.5, 3.5]), np.array([0, 1]))
+    assert pos[0] == pytest.approx([1000, 25, 0]) and pos[1] == pytest.approx([0, 4250, 5])
+    assert act.all()
+    # a newer state moves the entity; an older one (out of order) is ignored
+    live.apply(check_states(_rows(["s1"], [2.0], [[1000, 30, 0]], [[0, 10, 0]]), live.bad), 2.0)
+    live.apply(check_states(_rows(["s1"], [1.5], [[0, 0, 0]], [[0, 0, 0]]), live.bad), 2.0)
+    assert live.bad == {"out_of_order": 1}
+    pos, _, _ = live.state(np.array([4.0]), np.array([0]))
+    assert pos[0] == pytest.approx([1000, 50, 0])
+    # leaving: active false; the other times out 12 s after its last state
+    live.apply(check_states(_rows(["s1"], [5.0], [[1000, 60, 0]], [[0, 10, 0]],
+                                  active=[False]), live.bad), 5.0)
+    _, _, act = live.state(np.array([4.9, 5.1, 12.9, 13.1]), np.array([0, 0, 1, 1]))
+    assert act.tolist() == [True, False, True, False]
+    assert live.t_last == pytest.approx([5.0, 13.0])
+
+
+def test_an_unmapped_type_gets_the_stated_default():
+    live = LiveTargets(parse_scenario(_scene()))
+    live.apply(check_states(_rows(["x"], [0.0], [[0, 1e4, 0]], [[0, 0, 0]],
+                                  type=["tank"]), live.bad), 0.0)
+    assert live.rcs[0].sigma_m2 == 10.0 and live.swerling[0] == 1 and live.kinds == ["other"]
+
+
+# ------------------------------------------------------------------ a feed in another process
+SENDER = textwrap.dedent("""
+    import sys, time, math
+    import msgpack, zmq
+    port, seconds = int(sys.argv[1]), float(sys.argv[2])
+    ctx = zmq.Context()
+    pub = ctx.socket(zmq.PUB)
+    pub.bind(f"tcp://127.0.0.1:{port}")
+    t0 = time.monotonic()
+    k = 0
+    while time.monotonic() - t0 < seconds:
+        # plain msgpack lists (no shipradar, no numpy): time_s NaN = when received
+        body = {"v": 2, "t": 0.0, "source": "test",
+                "id": ["ship-1", "missile-1", "bad"],
+                "time_s": [float("nan")] * 3,
+                "east_m": [3000.0, -2000.0, 0.0], "north_m": [8000.0, 9000.0, 0.0],
+                "up_m": [0.0, 10.0, -9.0e6],
+                "v_east_mps": [0.0, 250.0, 0.0], "v_north_mps": [5.0, 0.0, 0.0],
+                "v_up_mps": [0.0, 0.0, 0.0], "type": ["ship", "missile", "x"],
+                "name": ["Alpha", "Vampire", "junk"]}
+        pub.send_multipart([b"entities", msgpack.packb(body)])
+        pub.send_multipart([b"entities", b"\\x00garbage"])
+        k += 1
+        time.sleep(0.1)
+    pub.close(0)
+    ctx.term()
+""")
+
+
+@pytest.fixture
+def feed():
+    port = free_port()
+    proc = subprocess.Popen([sys.executable, "-c", SENDER, str(port), "20"])
+    src = EntityFeed(f"tcp://127.0.0.1:{port}", queue_size=1000)
+    try:
+        assert src.first_message.wait(15.0), "the sender never reached us"
+        yield src
+    finally:
+        src.close()
+        proc.kill()
+        proc.wait(10)
+
+
+@pytest.mark.slow
+def test_live_feed_paced_recorded_and_resimulated(feed, tmp_path):
+    """A feed from another process: entities become targets (ids appended to meta), bad rows
+    are counted, the run keeps the wall clock's pace, and the recording's entities re-run in
+    fast mode with another seed give the same target motion in truth[targets]."""
+    scenario = parse_scenario(_scene())
+    rec = tmp_path / "live.rec"
+    with Bus(None, Recorder(rec)) as bus:
+        sim = Simulation(scenario, bus=bus, realtime=1.0, entities=feed)
+        summary = sim.run()
+    assert summary["realtime_factor"] == pytest.approx(1.0, abs=0.15)
+    live = summary["live"]
+    assert live["entities"] == 2 and live["updates"] >= 20
+    assert live["bad"]["inside the earth"] >= 20
+    assert live["source"]["bad_messages"]["undecodable message"] >= 20
+    assert summary["target_plots"] >= 3  # the 1000 m² ship at 8.5 km, every scan
+    frames = [protocol.decode(f) for _, f in read_recording(rec)]
+    metas = [p for top, _, p in frames if top == protocol.TOPIC_META]
+    assert metas[-1]["target_ids"] == ["ship-1", "missile-1"]
+    assert metas[-1]["target_names"] == ["Alpha", "Vampire"]
+    assert all(m["target_ids"] == metas[-1]["target_ids"][:len(m["target_ids"])]
+               for m in metas)
+    assert any(top == protocol.TOPIC_ENTITIES for top, _, _ in frames)
+
+    def states(frames):
+        return [(t, p["east_m"], p["north_m"], p["active"]) for top, t, p in frames
+                if top == protocol.TOPIC_TRUTH and p["kind"] == "targets"]
+
+    bus2 = CaptureBus()
+    sim2 = Simulation(scenario, bus=bus2, seed=99, entities=RecordedEntities(rec))
+    again = sim2.run()
+    assert again["live"]["entities"] == 2 and again["live"]["updates"] == live["updates"]
+    a, b = states(frames), states(bus2.messages)
+    assert len(a) == len(b) >= 3
+    for x, y in zip(a, b, strict=True):
+        assert x[0] == y[0]
+        assert np.array_equal(x[3], y[3])
+        assert np.allclose(x[1], y[1], equal_nan=True) and np.allclose(x[2], y[2],
+                                                                        equal_nan=True)
+
+
+# ------------------------------------------------------------------ the command line
+def _cli(*argv, timeout=120):
+    return subprocess.run([sys.executable, "-m", "shipradar.sim.cli", *argv],
+                          capture_output=True, text=True, timeout=timeout)
+
+
+@pytest.mark.parametrize("extra, words", [
+    (["--entities", "tcp://127.0.0.1:1", "--realtime", "2"], ["--realtime 1", "got"]),
+    (["--entities", "nowhere.rec"], ["neither a recording file nor"]),
+])
+def test_cli_refusals(tmp_path, extra, words):
+    path = tmp_path / "s.yaml"
+    path.write_text(yaml.safe_dump(_scene()))
+    proc = _cli("run", str(path), "--quiet", *extra)
+    assert proc.returncode == 2, proc.stderr
+    assert proc.stderr.strip().count("\n") == 0
+    for w in words:
+        assert w in proc.stderr
+
+
+def test_cli_refuses_own_targets_with_a_live_source(tmp_path):
+    d = _scene(targets=[{"id": "t", "rcs": {"type": "constant", "sigma_m2": 1},
+                         "waypoints": [{"east_m": 0, "north_m": 5000}]}])
+    path = tmp_path / "s.yaml"
+    path.write_text(yaml.safe_dump(d))
+    rec = tmp_path / "x.rec"
+    rec.write_bytes(b"")
+    proc = _cli("run", str(path), "--quiet", "--entities", str(rec), "--realtime", "1")
+    assert proc.returncode == 2 and "--entities" in proc.stderr
+
+
+def test_cli_resimulates_a_recording_in_fast_mode(tmp_path):
+    """A recording's entities (written here by a run fed in-process) re-run from the command
+    line with another seed: exit 0, the live summary, fast."""
+    scenario = parse_scenario(_scene())
+    rec = tmp_path / "fed.rec"
+
+    class Fixed:
+        endpoint = "test"
+
+        def __init__(self):
+            self.sent = False
+
+        def drain(self, now):
+            if self.sent:
+                return []
+            self.sent = True
+            return [_rows(["ship-1"], [0.0], [[3000, 8000, 0]], [[0, 5, 0]], type=["ship"])]
+
+        def stats(self):
+            return {}
+
+        def close(self):
+            pass
+
+    with Bus(None, Recorder(rec)) as bus:
+        Simulation(scenario, bus=bus, entities=Fixed()).run()
+    path = tmp_path / "s.yaml"
+    path.write_text(yaml.safe_dump(_scene()))
+    proc = _cli("run", str(path), "--quiet", "--entities", str(rec), "--seed", "5")
+    assert proc.returncode == 0, proc.stderr
+    summary = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert summary["live"]["entities"] == 1 and summary["target_plots"] >= 3
