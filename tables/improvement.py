@@ -8,11 +8,14 @@ Grid
     * axis 0: ``log10(σ_s/f_r)`` from :data:`LOG10_SPREAD_MIN` to :data:`LOG10_SPREAD_MAX`,
       uniform.  I_F varies as a power of the spread (20 dB per decade per canceller stage), so
       interpolation in dB against ``log10 σ`` is accurate where a linear axis is not.  Below
-      the axis the clutter is coherent enough that every processor sits at its stability limit
-      (a 2-pulse canceller is within 0.01 dB of it at 1e-7 with the default 100 dB limit;
-      a rectangular DFT bank, whose filters have exact nulls at zero Doppler, within 1.6 dB:
-      measured, docs/accuracy.md), so the lookup clamps to the first row; above
-      ``σ_s = f_r`` the clutter is white to 1e-8.
+      the axis the clutter is nearly coherent and the processor near its stability limit (a
+      2-pulse canceller within 0.01 dB of it at 1e-7 with the default 100 dB limit), but not
+      every processor (a rectangular DFT bank, whose filters have exact nulls at zero
+      Doppler, reads 1.6 dB higher at 0 than at 1e-7; any processor with a limit above 100
+      dB): there the lookup evaluates the picked filter's clutter output
+      (:func:`shipradar.sensors.doppler_filters.clutter_output_power`, O(64 F N) per point)
+      with the exact response.  Above ``σ_s = f_r`` the clutter is white to 1e-8: the lookup
+      clamps to the last row.
     * axis 1: ``f_d/f_r`` over one period of the processor's response, 0 to 1, uniform.
 
 Staggered PRF.  The seed's staggered I_F (5.1.4) is the linear mean of two constant-PRF
@@ -25,8 +28,8 @@ each bound there, at ``(f_r/f_k)`` times the point, and averages the two in line
 This reads any Doppler of either sign exactly as the constant-PRF table does, whatever the
 stagger's period (the least common multiple of the two PRFs: hundreds or thousands of f_r for
 close PRFs, which a table over the period could not hold), and its grid is as small as the
-constant-PRF one.  A bound whose scaled spread leaves the spread axis is clamped to it like
-any spread (stability limit below, white clutter above).
+constant-PRF one.  A bound whose scaled spread leaves the spread axis is read as any spread
+outside it.
 
 The Doppler axis is the target Doppler *relative to the clutter mean* (the table is built with
 the clutter centred on zero Doppler).  This is the seed's MTI with its clutter mean brought
@@ -87,7 +90,8 @@ BUILDER_NAME = "improvement_factor"
 #: steep cells on-line, which then need no window function: no scipy.signal in a run).
 #: 5: a stagger table holds its weights' constant-PRF table, read at each bound; the
 #: coherent gain is read like the I_F; cells with a null inside are read exactly (issue 36).
-BUILDER_VERSION = 5
+#: 6: the "best" pick keeps its filters' clutter outputs and is read exactly in Doppler.
+BUILDER_VERSION = 6
 
 #: Processor kinds: none (I_F = 1, no table), MTI canceller, DFT bank, FIR bank, MTI + bank.
 PROCESSORS = ("none", "mti", "dft_bank", "fir_bank", "mti_bank")
@@ -372,8 +376,12 @@ def build_improvement_table(processor: str, **kwargs: Any) -> Table | None:
     picked filter's ``|H|² + εE`` at each Doppler node [dB]) let the lookup read steep cells
     exactly (see :func:`improvement_factor_db`), with the attached ``weights`` (F, N), the
     processor's filter weights they are computed from (so that a run reads them from the
-    table rather than building the window again).  The "best" pick (a maximum of continuous
-    functions, without jumps) has ``crossover = 1``: plain bilinear interpolation.
+    table rather than building the window again).  Attached besides: every filter's clutter
+    output on the spread axis and white-noise output (``clutter_db``, ``white_db`` [dB]) and,
+    for the "response" pick, the ``exact_cells`` mask.  The "best" pick (a maximum over the
+    filters, whose filter changes with the spread) is read exactly in Doppler (each filter's
+    response at the point over its clutter output interpolated in spread); its ``values``
+    serve the generic :meth:`Table.lookup` and figures.
     """
     inputs = improvement_table_inputs(processor, **kwargs)
     if inputs is None:
@@ -419,9 +427,8 @@ def build_improvement_table(processor: str, **kwargs: Any) -> Table | None:
         value_unit="dB",
         inputs=inputs,
         extra=extra,
-        # the steep cells' exact response (_processor_of)
-        attached={"weights": weights} | _clutter_outputs_db(weights, spread, limit)
-        if "signal_db" in grid else {},
+        # the exact responses of steep cells and of the "best" pick (_processor_of)
+        attached={"weights": weights} | _clutter_outputs_db(weights, spread, limit),
     )
     if "signal_db" in grid:
         table.attached["exact_cells"] = _exact_cells(table, weights, limit)
@@ -489,17 +496,17 @@ def improvement_factor_db(
     picked filter changes, each side of the crossover interpolates its own filter's I_F, so
     the jump of the pick rule stays sharp; in a cell where the picked filter's response
     changes by more than :data:`STEEP_CELL_DB` (a blind speed, a null between filters) the
-    response is evaluated exactly (module docstring).  A stagger table is read at each
-    bounding PRF and the two are averaged in linear power (module docstring).
+    response is evaluated exactly (module docstring), as in the cells marked at build time
+    and below the spread axis.  A stagger table is read at each bounding PRF and the two are
+    averaged in linear power; the "best" pick is read exactly in Doppler (module docstring).
 
     Parameters
     ----------
     table : Table or None
         A table from :func:`build_improvement_table`; ``None`` (no processing) gives 0 dB.
     spread_norm : array_like
-        Clutter spread over the reference PRF, ``σ_s/f_r`` [1], ``>= 0``.  Clamped to the
-        spread axis: below it the processor is at its stability limit, above it the clutter is
-        white.
+        Clutter spread over the reference PRF, ``σ_s/f_r`` [1], ``>= 0``.  Above the spread
+        axis the clutter is white (clamped to it); below it the clutter output is evaluated.
     doppler_norm : array_like
         Target Doppler relative to the clutter mean over the reference PRF, ``f_d/f_r`` [1],
         any finite real value (each bound's response is periodic in its own PRF).
@@ -559,7 +566,7 @@ def _mean_power_db(a_db: NDArray, b_db: NDArray) -> NDArray:
 
 def _cells(table: Table, s: NDArray, d: NDArray) -> tuple[NDArray, ...]:
     """Where :func:`improvement_factor_db` reads the points ``(s, d)`` (broadcast): valid
-    mask, Doppler, cell indices and fractions ``(ok, d, i, j, tx, ty)``."""
+    mask, spread, Doppler, cell indices and fractions ``(ok, s, d, i, j, tx, ty)``."""
     ax_s, ax_d = table.axes
     ok = ~np.isnan(s) & np.isfinite(d)
     s0 = 10.0 ** ax_s[0]
@@ -570,7 +577,7 @@ def _cells(table: Table, s: NDArray, d: NDArray) -> tuple[NDArray, ...]:
     y = np.clip(y, 0.0, len(ax_d) - 1)
     i = np.minimum(x.astype(np.intp), len(ax_s) - 2)
     j = np.minimum(y.astype(np.intp), len(ax_d) - 2)
-    return ok, d, i, j, x - i, y - j
+    return ok, s, d, i, j, x - i, y - j
 
 
 #: The extra array read with the I_F's switches and steep cells (see :func:`_read_cells`).
@@ -581,8 +588,10 @@ def _read_cells(table: Table, cells: tuple[NDArray, ...],
                 arrays: Sequence[str | None]) -> list[NDArray]:
     """:func:`improvement_factor_db` of each of ``arrays`` (None: the I_F) at the points
     located by :func:`_cells`; the exact responses of the steep cells evaluated once."""
-    ok, d, i, j, tx, ty = cells
+    ok, s, d, i, j, tx, ty = cells
     ex = table.extra
+    if table.inputs.get("pick") == "best":
+        return _best_pick_db(table, cells, arrays)
     response_pick = "signal_db" in ex
     # gathers from the flattened (S, D) arrays (several times faster than 2-D indexing)
     n_d = table.values.shape[1]
@@ -622,20 +631,22 @@ def _read_cells(table: Table, cells: tuple[NDArray, ...],
         # along a Doppler cell the I_F of one filter changes only through its response, so
         # |hi - lo| is that response's change: steep cells (and the cells with a null inside,
         # found at build time) are read exactly (module docstring)
+        # below the spread axis the clutter output is evaluated too (_below_axis_db)
+        below = s < 10.0 ** table.axes[0][0]
         steep = np.atleast_1d(ok & ((np.abs(if_hi0 - if_lo0) > STEEP_CELL_DB)
-                                    | table.attached["exact_cells"][j]))
+                                    | table.attached["exact_cells"][j] | below))
         if np.any(steep):
             flat = steep.reshape(-1)
             node = np.where(left, j, j + 1)
-            d_s, i_s, tx_s, node_s = (
-                np.atleast_1d(a).reshape(-1)[flat] for a in (d, i, tx, node)
+            s_s, d_s, i_s, tx_s, node_s = (
+                np.atleast_1d(a).reshape(-1)[flat] for a in (s, d, i, tx, node)
             )
             node_filter = ex["picked_filter"][0, node_s].astype(np.intp)
             p, response_db = _exact_response_db(table, d_s, node_filter)
             for k in exact_arrays:
                 if arrays[k] is None:
-                    c_db = table.attached["clutter_db"]
-                    floor_db = (1 - tx_s) * c_db[i_s, p] + tx_s * c_db[i_s + 1, p]
+                    c_db = _spread_interpolated_db(table, s_s, i_s, tx_s)
+                    floor_db = c_db[np.arange(p.size), p]
                 else:
                     floor_db = table.attached["white_db"][p]
                 shape = np.shape(outs[k])
@@ -658,6 +669,60 @@ def _processor_of(table: Table) -> tuple[NDArray, NDArray, float]:
                df.stability_residue(table.inputs["stability_limit_db"]))
         _PROCESSOR_CACHE[table.key] = got
     return got
+
+
+def _best_pick_db(table: Table, cells: tuple[NDArray, ...],
+                  arrays: Sequence[str | None]) -> list[NDArray]:
+    """The "best" pick's I_F (or coherent gain) [dB]: the largest over the filters of the
+    exact ``|H_p|² + εE_p`` over the filter's clutter output interpolated along the spread
+    axis (or its white-noise output); any other array bilinearly.
+
+    A maximum of the filters' I_F has no single filter's response to follow across a
+    Doppler cell (it changes filter wherever two I_F cross, at every spread differently), so
+    every point is evaluated in Doppler: O(F N) per point, the "best" pick being an
+    analysis option no scene uses.
+    """
+    ok, s, d, i, j, tx, ty = cells
+    shape = np.shape(ok)
+    flat_ok = np.atleast_1d(ok).reshape(-1)
+    s_s, d_s, i_s, tx_s = (np.atleast_1d(a).reshape(-1)[flat_ok] for a in (s, d, i, tx))
+    w, energy, eps = _processor_of(table)
+    n = np.arange(w.shape[-1])
+    steer = np.exp(-2j * np.pi * np.mod(d_s[:, None] * n, 1.0))
+    signal_db = 10.0 * np.log10(np.abs(steer @ np.conj(w).T) ** 2 + eps * energy)  # (P, F)
+    outs = []
+    for array in arrays:
+        if array is None:
+            best = np.max(signal_db - _spread_interpolated_db(table, s_s, i_s, tx_s), axis=1)
+        elif array == _SEPARABLE:
+            best = np.max(signal_db - table.attached["white_db"], axis=1)
+        else:
+            data = table.extra[array]
+            out = ((1 - tx) * ((1 - ty) * data[i, j] + ty * data[i, j + 1])
+                   + tx * ((1 - ty) * data[i + 1, j] + ty * data[i + 1, j + 1]))
+            outs.append(np.where(ok, out, np.nan))
+            continue
+        out = np.full(flat_ok.shape, np.nan)
+        out[flat_ok] = best
+        outs.append(out.reshape(shape))
+    return outs
+
+
+def _spread_interpolated_db(table: Table, s: NDArray, i: NDArray, tx: NDArray) -> NDArray:
+    """Every filter's clutter output ``C_p(σ) + εE_p`` [dB] at the points, (P, F):
+    interpolated along the spread axis from ``attached["clutter_db"]``, and evaluated by
+    :func:`shipradar.sensors.doppler_filters.clutter_output_power` below the axis, where the
+    first row would hold a DFT bank's exact nulls at zero Doppler 1.6 dB too high (and any
+    processor's too high for a stability limit above 100 dB).  Above the axis the first row
+    is white (module docstring) and is kept."""
+    c_db = table.attached["clutter_db"]
+    out: NDArray = (1 - tx)[:, None] * c_db[i] + tx[:, None] * c_db[i + 1]
+    below = np.flatnonzero(s < 10.0 ** table.axes[0][0])
+    if below.size:
+        w, energy, eps = _processor_of(table)
+        exact = df.clutter_output_power(w, s[below]) + (eps * energy)[:, None]  # (F, B)
+        out[below] = 10.0 * np.log10(exact.T)
+    return out
 
 
 def _exact_response_db(table: Table, doppler: NDArray, node_filter: NDArray

@@ -122,12 +122,17 @@ def test_mti_table_doppler_mean_is_the_classical_improvement_factor(tables):
     np.testing.assert_allclose(linear_mean, closed, rtol=1e-9)
 
 
-def test_spread_is_clamped_to_the_axis(tables):
+def test_spread_is_clamped_to_the_axis_above_and_evaluated_below(tables):
     table = tables["dft16"]
     dop = np.linspace(0, 1, 9)
-    np.testing.assert_allclose(
-        imp.improvement_factor_db(table, 0.0, dop), imp.improvement_factor_db(table, 1e-7, dop)
-    )
+    # below the axis the clutter output is evaluated: the DFT filters' exact nulls at zero
+    # Doppler put them at the stability limit times their gain, 10 log10(16 / ε) [dB]
+    # (0.45 dB above the first row, 1e-7), the clutter filter at 0 dB
+    below = imp.improvement_factor_db(table, 0.0, dop)
+    eps = 10.0 ** (-table.inputs["stability_limit_db"] / 10.0)
+    np.testing.assert_allclose(below[[0, -1]], 0.0, atol=1e-9)
+    np.testing.assert_allclose(below[1:-1], 10 * np.log10(16.0 * (1 + eps) / eps), atol=1e-6)
+    assert np.all(below[1:-1] > imp.improvement_factor_db(table, 1e-7, dop)[1:-1])
     np.testing.assert_allclose(
         imp.improvement_factor_db(table, np.inf, dop), imp.improvement_factor_db(table, 1.0, dop)
     )
@@ -232,6 +237,12 @@ def test_lookup_is_finite_and_bounded(tables, name, spread, doppler):
                               if k in table.extra]
     lo = min(p.min() for p in parts)
     hi = max(p.max() for p in parts)
+    if spread < 10.0**imp.LOG10_SPREAD_MIN:
+        # below the axis the clutter output is evaluated, not clamped: up to the Rayleigh
+        # bound (N + ε)/ε of an N-tap filter
+        eps = 10.0 ** (-table.inputs["stability_limit_db"] / 10.0)
+        n_taps = imp.processor_weights(table.inputs).shape[-1]
+        hi = max(hi, 10 * np.log10((n_taps + eps) / eps))
     assert lo - 1e-9 <= got <= hi + 1e-9
 
 
