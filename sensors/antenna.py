@@ -37,9 +37,13 @@ SINC_HALF_POWER_X = 1.3916
 SINC_FIRST_NULL_RATIO = 2.2575
 #: Level of the first sidelobe of sin(x)/x below the main beam [dB] (20 log10 0.21723).
 SINC_NATURAL_SIDELOBE_DB = 13.26
-#: Highest elevation of the cosec² coverage [rad]: search-radar cosec² patterns are
-#: shaped up to 20°-40° (Skolnik, Radar Handbook 2nd ed., §6.7; Blake 1986 §2.6); we take 40°.
-COSEC_MAX_ELEVATION_RAD = float(np.deg2rad(40.0))
+#: Peak of the first sidelobe of sin(x)/x (field, at x = 4.4934), 10^(-13.26/20).
+SINC_FIRST_SIDELOBE = 10.0 ** (-SINC_NATURAL_SIDELOBE_DB / 20.0)
+#: Highest elevation of the cosec² coverage [rad], by default the zenith: [14] gives the law
+#: with no upper end.  Where a real antenna's shaping stops is its own (20°-40° for a shaped
+#: reflector, Skolnik, Radar Handbook 2nd ed., §6.7): a lower φ_max is a keyword of
+#: :func:`cosec2_directivity`.
+COSEC_MAX_ELEVATION_RAD = 0.5 * np.pi
 
 
 def _wrap(angle_rad: ArrayLike) -> NDArray[np.float64]:
@@ -144,10 +148,16 @@ def sinc_directivity(
         S_L, first sidelobe level below the main beam [dB]; 13.26 (the default) leaves the
         natural sinc sidelobes.  Values below 13.26 raise the sidelobes.
     envelope : bool, optional
-        If True, beyond the first null return the peak envelope of the sidelobes
-        (``|sin|`` replaced by 1, non-negative) instead of the oscillating pattern: the
-        seed's constant sidelobe level ``L_sl`` of [47], and the right choice for
-        interference that must not fall into an exact pattern null.
+        If True, the pattern's peak envelope instead of the oscillating pattern, for
+        interference that must not fall into an exact pattern null ([47]'s jammer): the main
+        lobe down to the first sidelobe's level ``-S_L``, that level across the first null
+        and up to where ``1/|x|`` falls below it (x = 4.603), then the peaks' bound ``1/|x|``
+        (``|sin|`` replaced by 1), all times the obliquity factor.  Non-negative, continuous,
+        never increasing away from the axis, never below ``|g|`` in front of the antenna,
+        and never above ``-S_L`` outside the main lobe (the plain bound ``1/|x|`` would put
+        it 3.3 dB above the first sidelobe just past the null).  Behind the antenna, where
+        ``k sin φ`` falls below π again, it stays at the first sidelobe's level times the
+        obliquity factor, under the back lobe that [10]'s ``sin φ`` gives the pattern.
 
     Returns
     -------
@@ -162,14 +172,18 @@ def sinc_directivity(
     obliquity = 0.5 * (1.0 + np.cos(a))
     core = np.sinc(x / np.pi)  # numpy's sinc is sin(πu)/(πu), finite at u = 0
     beyond = np.abs(a) >= sinc_first_null_rad(bw)
-    if envelope:
-        # 1/|x| bounds |sin x / x|; beyond the first null |x| >= π except near the back,
-        # where sin φ -> 0 again: never exceed the main-lobe value there.
-        env = 1.0 / np.maximum(np.abs(x), np.pi)
-        core = np.where(beyond, env, core)
     reduction = 10.0 ** (
         -0.05 * (np.asarray(sidelobe_db, dtype=np.float64) - SINC_NATURAL_SIDELOBE_DB)
     )
+    if envelope:
+        # 1/|x| bounds |sin x / x| beyond the first null, but exceeds the first sidelobe's
+        # peak 0.21723 up to x = 4.603: cap it there.  Inside the null, the main lobe is
+        # floored at the same level, so the envelope has no null and no jump.  Near the
+        # back, where sin φ -> 0 again, the cap holds it too.
+        env = np.minimum(1.0 / np.maximum(np.abs(x), np.pi), SINC_FIRST_SIDELOBE) * reduction
+        core = np.where(beyond, env, np.maximum(core, SINC_FIRST_SIDELOBE * reduction))
+        peaks: NDArray[np.float64] = np.clip(obliquity * core, 0.0, 1.0)
+        return peaks
     g = obliquity * core * np.where(beyond, reduction, 1.0)
     return np.clip(g, -1.0, 1.0)
 
@@ -191,10 +205,12 @@ def cosec2_directivity(
     * ``φ_j <= φ <= φ_max``: ``g = sin(φ_j)/√2 · csc(φ)`` [14] (power ∝ csc²φ), which joins
       the sinc at φ_j, where both equal 1/√2 (the 1/√2 is taken as the sinc's exact value
       there, so that the junction is continuous, see the code comment).
-    * ``φ > φ_max``: the shaped coverage ends; the sinc sidelobe pattern about the tilt,
-      never above the cosec envelope.  ``φ_max`` defaults to 40°
-      (:data:`COSEC_MAX_ELEVATION_RAD`); the seed does not give it.  A junction above φ_max
-      (``φ_tilt + φ_b/2 > φ_max``, a wide or steeply tilted beam) leaves no cosec² part: the
+    * ``φ > φ_max``: the shaped coverage ends; the peak envelope of the sinc sidelobes
+      about the tilt (``envelope=True`` of :func:`sinc_directivity`: no pattern null, whose
+      depth would depend on the 5 digits of [11]), never above the cosec law.  ``φ_max``
+      defaults to the zenith (:data:`COSEC_MAX_ELEVATION_RAD`), as [14] gives the law with
+      no upper end: at 60°, φ_b = 4°, φ_tilt = 2°, g² = sin²(4°)/(2 sin²60°), -24.9 dB.  A
+      junction above φ_max (``φ_tilt + φ_b/2 > φ_max``) leaves no cosec² part: the
       pattern is the sinc main beam up to φ_j (peak 1 at the tilt), capped above it.
 
     Parameters
@@ -241,11 +257,13 @@ def cosec2_directivity(
     # csc evaluated only where φ >= φ_j > 0, so sin φ > 0 there; elsewhere a dummy 1.
     sin_el = np.where(el >= phi_j, np.sin(el), 1.0)
     cosec = g_junction * np.sin(phi_j) / sin_el
-    # above φ_max the cosec envelope caps the sinc sidelobes, never the main beam below φ_j:
-    # a beam whose junction is above φ_max (tilt + φ_b/2 > 40°) has no cosec² part at all
+    # above φ_max the cosec law caps the sidelobe envelope, never the main beam below φ_j:
+    # a beam whose junction is above φ_max has no cosec² part at all
     above_max = (el > np.asarray(cosec_max_rad, dtype=np.float64)) & (el >= phi_j)
     g = np.where(el < phi_j, sinc, cosec)
-    g = np.where(above_max, np.sign(sinc) * np.minimum(np.abs(sinc), cosec), g)
+    if np.any(above_max):
+        side = sinc_directivity(el - tilt, bw, sidelobe_db, envelope=True)
+        g = np.where(above_max, np.minimum(side, cosec), g)
     return np.clip(g, -1.0, 1.0)
 
 

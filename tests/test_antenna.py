@@ -87,6 +87,64 @@ def test_envelope_bounds_the_sidelobes():
     assert np.all(env >= 0.0)
 
 
+def _first_sidelobe_peak_x():
+    """x of the first sidelobe peak of sin x / x: the root of tan x = x in (π, 3π/2)."""
+    from scipy.optimize import brentq
+
+    return brentq(lambda x: np.sin(x) - x * np.cos(x), np.pi + 0.1, 1.5 * np.pi - 0.01,
+                  xtol=1e-14)
+
+
+@pytest.mark.parametrize("bw_deg", [0.5, 2.0, 10.0, 40.0])
+@pytest.mark.parametrize("sl_db", [13.26, 30.0, 45.0])
+def test_envelope_is_continuous_monotone_and_at_the_sidelobe_level(bw_deg, sl_db):
+    """The peak envelope (jamming, [47]): from the axis to the back it never increases and
+    never jumps; outside the main lobe it is never above the stated first sidelobe -S_L (the
+    bound 1/|x| alone was 3.3 dB above it just past the null: S_L 30 dB gave -26.69 dB);
+    in front it never falls below the pattern; at the first sidelobe's peak it is the
+    pattern."""
+    bw = np.deg2rad(bw_deg)
+    a = np.linspace(0.0, np.pi, 400_001)
+    env = antenna.sinc_directivity(a, bw, sl_db, envelope=True)
+    g = np.abs(antenna.sinc_directivity(a, bw, sl_db))
+    assert np.all(np.diff(env) <= 1e-15)
+    # no jump: no step steeper than the main lobe's steepest (a continuous envelope's)
+    main = a < antenna.sinc_first_null_rad(bw)
+    assert np.max(np.abs(np.diff(env))) <= 1.01 * np.max(np.abs(np.diff(g[main])))
+    front = a <= np.pi / 2  # behind, [10]'s sin φ brings a back lobe the envelope leaves out
+    assert np.all(env[front] >= g[front] - 1e-15)
+    level = 10 ** (-sl_db / 20)
+    obliquity = 0.5 * (1 + np.cos(a))
+    side = a >= antenna.sinc_first_null_rad(bw)
+    assert np.all(env[side] <= level * obliquity[side] * (1 + 1e-12))
+    # at the null, the level itself: no jump either side
+    null = float(antenna.sinc_first_null_rad(bw))
+    lo, hi = antenna.sinc_directivity(np.array([null * (1 - 1e-12), null]), bw, sl_db,
+                                      envelope=True)
+    assert lo == pytest.approx(hi, rel=1e-9)
+    assert 20 * np.log10(hi) == pytest.approx(-sl_db + 20 * np.log10(0.5 * (1 + np.cos(null))),
+                                              abs=1e-9)
+    # the first sidelobe's peak (tan x = x, found here): the pattern's own value, to the
+    # rounding of 13.26 dB (0.0015 dB)
+    k = antenna.sinc_constant_k(bw)
+    if _first_sidelobe_peak_x() < k:  # a 40° beam has no first sidelobe in front
+        peak = np.arcsin(_first_sidelobe_peak_x() / k)
+        e_peak = antenna.sinc_directivity(peak, bw, sl_db, envelope=True)
+        g_peak = abs(antenna.sinc_directivity(peak, bw, sl_db))
+        assert 20 * np.log10(e_peak / g_peak) == pytest.approx(0.0, abs=2e-3)
+
+
+def test_envelope_just_past_the_null_is_the_stated_sidelobe_level():
+    """Issue 40's number: S_L = 30 dB, 2° beam, just past the first null: -30.00 dB (was
+    -26.69 dB with the bound 1/|x| = 1/π there)."""
+    bw = np.deg2rad(2.0)
+    null = float(antenna.sinc_first_null_rad(bw))
+    g = antenna.sinc_directivity(null * (1 + 1e-9), bw, 30.0, envelope=True)
+    assert 20 * np.log10(g) == pytest.approx(-30.0, abs=0.01)
+    # the plain bound it replaces, by hand: 1/π times the reduction [13]
+    assert 20 * np.log10(1 / np.pi) - (30.0 - 13.26) == pytest.approx(-26.69, abs=0.01)
+
+
 def test_cosec2_junction_continuity_and_law():
     bw, tilt = np.deg2rad(4.0), np.deg2rad(2.0)
     phi_j = tilt + bw / 2
@@ -106,12 +164,40 @@ def test_cosec2_junction_continuity_and_law():
     assert antenna.cosec2_directivity(tilt, bw, tilt) == pytest.approx(1.0, rel=1e-12)
 
 
-def test_cosec2_above_coverage_stays_below_cosec_law():
+def test_cosec2_follows_the_seed_to_the_zenith():
+    """[14] has no upper end, and neither has the pattern by default: at 60° (φ_b 4°, tilt
+    2°) g² = sin²(4°)/(2 sin² 60°), -24.9 dB (was -36.3 dB of sinc sidelobes above a 40°
+    end, and ~100 dB lower in their nulls); csc² to 90°, positive and decreasing."""
     bw, tilt = np.deg2rad(4.0), np.deg2rad(2.0)
-    el = np.linspace(antenna.COSEC_MAX_ELEVATION_RAD + 1e-6, np.pi / 2, 200)
+    g60 = antenna.cosec2_directivity(np.deg2rad(60.0), bw, tilt, 25.0)
+    hand = np.sin(np.deg2rad(4.0)) ** 2 / (2 * np.sin(np.deg2rad(60.0)) ** 2)
+    assert 20 * np.log10(g60) == pytest.approx(10 * np.log10(hand), abs=0.005)
+    assert 20 * np.log10(g60) == pytest.approx(-24.9, abs=0.05)
+    el = np.linspace(tilt + bw / 2, np.pi / 2, 2001)
     g = antenna.cosec2_directivity(el, bw, tilt, 25.0)
-    law = np.sin(tilt + bw / 2) / np.sqrt(2) / np.sin(el) * (1 + 1e-3)
-    assert np.all(np.abs(g) <= law + 1e-15)
+    assert g * np.sin(el) == pytest.approx(np.full(el.size, g[0] * np.sin(el[0])), rel=1e-12)
+    assert np.all(g > 0.0) and np.all(np.diff(g) < 0.0)
+
+
+def test_cosec2_with_an_upper_end_falls_to_the_sidelobe_envelope():
+    """An antenna shaped only to φ_max = 40°: above it the sinc sidelobes' peak envelope (no
+    null), never above the cosec law, never below the oscillating sidelobes."""
+    bw, tilt, top = np.deg2rad(4.0), np.deg2rad(2.0), np.deg2rad(40.0)
+    el = np.linspace(top + 1e-6, np.pi / 2, 20001)
+    g = antenna.cosec2_directivity(el, bw, tilt, 25.0, cosec_max_rad=top)
+    law = antenna.cosec2_directivity(el, bw, tilt, 25.0)
+    sidelobes = np.abs(antenna.sinc_directivity(el - tilt, bw, 25.0))
+    assert np.all(g <= law * (1 + 1e-12))
+    assert np.all(g >= np.minimum(sidelobes, law) * (1 - 1e-12))
+    # no pattern null: the oscillating sidelobes there go 80 dB and more below the envelope
+    assert np.min(20 * np.log10(g)) > -55.0
+    assert np.min(20 * np.log10(np.maximum(sidelobes, 1e-300))) < -100.0
+    envelope = antenna.sinc_directivity(el - tilt, bw, 25.0, envelope=True)
+    assert g == pytest.approx(np.minimum(envelope, law), rel=1e-12)
+    # below φ_max nothing changes
+    below = np.linspace(tilt + bw / 2, top, 101)
+    assert antenna.cosec2_directivity(below, bw, tilt, 25.0, cosec_max_rad=top) == (
+        pytest.approx(antenna.cosec2_directivity(below, bw, tilt, 25.0), rel=1e-15))
 
 
 def test_cosec2_rejects_junction_below_horizon():

@@ -174,3 +174,38 @@ def _target_bearing(scenario, i: int, t: float) -> float:
     w = (t - p.time_s) / (q.time_s - p.time_s)
     return float(np.arctan2(p.east_m + w * (q.east_m - p.east_m),
                             p.north_m + w * (q.north_m - p.north_m)))
+
+
+# --------------------------------------------------------------------------- radio horizon
+@pytest.mark.parametrize("mode", ["free_space", "two_ray"])
+def test_a_jammer_beyond_the_horizon_is_propagated_as_a_target_there(mode):
+    """Free space has no earth, for jammers as for targets: a jammer 50 km out at 10 m, past
+    the 31.5 km radio horizon of a 20 m antenna, keeps F_j = 1 (isotropic elevation pattern),
+    and so does a target there (it is seen: the truth's ``in_coverage`` is a separate,
+    geometric test).  The two-ray model puts both in the earth's shadow, by the same F."""
+    from shipradar.sim.dwell.model import DwellModel
+    from shipradar.sim.world.kinematics import LocalFrame, antenna_geometry
+    from shipradar.sim.world.scenario import parse_scenario
+    from shipradar.tables.scene import SceneTables
+
+    d = bare_scene(quiet_radar(), propagation=mode).model_dump(mode="json")
+    d["jammers"] = [{"id": "j", "waypoints": [{"east_m": 0.0, "north_m": 50e3,
+                                               "altitude_m": 10.0}],
+                     "power_w": 100.0, "gain_db": 10.0, "bandwidth_hz": 1e8}]
+    s = parse_scenario(d)
+    p = s.platforms[0]
+    m = DwellModel(s, p, p.radars[0], SceneTables())
+    jpos = np.array([[0.0, 50e3, 10.0]])
+    geom = antenna_geometry(np.zeros((1, 3)), np.zeros((1, 3)), 20.0, jpos, np.zeros((1, 3)),
+                            LocalFrame(s.origin))
+    a_e = 4.0 / 3.0 * 6371e3
+    assert geom.ground_range[0] > np.sqrt(2 * a_e * 20.0) + np.sqrt(2 * a_e * 10.0)
+    p_j = m.jamming_power(np.array([geom.azimuth[0]]), geom, jpos)[0]
+    free = (100.0 * 10.0 * m.gain * min(m.bandwidth / 1e8, 1.0) * m.wavelength**2
+            / ((4 * np.pi) ** 2 * geom.slant_range[0] ** 2 * m.l_r))  # [47], F_j = 1
+    f_target, _ = m.propagation_factor(geom.ground_range, np.array([10.0]), geom.elevation)
+    assert p_j / free == pytest.approx(float(f_target[0]) ** 2, rel=1e-9)
+    if mode == "free_space":
+        assert p_j == pytest.approx(free, rel=1e-9)
+    else:
+        assert 10 * np.log10(p_j / free) < -20.0  # diffraction, deep past the horizon
