@@ -78,6 +78,27 @@ def test_receding_climbs_and_dives_use_the_true_angle_off_the_nose(los, vel, psi
     assert sigma == pytest.approx(_hand_15(0.1, 4.7, 0.35, psi), rel=1e-12)
 
 
+@settings(max_examples=300, deadline=None)
+@given(
+    los=st.lists(st.floats(-1e5, 1e5), min_size=3, max_size=3),
+    vel=st.lists(st.floats(-1e3, 1e3), min_size=3, max_size=3),
+    ratio=st.floats(1.0, 50.0),
+)
+def test_missile_rcs_is_15_at_the_angle_between_velocity_and_radar(los, vel, ratio):
+    """Any geometry, receding, climbing, diving or crossing: σ is [15] at the angle between
+    the velocity and the direction to the radar (a dot product), as an RCS table reads it."""
+    los, vel = np.array(los), np.array(vel)
+    if np.linalg.norm(los) < 1.0 or np.linalg.norm(vel) < 1e-3:
+        return
+    cos_psi = np.dot(vel, -los) / (np.linalg.norm(vel) * np.linalg.norm(los))
+    psi = np.arccos(np.clip(cos_psi, -1.0, 1.0))
+    theta, phi = rcs.aspect_angles(los, vel)
+    diameter = 0.3
+    length = ratio * diameter
+    assert rcs.missile_rcs(1.0, length, diameter, theta, phi) == pytest.approx(
+        _hand_15(1.0, length, diameter, psi), rel=1e-6, abs=1e-6)
+
+
 def test_issue_40_diving_missile_against_the_printed_combination():
     """The issue's numbers: 1.85 dBsm at 120° off the nose; [15] as printed gave -4.11."""
     theta, phi = rcs.aspect_angles(np.array([0.0, 10e3, 0.0]), np.array([0.0, 150.0, -260.0]))
