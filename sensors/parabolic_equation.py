@@ -148,6 +148,38 @@ def grid_steps(
             "absorber_dx": absorber_dx}
 
 
+def trapping_layer(m_of_h: Callable[[ArrayLike], np.ndarray], max_height_m: float
+                   ) -> tuple[float, float]:
+    """The strongest trapping layer of an M-profile below ``max_height_m``: its largest
+    trapped angle [rad] and the height of its M minimum [m] (0, 0 without a trapping layer).
+
+    A ray at elevation θ turns back where M has risen by θ²/2 × 10^6 above its value at the
+    launch height (Snell's law in the flat-earth M form, cos θ ∝ 1/m), so a layer where M falls
+    by ΔM (the largest fall of M with height, from any height to any higher one) traps rays
+    up to ``θ_trap = sqrt(2 ΔM × 10^-6)``, and the modes it carries interfere with vertical
+    periods down to ``λ / (2 θ_trap)`` (5.6 m at 3 GHz for ΔM = 40).  The standard gradient
+    and the bottom 1 mm of an evaporation duct's logarithm aside, every fall counts.
+
+    Parameters
+    ----------
+    m_of_h : callable
+        M profile [M units] of height [m].
+    max_height_m : float
+        Highest height examined [m].
+
+    Returns
+    -------
+    theta_trap_rad, minimum_height_m : float
+    """
+    z = np.concatenate([[1e-3], np.linspace(0.01, max_height_m, 20001)])
+    m = np.asarray(m_of_h(z), dtype=float)
+    fall = np.maximum.accumulate(m) - m
+    i = int(np.argmax(fall))
+    if fall[i] <= 0.0:
+        return 0.0, 0.0
+    return float(np.sqrt(2e-6 * fall[i])), float(z[i])
+
+
 def pe_top_height(max_height_m: float, max_range_m: float, antenna_height_m: float) -> float:
     """Top of the PE's free domain [m]: the wanted height, and at least SHADOW_MARGIN times
     the height of the antenna's shadow boundary at max range (4/3 earth).
