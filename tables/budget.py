@@ -103,6 +103,7 @@ def estimate_tables(scenario: Scenario) -> list[TableEstimate]:
 
     from shipradar.sensors import propagation as prop
     from shipradar.sensors.parabolic_equation import grid_steps, pe_top_height
+    from shipradar.tables.clutter import sea_map_ranges
     from shipradar.tables.scene import (
         clutter_grid_size,
         pe_table_height_m,
@@ -145,6 +146,9 @@ def estimate_tables(scenario: Scenario) -> list[TableEstimate]:
                                          detail))
             if fid.clutter:
                 n_range, n_az = clutter_grid_size(radar)
+                # the sea map's near-range nodes (tables.clutter.sea_map_ranges) counted for both
+                n_range = sea_map_ranges(radar.instrumented_range_m, n_range,
+                                         radar.antenna_height_m).size
                 maps = 2 if scenario.environment.rain is not None else 1
                 out.append(TableEstimate(
                     (pi, ri), radar.id, "clutter", maps * n_range * n_az
@@ -350,6 +354,10 @@ def _clutter_estimate(kind: str, radar, where: str):
     from shipradar.tables.scene import clutter_grid_size
 
     n_r, n_az = clutter_grid_size(radar)
+    if kind == "sea_clutter":  # the uniform axis and the near-range nodes
+        from shipradar.tables.clutter import sea_map_ranges
+
+        n_r = sea_map_ranges(radar.instrumented_range_m, n_r, radar.antenna_height_m).size
     if kind == "weather_clutter":  # the uniform axis and the nodes at the folds
         from shipradar.tables.clutter import weather_range_axis
 
@@ -368,8 +376,11 @@ def _spec_estimate(scenario: Scenario, spec, radar, where: str):
     if spec.kind == "improvement":
         return _improvement_estimate(scenario, radar, where)
     if spec.kind == "atmosphere":
-        return ({"atmosphere": 1.0}, 41 * 25 * 8 * 3, "fidelity.atmosphere",
-                "gas/fog loss table 41 ranges x 25 elevations")
+        from shipradar.tables.scene import atmosphere_axes
+
+        n_r, n_el = (a.size for a in atmosphere_axes(radar))
+        return ({"atmosphere": 1.0}, n_r * n_el * 8 * 3, "fidelity.atmosphere",
+                f"gas/fog loss table {n_r} ranges x {n_el} elevations")
     return _clutter_estimate(spec.kind, radar, where)
 
 
