@@ -597,3 +597,16 @@ def test_pareto_front_is_drawn_over_points_inside_the_tolerances():
     cost = [1.0, 0.2, 0.5, 0.3]
     err = [0.0, 0.001, 0.01, 0.05]
     assert fi.tolerated_front(cost, err, ok) == [3, 2, 0]
+
+
+def test_saving_in_seconds_does_not_depend_on_a_shared_cost():
+    """The same candidate measured in a bare process and in one that pays 1 s more on both
+    sides (a fresh process's imports): the ratio moves towards 1, the saving does not."""
+    ref = [ti.Sample(0.1, 0.2, 0.05), ti.Sample(0.1, 0.22, 0.05)]
+    cand = [ti.Sample(0.05, 0.1, 0.05), ti.Sample(0.05, 0.12, 0.05)]
+    plus = [ti.Sample(s.load_s + 1.0, s.first_run_s, s.warm_run_s) for s in ref]
+    cand_plus = [ti.Sample(s.load_s + 1.0, s.first_run_s, s.warm_run_s) for s in cand]
+    a, b = ti.PairedCost(ref, cand), ti.PairedCost(plus, cand_plus)
+    assert a.saving_s("first_s").value == pytest.approx(0.15, rel=1e-12)
+    assert b.saving_s("first_s").value == pytest.approx(0.15, rel=1e-12)
+    assert a.first_ratio.value < 0.55 < 0.85 < b.first_ratio.value
