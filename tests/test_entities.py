@@ -87,6 +87,35 @@ def test_dead_reckoning_out_of_order_leaving_and_timeout():
     assert live.t_last == pytest.approx([5.0, 13.0])
 
 
+def test_a_state_below_the_sea_is_seen_at_the_surface_and_runs():
+    """A ship reported 3 m below the ellipsoid and a dead-reckoned dive: height 0, and a
+    run through the two-ray model (which refuses negative heights) goes on."""
+    scenario = parse_scenario(_scene(fidelity={"propagation": "two_ray", "atmosphere": False,
+                                               "clutter": False}))
+    live = LiveTargets(scenario)
+    live.apply(check_states(_rows(["s", "d"], [0.0, 0.0], [[0, 8e3, -3.0], [2e3, 8e3, 50.0]],
+                                  [[0, 5, 0], [0, 0, -20.0]]), live.bad), 0.0)
+    pos, _, _ = live.state(np.array([1.0, 5.0]), np.array([0, 1]))
+    assert pos[:, 2].tolist() == [0.0, 0.0]
+
+    class Once:
+        endpoint = "test"
+
+        def __init__(self):
+            self.rows = [_rows(["s", "d"], [0.0, 0.0], [[0, 8e3, -3.0], [2e3, 8e3, 50.0]],
+                               [[0, 5, 0], [0, 0, -20.0]])]
+
+        def drain(self, now):
+            out, self.rows = self.rows, []
+            return out
+
+        def stats(self):
+            return {}
+
+    summary = Simulation(scenario, entities=Once()).run()
+    assert summary["live"]["entities"] == 2 and summary["dwells"] >= 6
+
+
 def test_an_unmapped_type_gets_the_stated_default():
     live = LiveTargets(parse_scenario(_scene()))
     live.apply(check_states(_rows(["x"], [0.0], [[0, 1e4, 0]], [[0, 0, 0]],

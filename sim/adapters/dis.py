@@ -183,6 +183,8 @@ class DisReceiver:
         self.ignored: dict[str, int] = {}
         self.freezes = 0
         self.frozen_s = 0.0
+        #: CPU time of the receiving thread so far [s] (the receive path's cost)
+        self.cpu_s = 0.0
         #: set while a Stop/Freeze holds the clock; cleared by Start/Resume
         self.frozen = threading.Event()
         self._running = threading.Event()  # the converse of frozen, to wait on
@@ -198,6 +200,7 @@ class DisReceiver:
         table[reason] = table.get(reason, 0) + 1
 
     def _receive(self) -> None:
+        cpu0 = time.thread_time()
         while not self._stop.is_set():
             try:
                 data = self._sock.recv(65536)
@@ -209,6 +212,7 @@ class DisReceiver:
             with self._lock:
                 self.datagrams += 1
                 self._datagram(data, received)
+                self.cpu_s = time.thread_time() - cpu0
 
     def _datagram(self, data: bytes, received: float) -> None:
         """One datagram (under the lock): checked, decoded, queued or counted."""
@@ -287,7 +291,6 @@ class DisReceiver:
             elif algo not in (1, 2, 3):
                 self._count(self.ignored, f"dead reckoning algorithm {algo} taken as FPW")
             acc[:] = 0.0
-        pos, lv, la = ecef_state_to_local(self.frame, xyz, vel, acc)
         try:
             name = pdu.marking.charactersString().strip()
         except (UnicodeDecodeError, ValueError):
@@ -297,8 +300,9 @@ class DisReceiver:
         type_text = (f"{t.entityKind}:{t.domain}:{t.country}:{t.category}:{t.subcategory}:"
                      f"{t.specific}:{t.extra}")
         self.entity_states += 1
-        self._last[eid] = (received, pos[0], lv[0], la[0])
-        self._queue_row(eid, received, pos[0], lv[0], la[0], type_text, name or eid, active)
+        # kept in ECEF: the frame's conversion is done for a whole batch at once (drain)
+        self._last[eid] = (received, xyz[0], vel[0], acc[0])
+        self._queue_row(eid, received, xyz[0], vel[0], acc[0], type_text, name or eid, active)
         self.first_entity.set()
 
     def _remove(self, pdu: Any, received: float) -> None:
@@ -311,7 +315,7 @@ class DisReceiver:
             last = self._last.pop(eid, None)
             if last is None:
                 continue
-            t0, p, v, a = last
+            t0, p, v, a = last  # dead-reckoned in ECEF, as DIS does, to the removal
             dt = received - t0
             self._queue_row(eid, received, p + v * dt + 0.5 * a * dt * dt, v + a * dt, a,
                             None, None, False)
@@ -336,9 +340,10 @@ class DisReceiver:
         if not rows:
             return []
         wall = time.monotonic()
-        pos = np.array([r["pos"] for r in rows])
-        vel = np.array([r["vel"] for r in rows])
-        acc = np.array([r["acc"] for r in rows])
+        # the ECEF states of the batch into the local frame at once (vectorized)
+        pos, vel, acc = ecef_state_to_local(self.frame, np.array([r["pos"] for r in rows]),
+                                            np.array([r["vel"] for r in rows]),
+                                            np.array([r["acc"] for r in rows]))
         return [{
             "source": "dis", "id": [r["id"] for r in rows],
             "time_s": np.array([max(0.0, now_s - (wall - r["received"])) for r in rows]),
@@ -366,7 +371,8 @@ class DisReceiver:
                     "entity_states": self.entity_states, "dropped": self.dropped,
                     "bad_datagrams": dict(sorted(self.bad.items())),
                     "ignored": dict(sorted(self.ignored.items())),
-                    "freezes": self.freezes, "frozen_s": round(self.frozen_s, 3)}
+                    "freezes": self.freezes, "frozen_s": round(self.frozen_s, 3),
+                    "cpu_s": round(self.cpu_s, 3)}
 
     def close(self) -> None:
         self._stop.set()

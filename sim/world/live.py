@@ -14,6 +14,8 @@ scene's target catalogue (ids, names, kinds, RCS, Swerling, as
   FVW), evaluated at the exact time asked (a beam crossing);
 * an update older than the entity's latest one is ignored (counted ``out_of_order``): a late
   or out-of-order update never moves an entity back in time;
+* its height is held at 0 or above (the radar model's heights are above the sea; a ship's
+  ellipsoid height or a dead-reckoned descent can dip below);
 * it leaves at a state whose ``active`` is false, or ``timeout_s`` after its latest state
   (never extrapolated without bound); a later update brings it back.
 """
@@ -230,11 +232,18 @@ class LiveTargets:
         state = np.column_stack([rows[k] for k in (*_COLUMNS[1:], *_ACCEL)])
         applied = []
         new_sw: list[int] = []
+        # in order, row by row, only what decides: the entity's row and whether the state is
+        # newer than its latest; the arrays then take each entity's last applied state at once
+        times = t.tolist()
+        latest: dict[int, float] = {}
+        last_of: dict[int, int] = {}
+        t_u = self._t_u
         for i, eid in enumerate(rows["id"]):
             r = self._row.get(eid)
             if r is None:
                 r = self._row[eid] = len(self.ids)
                 self._grow(r + 1)
+                t_u = self._t_u
                 kind, model, case = self._classify(rows["type"][i])
                 name = rows["name"][i]
                 self.ids.append(eid)
@@ -242,16 +251,25 @@ class LiveTargets:
                 self.kinds.append(kind)
                 self.rcs.append(model)
                 new_sw.append(case)
-                self._t_first[r] = t[i]
-            elif t[i] <= self._t_u[r]:
+                self._t_first[r] = times[i]
+                prev = -np.inf
+            else:
+                seen = latest.get(r)
+                prev = float(t_u[r]) if seen is None else seen
+            if times[i] <= prev:
                 self.bad["out_of_order"] = self.bad.get("out_of_order", 0) + 1
                 continue
-            self._t_u[r] = t[i]
-            self._p[r] = state[i, :3]
-            self._v[r] = state[i, 3:6]
-            self._a[r] = state[i, 6:]
-            self._t_end[r] = np.inf if rows["active"][i] else t[i]
+            latest[r] = times[i]
+            last_of[r] = i
             applied.append(i)
+        if last_of:
+            rr = np.fromiter(last_of.keys(), np.int64, len(last_of))
+            ii = np.fromiter(last_of.values(), np.int64, len(last_of))
+            self._t_u[rr] = t[ii]
+            self._p[rr] = state[ii, :3]
+            self._v[rr] = state[ii, 3:6]
+            self._a[rr] = state[ii, 6:]
+            self._t_end[rr] = np.where(np.asarray(rows["active"], bool)[ii], np.inf, t[ii])
         if new_sw:
             self.swerling = np.concatenate([self.swerling, np.asarray(new_sw, np.int8)])
         self.updates += len(applied)
@@ -312,6 +330,9 @@ class LiveTargets:
         dt = (t - self._t_u[rows])[:, None]
         acc = self._a[rows]
         pos = self._p[rows] + dt * (self._v[rows] + 0.5 * dt * acc)
+        # the radar model's heights are above the sea (>= 0): a state a little below it (a
+        # ship's ellipsoid height, a dead-reckoned descent) is seen at the surface
+        np.maximum(pos[:, 2], 0.0, out=pos[:, 2])
         vel = self._v[rows] + dt * acc
         last = np.minimum(self._t_end[rows], self._t_u[rows] + self.timeout_s)
         active = (t >= self._t_first[rows]) & (t <= last)

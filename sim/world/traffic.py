@@ -561,6 +561,9 @@ def read_traffic(entry: Traffic, index: int, scenario: Scenario,
     ok = np.isfinite(alt) & (alt >= -500.0) & (alt <= 30_000.0)
     drop(ok | ~keep, "altitude missing or outside [-500, 30000] m")
     keep &= ok
+    # heights above the sea (>= 0) for the radar model: a fix a little below the surface
+    # (an ellipsoid height, a barometric offset) is at the surface
+    alt = np.where(ok, np.maximum(alt, 0.0), alt)
     if entry.ids is not None:
         wanted = set(entry.ids)
         keep &= np.array([v in wanted for v in ids], dtype=bool)
