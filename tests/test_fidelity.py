@@ -610,3 +610,30 @@ def test_saving_in_seconds_does_not_depend_on_a_shared_cost():
     assert a.saving_s("first_s").value == pytest.approx(0.15, rel=1e-12)
     assert b.saving_s("first_s").value == pytest.approx(0.15, rel=1e-12)
     assert a.first_ratio.value < 0.55 < 0.85 < b.first_ratio.value
+
+
+def test_table_choices_name_every_fidelity_field_a_table_depends_on(table_cache):
+    """A table kind shared across settings (TABLE_CHOICES) must not depend on another field:
+    on the jammed_squall (rain, so every kind), change one field at a time and compare each
+    table's cache key (the weather map holds the rain's γ_r only with the atmosphere on)."""
+    from shipradar.tables.scene import table_specs
+    from shipradar.tables.store import inputs_hash
+
+    d = yaml.safe_load((fi.Path(__file__).resolve().parents[1] / "scenarios"
+                        / "jammed_squall.yaml").read_text())
+    base = parse_scenario(d)
+
+    def keys(scene):
+        return {(s.radar_id, s.kind): inputs_hash(*s.key()) for s in table_specs(scene)}
+
+    ref = keys(base)
+    for field, value in (("pd_method", "seed"), ("propagation", "two_ray"),
+                         ("pe_grid", "standard"), ("improvement_grid", "coarse"),
+                         ("clutter_fa_model", "weibull_median"), ("atmosphere", False),
+                         ("sectors_per_scan", 4)):
+        dd = copy.deepcopy(d)
+        dd["fidelity"] = {**dd.get("fidelity", {}), field: value}
+        for kind_key, key in keys(parse_scenario(dd)).items():
+            kind = kind_key[1]
+            if kind_key in ref and key != ref[kind_key]:
+                assert field in fi.TABLE_CHOICES[kind], (kind, field)

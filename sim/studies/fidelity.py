@@ -493,7 +493,7 @@ class RunResult:
 #: exists): settings that agree on them share the table, loaded once per command.
 TABLE_CHOICES = {"atmosphere": (), "propagation": ("propagation", "pe_grid"),
                  "improvement": ("improvement_grid",), "sea_clutter": (),
-                 "weather_clutter": (), "pfac": ("clutter_fa_model",)}
+                 "weather_clutter": ("atmosphere",), "pfac": ("clutter_fa_model",)}
 
 
 class _TableClock:
