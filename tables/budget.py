@@ -361,8 +361,7 @@ def _clutter_estimate(kind: str, radar, where: str):
     if kind == "weather_clutter":  # the uniform axis and the nodes at the folds
         from shipradar.tables.clutter import weather_range_axis
 
-        n_r = weather_range_axis(radar.instrumented_range_m, n_r, radar.prf_hz,
-                                 radar.antenna_height_m).size
+        n_r = weather_range_axis(radar.instrumented_range_m, n_r, radar.prf_hz).size
     cost = {"sea_clutter": "sea_cell", "weather_clutter": "weather_cell", "pfac": "pfac_cell"}
     what = {"sea_clutter": "sea-clutter map", "weather_clutter": "weather-clutter map",
             "pfac": "P_fac map"}[kind]

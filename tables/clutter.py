@@ -377,9 +377,7 @@ NEAR_NODES_END_STEPS = 20
 MAX_FOLD_NODES = 8000
 
 
-def weather_range_axis(
-    max_range_m: float, n_range: int, prf_hz: float, antenna_height_m: float
-) -> np.ndarray:
+def weather_range_axis(max_range_m: float, n_range: int, prf_hz: float) -> np.ndarray:
     """Ground-range axis of a weather-clutter map [m]: uniform, plus nodes at the folds.
 
     The trip sum P_wc(R) = Σ_k P_1(r + k R_u) ([39]-[41]) jumps at every multiple of R_u
@@ -398,8 +396,6 @@ def weather_range_axis(
         Points of the uniform axis, ≥ 2.
     prf_hz : float
         f_r [Hz], > 0 (R_u = c/(2 f_r)).
-    antenna_height_m : float
-        h_a [m], > 0.
 
     Returns
     -------
@@ -594,8 +590,7 @@ def build_weather_clutter_map(**kwargs: Any) -> Table:
     """
     p = weather_clutter_map_inputs(**kwargs)
     _, azimuths = map_axes(p["max_range_m"], p["n_range"], p["n_azimuth"])
-    ranges = weather_range_axis(p["max_range_m"], p["n_range"], p["prf_hz"],
-                                p["antenna_height_m"])
+    ranges = weather_range_axis(p["max_range_m"], p["n_range"], p["prf_hz"])
     lam = SPEED_OF_LIGHT_MPS / p["freq_hz"]
     power, spread, single = weather_clutter_profile(ranges, p)
 

@@ -113,7 +113,7 @@ def test_weather_map_reader_equals_the_direct_function(prf, r_max, h_a, phi_b_de
                  beamwidth_el_rad=math.radians(phi_b_deg),
                  beamwidth_az_rad=math.radians(theta_b_deg), cloud_base_m=cloud,
                  rain_rate_mm_h=rate, precipitation=kind, rain_attenuation_db_per_km=gamma)
-    axis = tc.weather_range_axis(r_max, kw["n_range"], prf, h_a)
+    axis = tc.weather_range_axis(r_max, kw["n_range"], prf)
     r_u = float(wc.unambiguous_range_m(prf))
     folds = int(r_max // r_u) + 1
     uniform = kw["n_range"]
