@@ -630,8 +630,8 @@ def _read_cells(table: Table, cells: tuple[NDArray, ...],
     if exact_arrays and response_pick:
         # along a Doppler cell the I_F of one filter changes only through its response, so
         # |hi - lo| is that response's change: steep cells (and the cells with a null inside,
-        # found at build time) are read exactly (module docstring)
-        # below the spread axis the clutter output is evaluated too (_below_axis_db)
+        # found at build time) are read exactly (module docstring), and so are the points
+        # below the spread axis, whose clutter output is evaluated (_spread_interpolated_db)
         below = s < 10.0 ** table.axes[0][0]
         steep = np.atleast_1d(ok & ((np.abs(if_hi0 - if_lo0) > STEEP_CELL_DB)
                                     | table.attached["exact_cells"][j] | below))
@@ -713,7 +713,7 @@ def _spread_interpolated_db(table: Table, s: NDArray, i: NDArray, tx: NDArray) -
     interpolated along the spread axis from ``attached["clutter_db"]``, and evaluated by
     :func:`shipradar.sensors.doppler_filters.clutter_output_power` below the axis, where the
     first row would hold a DFT bank's exact nulls at zero Doppler 1.6 dB too high (and any
-    processor's too high for a stability limit above 100 dB).  Above the axis the first row
+    processor's too high for a stability limit above 100 dB).  Above the axis the last row
     is white (module docstring) and is kept."""
     c_db = table.attached["clutter_db"]
     out: NDArray = (1 - tx)[:, None] * c_db[i] + tx[:, None] * c_db[i + 1]
