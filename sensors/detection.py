@@ -95,7 +95,14 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import constants, special
+from scipy import special
+
+from shipradar.sensors.geometry import (
+    pulses_per_beam,
+    range_cells,
+    reported_range_cells,
+    sweep_time,
+)
 
 # array types of the private helpers' signatures
 _Floats = NDArray[np.float64]
@@ -114,8 +121,6 @@ T_FA_DEFINITIONS = ("mean", "median")
 #: The seed's 0.69 ≈ ln 2 of [68] and of the Bernoulli limit of [92]: P_fa = 0.69/n' makes
 #: the probability of at least one false alarm in t_fa equal to 1/2 (Nathanson 1991, p. 82).
 LN2_SEED = 0.69
-#: [72]: N_rc = 1/(f_r τ') - 2: the two cells lost at each end of the interpulse period.
-RANGE_CELLS_LOST = 2.0
 #: [74]: the clutter spectrum decorrelates every pulse when σ_s'/(λ f_r) ≥ 0.2.
 DECORRELATED_SPREAD_RATIO = 0.2
 #: [74]: N_n' = 1 + 5 σ_s' t_ot / λ with t_ot = θ_b/ω_rot in seconds (the seed's "6" turns its
@@ -183,134 +188,6 @@ _SURE_SIGMAS = 40.0
 
 
 # ----------------------------------------------------------------------------- [68]-[73]
-def range_cells(prf_hz: ArrayLike, pulse_width_s: ArrayLike) -> NDArray[np.float64]:
-    """Number of range cells N_rc = 1/(f_r τ') - 2, seed [72].
-
-    Parameters
-    ----------
-    prf_hz : array_like
-        Pulse repetition frequency f_r [Hz].
-    pulse_width_s : array_like
-        Compressed pulse length τ' [s].
-
-    Returns
-    -------
-    ndarray
-        N_rc [-] (not rounded).
-
-    Raises
-    ------
-    ValueError
-        If f_r or τ' is not positive, or N_rc ≤ 0 (f_r τ' ≥ 1/2: no range cell left;
-        SPEC §4 item 14).
-    """
-    f_r = np.asarray(prf_hz, dtype=np.float64)
-    tau = np.asarray(pulse_width_s, dtype=np.float64)
-    _require_positive("prf_hz", f_r)
-    _require_positive("pulse_width_s", tau)
-    n_rc = 1.0 / (f_r * tau) - RANGE_CELLS_LOST
-    if np.any(~(n_rc > 0)):
-        duty = np.broadcast_to(f_r * tau, n_rc.shape)[~(n_rc > 0)].flat[0]
-        raise ValueError(
-            f"range_cells: N_rc = 1/(f_r tau') - 2 must be > 0, i.e. prf_hz * pulse_width_s "
-            f"must be < 0.5; got prf_hz * pulse_width_s = {duty:g}"
-        )
-    return n_rc
-
-
-def sweep_time(beamwidth_rad: ArrayLike, scan_period_s: ArrayLike) -> NDArray[np.float64]:
-    """Time for the beam to sweep a point target, t_swp = θ_b t_scan / (2π), seed [70].
-
-    Parameters
-    ----------
-    beamwidth_rad : array_like
-        Horizontal 3 dB beamwidth θ_b [rad], in (0, 2π].
-    scan_period_s : array_like
-        Time of one revolution t_scan [s], > 0.
-
-    Returns
-    -------
-    ndarray
-        t_swp [s].
-
-    Raises
-    ------
-    ValueError
-        If θ_b ∉ (0, 2π] or t_scan ≤ 0.
-    """
-    theta = np.asarray(beamwidth_rad, dtype=np.float64)
-    t_scan = np.asarray(scan_period_s, dtype=np.float64)
-    _require_positive("beamwidth_rad", theta)
-    if np.any(theta > 2.0 * np.pi):
-        raise ValueError(f"beamwidth_rad must be <= 2 pi, got {np.max(theta):g}")
-    _require_positive("scan_period_s", t_scan)
-    return theta / (2.0 * np.pi) * t_scan
-
-
-def pulses_per_beam(
-    beamwidth_rad: ArrayLike, scan_period_s: ArrayLike, prf_hz: ArrayLike
-) -> NDArray[np.float64]:
-    """Pulses hitting a point target in one beam sweep, N_n = t_swp f_r, seed [73].
-
-    Parameters
-    ----------
-    beamwidth_rad : array_like
-        Horizontal 3 dB beamwidth θ_b [rad].
-    scan_period_s : array_like
-        Time of one revolution [s].
-    prf_hz : array_like
-        Pulse repetition frequency f_r [Hz], > 0.
-
-    Returns
-    -------
-    ndarray
-        N_n [-] (not rounded; may be below 1 for a fast scan, see :func:`effective_pulses`).
-    """
-    f_r = np.asarray(prf_hz, dtype=np.float64)
-    _require_positive("prf_hz", f_r)
-    return sweep_time(beamwidth_rad, scan_period_s) * f_r
-
-
-def reported_range_cells(
-    prf_hz: ArrayLike, pulse_width_s: ArrayLike, instrumented_range_m: ArrayLike | None = None
-) -> NDArray[np.float64]:
-    """Range gates per sweep whose decisions can be reported, N_rep = min(N_rc, R_inst/C_R).
-
-    The decisions of [71] that can give a reported plot: the N_rc gates of one interpulse
-    period [72] that lie inside the instrumented range R_inst, with C_R = c τ'/2.  Erratum
-    to [68]-[72] against [90] (issue 23 item 5a, module notes): a gate beyond R_inst is not
-    reported, and a radar whose R_inst exceeds the unambiguous range c/(2 f_r) still decides
-    in N_rc gates per pulse.
-
-    Parameters
-    ----------
-    prf_hz : array_like
-        Pulse repetition frequency f_r [Hz].
-    pulse_width_s : array_like
-        Compressed pulse length τ' [s].
-    instrumented_range_m : array_like, optional
-        R_inst [m], > 0.  None: every gate, N_rc of [72] (the seed's n_0).
-
-    Returns
-    -------
-    ndarray
-        N_rep [-] (not rounded), in (0, N_rc].
-
-    Raises
-    ------
-    ValueError
-        As :func:`range_cells`, or if R_inst is not positive.
-    """
-    n_rc = range_cells(prf_hz, pulse_width_s)
-    if instrumented_range_m is None:
-        return n_rc
-    r_inst = np.asarray(instrumented_range_m, dtype=np.float64)
-    _require_positive("instrumented_range_m", r_inst)
-    c_r = constants.c * np.asarray(pulse_width_s, dtype=np.float64) / 2.0
-    n_rep: NDArray[np.float64] = np.minimum(n_rc, r_inst / c_r)
-    return n_rep
-
-
 def pfa_from_false_alarm_time(
     t_fa_s: ArrayLike,
     beamwidth_rad: ArrayLike,

@@ -92,8 +92,9 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import special
 
 from shipradar.sensors.detection import LN2_SEED, N_CHANNELS, reported_range_cells
+from shipradar.sensors.geometry import K_FACTOR
 from shipradar.sensors.measurement import expected_errors
-from shipradar.sensors.sea_clutter import STANDARD_K_FACTOR, slant_range_m
+from shipradar.sensors.sea_clutter import slant_range_m
 
 # array types of the private helpers' signatures
 _Floats = NDArray[np.float64]
@@ -911,7 +912,7 @@ class ClutterFalseAlarms:
                  weibull_a: ArrayLike, *,
                  threshold_ratio: float, n_channels: int, n_pulses: float, range_cell_m: float,
                  beamwidth_rad: float, antenna_height_m: float,
-                 k_factor: float = STANDARD_K_FACTOR,
+                 k_factor: float = K_FACTOR,
                  h_range: float = 4.0, h_azimuth: float = 4.0,
                  clutter_fa_model: ClutterFaModel = DEFAULT_CLUTTER_FA_MODEL) -> None:
         arrs = np.broadcast_arrays(*(np.asarray(v, dtype=np.float64).ravel() for v in (

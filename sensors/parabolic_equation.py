@@ -47,6 +47,7 @@ import scipy.constants as sc
 import scipy.fft as sfft
 from numpy.typing import ArrayLike, NDArray
 
+from shipradar.sensors import geometry
 from shipradar.sensors import propagation as prop
 
 #: Fidelity presets of the PE grid.  max_angle_deg: largest propagation angle carried (the
@@ -140,7 +141,7 @@ def grid_steps(
     dz = domain / n
     z = np.linspace(min(_GRADIENT_FLOOR_M, max_height_m / 2), max_height_m, 2048)
     grad = np.abs(np.gradient(np.asarray(profile(z), dtype=float), z)).max() * 1e-6
-    grad = max(grad, 1e-6 / prop.EARTH_RADIUS_M)
+    grad = max(grad, 1e-6 / geometry.EARTH_RADIUS_M)
     dx = np.sqrt(2 * preset["phase_error_rad"] / (k * np.sin(theta) * grad))
     absorber_dx = _absorber_step(domain, theta)
     dx = float(min(dx, max_range_m * _MAX_STEP_FRACTION, absorber_dx))
@@ -190,7 +191,7 @@ def pe_top_height(max_height_m: float, max_range_m: float, antenna_height_m: flo
     converged field (5 times) (measured, docs/propagation.md).  The cost grows with it:
     (R - sqrt(2 a_e h_a))^2 / a_e.
     """
-    a_e = prop.STANDARD_K_FACTOR * prop.EARTH_RADIUS_M
+    a_e = geometry.K_FACTOR * geometry.EARTH_RADIUS_M
     beyond = max(max_range_m - float(prop.horizon_range(antenna_height_m, 0.0)), 0.0)
     return float(max(max_height_m, SHADOW_MARGIN * beyond**2 / (2 * a_e)))
 
@@ -496,7 +497,7 @@ def march(s: MarchSetup, sample: Callable[[float, np.ndarray], np.ndarray],
 
     n, dx, pol = s.n, s.dx, s.pol
     u = s.u0.copy()
-    a_e = prop.STANDARD_K_FACTOR * prop.EARTH_RADIUS_M
+    a_e = geometry.K_FACTOR * geometry.EARTH_RADIUS_M
     boundary = None
     if s.surface == "sea" and not s.rough:
         boundary = _ImpedanceBoundary(s.alpha, s.dz, n, s.k, dx)

@@ -27,15 +27,13 @@ import scipy.constants as sc
 from numpy.typing import ArrayLike, NDArray
 from scipy.special import i0e
 
+from shipradar.sensors.geometry import EARTH_RADIUS_M, K_FACTOR
+
 # array types of the private helpers' signatures
 _Complexes = NDArray[np.complex128]
 _Floats = NDArray[np.float64]
 
 # --------------------------------------------------------------------------- reference values
-#: Mean earth radius [m] (IUGG mean radius R1).
-EARTH_RADIUS_M = 6_371_008.8
-#: Effective-earth-radius factor of the standard atmosphere (Blake 1986, sec. 6.3).
-STANDARD_K_FACTOR = 4.0 / 3.0
 #: Surface modified refractivity of the seed's default profile [M units] (seed, below [7]).
 SURFACE_M_UNITS = 320.0
 #: Gradient of modified refractivity in the standard atmosphere [M units / m]
@@ -609,7 +607,7 @@ def _elevation(
     return np.arcsin(np.clip(num / np.maximum(dist, 1e-9), -1.0, 1.0))
 
 
-def horizon_range(h1: ArrayLike, h2: ArrayLike, k_factor: float = STANDARD_K_FACTOR) -> _Floats:
+def horizon_range(h1: ArrayLike, h2: ArrayLike, k_factor: float = K_FACTOR) -> _Floats:
     """Radio-horizon range sqrt(2 a_e h1) + sqrt(2 a_e h2) [m] for heights h1, h2 [m]."""
     a_e = k_factor * EARTH_RADIUS_M
     return (np.sqrt(2 * a_e * np.asarray(h1, np.float64))
@@ -661,7 +659,7 @@ def smooth_earth_diffraction_factor(
     freq_hz: float,
     polarization: str,
     *,
-    k_factor: float = STANDARD_K_FACTOR,
+    k_factor: float = K_FACTOR,
     permittivity: complex | None = None,
 ) -> NDArray[np.float64]:
     """Propagation factor beyond the horizon of a smooth sphere, first term of the residue series.
@@ -732,7 +730,7 @@ def interference_region_limit(
     antenna_height_m: ArrayLike,
     target_height_m: ArrayLike,
     freq_hz: float,
-    k_factor: float = STANDARD_K_FACTOR,
+    k_factor: float = K_FACTOR,
     fock_angles: float | None = None,
 ) -> NDArray[np.float64]:
     """Largest range [m] of the two-ray interference region for the given heights [m].
@@ -788,7 +786,7 @@ def two_ray_factor(
     *,
     wave_height_m: float = 0.0,
     elevation_pattern: Callable[[NDArray[np.float64]], NDArray[np.float64]] | None = None,
-    k_factor: float = STANDARD_K_FACTOR,
+    k_factor: float = K_FACTOR,
     tilt_rad: float = 0.0,
     permittivity: complex | None = None,
     roughness_model: str = "miller-brown",

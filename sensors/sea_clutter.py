@@ -77,15 +77,13 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import constants
 from scipy.special import gammaln
 
+from shipradar.sensors.geometry import K_FACTOR, ROUNDED_EARTH_RADIUS_M
+
 Polarization = Literal["H", "V"]
 
 # --------------------------------------------------------------------------- reference values
 #: Speed of light in vacuum c [m/s].
 SPEED_OF_LIGHT_MPS: float = constants.c
-#: Mean earth radius [m] (IUGG); the effective radius is k times it.
-EARTH_RADIUS_M = 6_371_000.0
-#: Standard-atmosphere effective earth radius factor k.
-STANDARD_K_FACTOR = 4.0 / 3.0
 
 #: Frequency range of the GIT model [Hz] (Horst et al. 1978).
 GIT_MIN_FREQ_HZ = 1.0e9
@@ -263,11 +261,11 @@ def _effective_radius(k_factor: ArrayLike) -> NDArray[np.float64]:
     k = _f(k_factor)
     if np.any(k <= 0.0):
         raise ValueError("k_factor must be > 0")
-    return k * EARTH_RADIUS_M
+    return k * ROUNDED_EARTH_RADIUS_M
 
 
 def slant_range_m(
-    ground_range_m: ArrayLike, antenna_height_m: ArrayLike, k_factor: ArrayLike = STANDARD_K_FACTOR
+    ground_range_m: ArrayLike, antenna_height_m: ArrayLike, k_factor: ArrayLike = K_FACTOR
 ) -> NDArray[np.float64]:
     """Slant range from an antenna to a sea patch on a spherical effective earth [m].
 
@@ -297,7 +295,7 @@ def slant_range_m(
 
 
 def grazing_angle_rad(
-    ground_range_m: ArrayLike, antenna_height_m: ArrayLike, k_factor: ArrayLike = STANDARD_K_FACTOR
+    ground_range_m: ArrayLike, antenna_height_m: ArrayLike, k_factor: ArrayLike = K_FACTOR
 ) -> NDArray[np.float64]:
     """Grazing angle ψ at a sea patch seen from an antenna, spherical effective earth.
 
@@ -327,7 +325,7 @@ def grazing_angle_rad(
 
 
 def depression_angle_rad(
-    ground_range_m: ArrayLike, antenna_height_m: ArrayLike, k_factor: ArrayLike = STANDARD_K_FACTOR
+    ground_range_m: ArrayLike, antenna_height_m: ArrayLike, k_factor: ArrayLike = K_FACTOR
 ) -> NDArray[np.float64]:
     """Depression angle ψ_d of a sea patch below the antenna's local horizontal.
 
@@ -356,7 +354,7 @@ def depression_angle_rad(
 
 
 def ground_range_at_grazing_m(
-    grazing_rad: ArrayLike, antenna_height_m: ArrayLike, k_factor: ArrayLike = STANDARD_K_FACTOR
+    grazing_rad: ArrayLike, antenna_height_m: ArrayLike, k_factor: ArrayLike = K_FACTOR
 ) -> NDArray[np.float64]:
     """Ground range at which the grazing angle equals ψ, the inverse of :func:`grazing_angle_rad`.
 
@@ -641,7 +639,7 @@ def clutter_propagation_loss_db_per_km(
 
 
 def git_limit_range_m(
-    antenna_height_m: ArrayLike, k_factor: ArrayLike = STANDARD_K_FACTOR
+    antenna_height_m: ArrayLike, k_factor: ArrayLike = K_FACTOR
 ) -> NDArray[np.float64]:
     """Ground range where the spherical-earth grazing angle falls to the GIT's 0.1° [m].
 
@@ -670,7 +668,7 @@ def ducted_reflectivity_db(
     polarization: str = "H",
     duct_height_m: ArrayLike = 0.0,
     sea_state: ArrayLike | None = None,
-    k_factor: ArrayLike = STANDARD_K_FACTOR,
+    k_factor: ArrayLike = K_FACTOR,
 ) -> NDArray[np.float64]:
     """Sea reflectivity with the seed's ducting extension σ0* [dB], seed [22].
 

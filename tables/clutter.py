@@ -45,6 +45,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.constants import c as SPEED_OF_LIGHT_MPS
 
+from shipradar.sensors import geometry
 from shipradar.sensors import sea_clutter as sc
 from shipradar.sensors import weather_clutter as wc
 from shipradar.sensors.measurement import wrap_azimuth
@@ -135,7 +136,7 @@ def sea_clutter_map_inputs(
     ship_heading_rad: float = 0.0,
     n_range: int = DEFAULT_N_RANGE,
     n_azimuth: int = DEFAULT_N_AZIMUTH,
-    k_factor: float = sc.STANDARD_K_FACTOR,
+    k_factor: float = geometry.K_FACTOR,
 ) -> dict[str, Any]:
     """The hashable inputs of a sea-clutter map (arguments of :func:`build_sea_clutter_map`)."""
     kind, bw, sl, tilt = elevation_pattern
@@ -450,7 +451,7 @@ def weather_clutter_map_inputs(
     ship_heading_rad: float = 0.0,
     n_range: int = DEFAULT_N_RANGE,
     n_azimuth: int = DEFAULT_N_AZIMUTH,
-    k_factor: float = sc.STANDARD_K_FACTOR,
+    k_factor: float = geometry.K_FACTOR,
 ) -> dict[str, Any]:
     """The hashable inputs of a weather-clutter map (see :func:`build_weather_clutter_map`)."""
     if rain_rate_mm_h <= 0.0:

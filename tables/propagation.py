@@ -31,6 +31,7 @@ import numpy as np
 import scipy.constants as sc
 from numpy.typing import ArrayLike
 
+from shipradar.sensors import geometry
 from shipradar.sensors import parabolic_equation as pe
 from shipradar.sensors import propagation as prop
 from shipradar.tables.store import Table, get_or_build
@@ -126,7 +127,7 @@ def table_axes(
     """
     preset = TABLE_SAMPLING[fidelity]
     lam = sc.c / freq_hz
-    a_e = prop.STANDARD_K_FACTOR * prop.EARTH_RADIUS_M
+    a_e = geometry.K_FACTOR * geometry.EARTH_RADIUS_M
     height_unit = (a_e * lam**2 / (8 * np.pi**2)) ** (1 / 3)
     dw_coarse = min(lam / (2 * antenna_height_m * preset["lobe_samples"]),
                     DIFFRACTION_STEP * height_unit / max_range_m)

@@ -8,14 +8,12 @@ import pymap3d.vincenty
 import pytest
 from scipy.optimize import brentq
 
+from shipradar.sensors.geometry import EARTH_RADIUS_M, K_FACTOR, slant_range_elevation
 from shipradar.sim.world.kinematics import (
-    EARTH_RADIUS_M,
-    K_FACTOR,
     LocalFrame,
     Trajectories,
     antenna_geometry,
     ship_motion,
-    slant_range_elevation,
     waypoint_enu,
     wrap_pi,
 )

@@ -5,7 +5,8 @@ included. The layers, bottom to top (README, "Layers"):
 
 0. world: ``shipradar.sim.world.scenario``, the scenario as plain, validated data, and the motion it
    declares (``shipradar.sim.world.kinematics``, ``shipradar.sim.world.trajectory``: positions and
-   velocities of its objects at any time, from the schema alone);
+   velocities of its objects at any time, from the schema alone), and the geometry both share
+   (``shipradar.sensors.geometry``: the earth's radius, k = 4/3, slant range, N_n, N_rep);
 1. physics: ``shipradar.sensors.*`` (one module per phenomenon), which imports nothing of ours
    but the schema;
 2. tables: ``shipradar.tables.*``, the off-line level, building and reading tables from the
@@ -35,6 +36,9 @@ MODULES = package_modules()
 
 #: The folder (package) of each layer below the service; everything else is layer 4.
 LAYER_PACKAGES = {
+    # the shared earth and scan geometry imports nothing of ours: the schema checks a radar's
+    # feasibility and moves its objects with it (issue 31, one home per fact)
+    "shipradar.sensors.geometry": SCHEMA,
     "shipradar.sim.world": SCHEMA,
     "shipradar.sensors": PHYSICS,
     "shipradar.tables": TABLES,

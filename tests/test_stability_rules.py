@@ -120,8 +120,8 @@ def test_fewer_than_one_pulse_per_beamwidth_is_refused(tmp_path, capsys, radar):
     {"prf_hz": 50},
 ])
 def test_schema_pulses_per_beam_rule_is_the_physics_one(radar):
-    """The schema cannot import sensors (layer rule), so scenario.Radar re-states N_n [73]:
-    its bound must be sensors.detection.pulses_per_beam's N_n >= 1 (to the schema's slack)."""
+    """scenario.Radar checks N_n [73] with sensors.geometry.pulses_per_beam (issue 31): its
+    bound is N_n >= 1 (to the schema's slack)."""
     from shipradar.sensors.detection import pulses_per_beam
     from shipradar.sim.world.scenario import PULSES_PER_BEAM_ULP
 

@@ -47,6 +47,7 @@ from shipradar.sensors import (
     detection,
     doppler_filters,
     false_alarms,
+    geometry,
     jamming,
     measurement,
     noise,
@@ -518,7 +519,7 @@ class DwellModel:
         az_edges = np.linspace(0.0, 2.0 * math.pi, n_az + 1)
         if gen.eta.size == 0:
             return np.zeros(1), az_edges, np.zeros((0, n_az))
-        h, a_e = gen.antenna_height_m, gen.k_factor * sea_clutter.EARTH_RADIUS_M
+        h, a_e = gen.antenna_height_m, gen.k_factor * geometry.ROUNDED_EARTH_RADIUS_M
         r_top = float(sea_clutter.slant_range_m(gen.r_max_m.max(), h, gen.k_factor))
         edges = ring_m * np.arange(int(math.ceil(r_top / ring_m)) + 1, dtype=float)
         # slant R -> ground d: R² = h² + 4 a_e (a_e + h) sin²(d / 2 a_e), inverted
@@ -1256,9 +1257,9 @@ class _TwoRayFallback:
         self.pol = prop.normalize_polarization(radar.polarization)
         self.wave = float(wave_height_m)
         self.pattern = elevation_pattern
-        self.k_factor = prop.STANDARD_K_FACTOR
+        self.k_factor = geometry.K_FACTOR
         self.eps = complex(prop.sea_water_permittivity(self.freq))
-        a_e = self.k_factor * prop.EARTH_RADIUS_M
+        a_e = self.k_factor * geometry.EARTH_RADIUS_M
         self.g_horizon = float(np.abs(elevation_pattern(
             -np.arccos(np.array([a_e / (a_e + self.h1)]))))[0])
         self._cache: dict[float, tuple[float, float, float, float]] = {}

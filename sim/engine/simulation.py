@@ -46,6 +46,7 @@ import numpy as np
 import simpy
 import simpy.rt
 
+from shipradar.sensors.geometry import K_FACTOR
 from shipradar.sim.engine.order import EventOrder
 from shipradar.sim.stream import protocol
 from shipradar.sim.stream.framing import Slices, sector_columns, target_columns
@@ -68,7 +69,6 @@ from shipradar.sim.stream.sink import (
     takes_frames,
 )
 from shipradar.sim.world.kinematics import (
-    K_FACTOR,
     TWO_PI,
     LocalFrame,
     antenna_azimuth,

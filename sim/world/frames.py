@@ -20,7 +20,7 @@ The local frame (:class:`shipradar.sim.world.kinematics.LocalFrame`):
 * Slant range is that of the 4/3 effective earth (standard refraction): on a sphere of
   radius k R (k = 4/3), heights h1 (antenna) and h2 (target) a ground range G apart are
   R_s = √((h2 - h1)² + 4 (kR + h1)(kR + h2) sin²(G / (2 k R))) (law of cosines;
-  :func:`shipradar.sim.world.kinematics.slant_range_elevation`).
+  :func:`shipradar.sensors.geometry.slant_range_elevation`).
 
 A plot has no elevation: a 2-D radar measures range and azimuth only, so placing a plot
 needs the target's altitude (``target_up_m``), taken as the sea surface (0) unless known.
@@ -36,9 +36,9 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from shipradar.sensors.geometry import K_FACTOR
 from shipradar.sim.world import geodesy
 from shipradar.sim.world.kinematics import (
-    K_FACTOR,
     LocalFrame,
     antenna_geometry,
     north_east,

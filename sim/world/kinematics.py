@@ -23,13 +23,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.special import ellipeinc
 
+from shipradar.sensors.geometry import K_FACTOR, slant_range_elevation
 from shipradar.sim.world import geodesy
 from shipradar.sim.world.scenario import Origin, Platform, Waypoint
 
-#: Mean earth radius [m] (IUGG).
-EARTH_RADIUS_M = 6_371_008.8
-#: Effective earth-radius factor of the standard atmosphere.
-K_FACTOR = 4.0 / 3.0
 TWO_PI = 2.0 * np.pi
 
 
@@ -402,26 +399,6 @@ class Geometry:
     radial_velocity: np.ndarray
     los_enu: np.ndarray
     velocity_enu: np.ndarray
-
-
-def slant_range_elevation(
-    ground_range_m: np.ndarray, h1_m: np.ndarray, h2_m: np.ndarray, k_factor: float = K_FACTOR,
-    radius_m: float = EARTH_RADIUS_M,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Slant range [m] and elevation [rad] between heights h1 and h2 a ground range apart.
-
-    Spherical earth of effective radius k·a: central angle γ = R_t/(k a), law of cosines for
-    the slant range, and elevation atan2((a_e+h2) cos γ - (a_e+h1), (a_e+h2) sin γ).  At zero
-    ground range the elevation is ±90° (or 0 if the heights are equal, where R = 0).
-    """
-    a_e = k_factor * radius_m
-    g = np.asarray(ground_range_m, dtype=float) / a_e
-    r1 = a_e + np.asarray(h1_m, dtype=float)
-    r2 = a_e + np.asarray(h2_m, dtype=float)
-    # 2 r1 r2 (1 - cos γ) = 4 r1 r2 sin²(γ/2): no cancellation at short range
-    slant = np.sqrt((r2 - r1) ** 2 + 4.0 * r1 * r2 * np.sin(0.5 * g) ** 2)
-    elev = np.arctan2(r2 * np.cos(g) - r1, r2 * np.sin(g))
-    return slant, elev
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -27,6 +27,13 @@ from pydantic import (
 )
 from pydantic_core import ErrorDetails
 
+from shipradar.sensors.geometry import (
+    EARTH_RADIUS_M,
+    pulses_per_beam,
+    shortest_false_alarm_time_s,
+    sweep_time,
+)
+
 #: Largest scenario file we agree to read [bytes].
 MAX_SCENARIO_BYTES = 4 * 1024 * 1024
 #: Largest number of YAML nodes a scenario may expand to, aliases included.
@@ -215,7 +222,7 @@ def _leg_length_m(a: Waypoint, b: Waypoint) -> float | None:
         p1, p2 = math.radians(ga[0]), math.radians(gb[0])
         dl = math.radians(gb[1] - ga[1])
         h = math.sin(0.5 * (p2 - p1)) ** 2 + math.cos(p1) * math.cos(p2) * math.sin(0.5 * dl) ** 2
-        return 2.0 * 6_371_008.8 * math.asin(min(1.0, math.sqrt(h)))
+        return 2.0 * EARTH_RADIUS_M * math.asin(min(1.0, math.sqrt(h)))
     return None
 
 
@@ -579,13 +586,12 @@ class Radar(_Model):
                 ".antenna_temperature_k: a receiver without noise (antenna_temperature_k 0 K, "
                 "noise_figure_db 0 and loss_tr_db 0 give T_s = 0 K [18] and N0' = 0 [19]); "
                 "give one of them > 0, got 0")
-        # [73]: N_n = θ_b t_scan f_r / (2π) pulses hit a point target per sweep, computed as
-        # shipradar.sensors.detection.pulses_per_beam does (the schema cannot import sensors;
-        # tests/test_stability_rules.py ties the two). Below one, the target is lit by a pulse
-        # in some sweeps and missed in others, which [73]-[89] (integration, error model) do not
-        # describe: refused, with the least PRF that gives one pulse per beamwidth
-        n_n = math.radians(self.beamwidth_az_deg) / (2.0 * math.pi) * self.scan_period_s \
-            * self.prf_hz
+        # [73]: N_n = θ_b t_scan f_r / (2π) pulses hit a point target per sweep. Below one,
+        # the target is lit by a pulse in some sweeps and missed in others, which [73]-[89]
+        # (integration, error model) do not describe: refused, with the least PRF that gives
+        # one pulse per beamwidth
+        n_n = float(pulses_per_beam(math.radians(self.beamwidth_az_deg),
+                                    self.scan_period_s, self.prf_hz))
         if not n_n >= 1.0 - PULSES_PER_BEAM_ULP:  # exactly one pulse, to rounding, is one
             need = self.prf_hz / n_n
             raise ValueError(
@@ -594,22 +600,19 @@ class Radar(_Model):
                 f"{self.rotation_rpm:g}) = {n_n:.3g}); needs prf_hz >= {math.ceil(need):d} for "
                 f"this rotation and beamwidth (or a wider beam or a slower rotation), got "
                 f"{self.prf_hz:g}")
-        # [68]-[72] with the reported gates (shipradar.sensors.detection.pfa_from_false_alarm_time):
-        # P_fa = 1/n', n' = N_ch N_rep t_fa / t_swp, N_rep = min(N_rc, R_inst / C_R). A t_fa
-        # shorter than one sweep's decisions asks for P_fa >= 1: more false alarms than
-        # decisions. (N_rc > 0 is the duty-cycle rule below, checked first when it fails.)
-        # tests/test_stability_rules.py ties this bound to pfa_from_false_alarm_time.
-        duty = self.prf_hz * self.pulse_width_s
-        if duty < 0.5:
-            n_rep = min(1.0 / duty - 2.0,
-                        self.instrumented_range_m / (SPEED_OF_LIGHT_MPS * self.pulse_width_s / 2))
-            t_swp = math.radians(self.beamwidth_az_deg) / (2.0 * math.pi) * self.scan_period_s
-            t_min = t_swp / (self.n_channels * n_rep)
+        # [68]-[72] with the reported gates: a t_fa at or below one sweep's decisions asks for
+        # P_fa >= 1, more false alarms than decisions. (N_rc > 0 is the duty-cycle rule below,
+        # checked first when it fails.)
+        if self.prf_hz * self.pulse_width_s < 0.5:
+            t_min = shortest_false_alarm_time_s(
+                math.radians(self.beamwidth_az_deg), self.scan_period_s, self.prf_hz,
+                self.pulse_width_s, self.n_channels, self.instrumented_range_m)
             if not self.false_alarm_time_s > t_min:
+                t_swp = float(sweep_time(math.radians(self.beamwidth_az_deg), self.scan_period_s))
                 raise ValueError(
                     f".false_alarm_time_s: asks for more false alarms than the radar makes "
                     f"decisions (P_fa [68] would be >= 1): one sweep of {t_swp:.3g} s has "
-                    f"{self.n_channels * n_rep:.3g} decisions (n_channels x reported range "
+                    f"{t_swp / t_min:.3g} decisions (n_channels x reported range "
                     f"cells), so false_alarm_time_s must be > {t_min:.3g} s, got "
                     f"{self.false_alarm_time_s:g}")
         return self

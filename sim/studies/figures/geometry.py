@@ -16,7 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
-from shipradar.sim.world.kinematics import EARTH_RADIUS_M, K_FACTOR, LocalFrame
+from shipradar.sensors.geometry import EARTH_RADIUS_M, K_FACTOR
+from shipradar.sim.world.kinematics import LocalFrame
 from shipradar.sim.world.scenario import Platform, Scenario, Target
 from shipradar.sim.world.trajectory import trajectories
 
