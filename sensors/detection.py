@@ -93,6 +93,8 @@ Choices where the seed is silent or wrong
 
 from __future__ import annotations
 
+import enum
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import special
@@ -128,6 +130,20 @@ DECORRELATED_SPREAD_RATIO = 0.2
 CLUTTER_SAMPLES_FACTOR = 5.0
 #: [76]: N_e = N_e' / (1 + 0.53 N_pc) (fit of Trunk's results, seed Ref. 25).
 MTI_PULSE_FACTOR = 0.53
+
+
+
+class Interference(enum.IntEnum):
+    """The dominant interference of a decision [66]-[67], the ``interference`` code of a plot
+    (its name, lower case, in ``meta.interference_codes``)."""
+
+    NOISE = 0
+    CLUTTER = 1
+    JAMMING = 2
+
+
+#: The names of the :class:`Interference` codes, by code (``meta.interference_codes``).
+INTERFERENCE_NAMES = tuple(code.name.lower() for code in Interference)
 
 #: Stated validity of the seed's approximation [78]-[83] (seed 6.4).
 SEED_PD_RANGE = (0.1, 0.9)
@@ -955,6 +971,8 @@ __all__ = [
     "g_fa",
     "pfa_from_false_alarm_time",
     "probability_of_detection",
+    "Interference",
+    "INTERFERENCE_NAMES",
     "pulses_per_beam",
     "range_cells",
     "reported_range_cells",

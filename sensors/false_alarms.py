@@ -91,9 +91,14 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import special
 
-from shipradar.sensors.detection import LN2_SEED, N_CHANNELS, reported_range_cells
+from shipradar.sensors.detection import (
+    LN2_SEED,
+    N_CHANNELS,
+    Interference,
+    reported_range_cells,
+)
 from shipradar.sensors.geometry import K_FACTOR
-from shipradar.sensors.measurement import expected_errors
+from shipradar.sensors.measurement import SIGMAS_PER_ERROR, expected_errors
 from shipradar.sensors.sea_clutter import slant_range_m
 
 # array types of the private helpers' signatures
@@ -1191,9 +1196,9 @@ class ClutterFalseAlarms:
             "range_m": slant,
             "azimuth_rad": az,
             "snr_db": snr_db,
-            "sigma_range_m": _divided(eps_r, 3.0, n),
-            "sigma_azimuth_rad": _divided(eps_t, 3.0, n),
-            "interference": np.ones(n, dtype=np.uint8),
+            "sigma_range_m": _divided(eps_r, SIGMAS_PER_ERROR, n),
+            "sigma_azimuth_rad": _divided(eps_t, SIGMAS_PER_ERROR, n),
+            "interference": np.full(n, Interference.CLUTTER, dtype=np.uint8),
             "ground_range_m": ground,
             "revolution": revolution,
             "sector": sector,

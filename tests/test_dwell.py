@@ -7,9 +7,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from shipradar.sim.dwell.model import CLUTTER, JAMMING, NOISE, DwellModel
+from shipradar.sensors.detection import Interference
+from shipradar.sim.dwell.model import DwellModel
 from shipradar.tables.scene import SceneTables
 from tests.helpers import bare_scene, quiet_radar
+
+NOISE, CLUTTER, JAMMING = Interference.NOISE, Interference.CLUTTER, Interference.JAMMING
 
 
 def _model(radar=None, **env):

@@ -21,7 +21,7 @@ intermediate results reach the observers of ``DwellModel.on_look`` as one
 8. effective number of pulses [73]-[77], P_d [78]-[83] or exact, the detection draw, and the
    noisy measurements [84]-[89].
 
-Interference codes: 0 noise, 1 clutter, 2 jamming (:data:`INTERFERENCE_NAMES`).
+Interference codes: :class:`shipradar.sensors.detection.Interference`.
 
 Dominance rule (SPEC §4 item 5: the seed's conditions overlap and leave gaps).  With N = N0',
 C = P_sc + P_wc and J = Σ P_j, all at the RF input: jamming dominates when J > 2 (C + N)
@@ -55,6 +55,7 @@ from shipradar.sensors import (
     sea_clutter,
     weather_clutter,
 )
+from shipradar.sensors.detection import INTERFERENCE_NAMES, Interference
 from shipradar.sensors.radar import (
     false_alarm_probability,
     pulses_per_beamwidth,
@@ -73,8 +74,6 @@ from shipradar.sim.world.scenario import Platform, Radar, Scenario
 from shipradar.tables.sky import rain_attenuation_db_per_km, scene_radar_constants
 from shipradar.tables.store import StackedLookup2D, Table
 
-INTERFERENCE_NAMES = ("noise", "clutter", "jamming")
-NOISE, CLUTTER, JAMMING = 0, 1, 2
 _RCS_CONSTANT, _RCS_MISSILE, _RCS_TABLE = 0, 1, 2
 #: Resolution of the common aspect grid on which RCS tables are resampled [deg].
 _RCS_TABLE_STEP_DEG = 0.1
@@ -825,15 +824,16 @@ class DwellModel:
         just outside the clutter; the sum keeps S/I below the filter's noise limit.
         """
         n = self.n0
-        code = np.where(jam_w > 2.0 * (clutter_w + n), JAMMING,
-                        np.where(clutter_w >= 0.5 * n, CLUTTER, NOISE)).astype(np.uint8)
+        code = np.where(jam_w > 2.0 * (clutter_w + n), Interference.JAMMING,
+                        np.where(clutter_w >= 0.5 * n, Interference.CLUTTER,
+                                 Interference.NOISE)).astype(np.uint8)
         noise_like = p_r / ((n + jam_w) * self.l_x * self.l_cfar)
         # [67]: L_B is a loss (divides), as its name and Blake's 1.6 dB say
         residue_si = (p_r / (np.maximum(clutter_w, _DB_FLOOR) * self.l_c)
                       * improvement / dist_loss / (self.l_cfar * self.l_cd * self.l_b))
         noise_after = noise_like * coherent_gain
         clutter_si = residue_si * noise_after / np.maximum(residue_si + noise_after, _DB_FLOOR)
-        si = np.where(code == CLUTTER, clutter_si, noise_like)
+        si = np.where(code == Interference.CLUTTER, clutter_si, noise_like)
         return si, code
 
     def process_targets(self, geom, rows, t, tpos, rng: np.random.Generator, *,
@@ -943,7 +943,8 @@ class DwellModel:
         (:func:`shipradar.sensors.detection.effective_pulses`), clutter-dominated where the
         dominant interference ``code`` is clutter."""
         return np.asarray(detection.effective_pulses(
-            self.n_pulses, clutter_dominated=code == CLUTTER, **self._pulse_args(clutter, lead)))
+            self.n_pulses, clutter_dominated=code == Interference.CLUTTER,
+            **self._pulse_args(clutter, lead)))
 
     def detection_probability(self, si_db: np.ndarray, n_e: np.ndarray,
                               swerling: np.ndarray) -> np.ndarray:
@@ -1202,9 +1203,9 @@ class DwellModel:
             "range_m": range_m,
             "azimuth_rad": azimuth_rad,
             "snr_db": db(si),
-            "sigma_range_m": errs[0] / 3.0,
-            "sigma_azimuth_rad": errs[1] / 3.0,
-            "interference": np.zeros(n, dtype=np.uint8),
+            "sigma_range_m": errs[0] / measurement.SIGMAS_PER_ERROR,
+            "sigma_azimuth_rad": errs[1] / measurement.SIGMAS_PER_ERROR,
+            "interference": np.full(n, Interference.NOISE, dtype=np.uint8),
             **self._false_alarm_range_rate(range_m, azimuth_rad, rng, clutter=False),
         }
 
