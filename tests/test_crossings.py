@@ -241,3 +241,48 @@ def test_a_constant_angular_rate_against_the_closed_form(rate):
     want = np.sort(want[(want >= 0.0) & (want < 200.0)])
     assert t.size == want.size
     assert np.sort(t) == pytest.approx(want, abs=1e-9)
+
+
+def test_speed_bounds_hold_along_every_kind_of_piece():
+    """The crossing search's speed bound (``max_speed``) is at least the horizontal speed
+    sampled along arcs with along-track acceleration, weaves, straight legs and traffic's
+    cubic pieces."""
+    from shipradar.sim.world.kinematics import ARC, LINEAR, SINE, Piece, Trajectories
+    from shipradar.sim.world.traffic import CUBIC, PieceTable, hermite_coefficients
+
+    rng = np.random.default_rng(8)
+    pieces = [
+        [Piece(0.0, 20.0, np.zeros(3), np.zeros(3), ARC,
+               np.array([0.3, 200.0, 15.0, 0.05, 0.0, 0.0])),
+         Piece(20.0, 10.0, np.zeros(3), np.array([-120.0, 310.0, 5.0]), LINEAR)],
+        [Piece(0.0, 30.0, np.zeros(3), np.zeros(3), SINE,
+               np.array([1.0, 250.0, 300.0, 0.4, 0.0, (300.0 * 0.4 / 250.0) ** 2]))]]
+    tr = Trajectories(None, hold=False, pieces=pieces)
+    t = np.linspace(0.0, 30.0, 3001)
+    for i in range(tr.n):
+        _, vel, _ = tr.state(t, np.full(t.size, i))
+        assert tr.max_speed[i] >= np.max(np.hypot(vel[:, 0], vel[:, 1])) - 1e-9
+    p0, p1 = rng.normal(0, 500.0, (4, 3)), rng.normal(0, 500.0, (4, 3))
+    v0, v1 = rng.normal(0, 200.0, (4, 3)), rng.normal(0, 200.0, (4, 3))
+    h = np.array([5.0, 8.0, 3.0, 12.0])
+    c2, c3 = hermite_coefficients(p0, p1, v0, v1, h)
+    table = PieceTable(np.array([0, 2, 4]), np.array([0.0, 5.0, 0.0, 3.0]), h, p0, v0,
+                       np.full(4, CUBIC, np.int8), np.hstack([c2, c3]), np.ones(4, bool))
+    for i in range(2):
+        ts = np.linspace(0.0, 12.0 if i else 13.0, 2001)
+        _, vel, _ = table.state(ts, np.full(ts.size, i))
+        assert table.max_speed[i] >= np.max(np.hypot(vel[:, 0], vel[:, 1])) - 1e-9
+
+
+@pytest.mark.parametrize("speed", [0.0, 20.0, 1000.0])
+def test_an_object_over_the_antenna_ends_the_search(speed):
+    """A target on the antenna's vertical for whole revolutions (riding with the ship): no
+    azimuth, no crossing, and the search ends at once instead of splitting to 1 µs."""
+    scene = Planar([straight((0.0, 0.0), (0.0, 0.0))])
+    omega = 0.2 * math.pi
+    starts = np.arange(0.0, 60.0 + 1e-9, 10.0)
+    beam = np.mod(omega * starts, TWO_PI)
+    n = starts.size - 1
+    pair, t = beam_crossings(lambda tt, k: scene.look_at(tt, 0 * k), starts[:-1], starts[1:],
+                             beam[:-1], beam[1:], omega, np.full(n, speed))
+    assert t.size == 0

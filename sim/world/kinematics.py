@@ -503,6 +503,10 @@ def wrap_pi(a: np.ndarray) -> np.ndarray:
 #: Time tolerance of the beam-crossing solver [s]: its safeguarded Newton iteration stops
 #: when a step or the root's bracket is shorter (the root is then exact to the last bits).
 CROSSING_TOL_S = 1e-9
+#: Horizontal distance from the antenna's vertical within which an object has no azimuth
+#: the beam can meet [m]: an interval over which it stays that close holds no crossing (a
+#: target hovering over the mast would otherwise be split down to the resolution).
+CROSSING_VERTICAL_M = 1.0
 #: The crossing search's resolution [s]: an interval the rate bound cannot certify is split
 #: until it is this short; its crossings are sign changes at this resolution (a tangency rule).
 CROSSING_RESOLUTION_S = 1e-6
@@ -521,6 +525,7 @@ def beam_crossings(
     tol_s: float = CROSSING_TOL_S,
     resolution_s: float = CROSSING_RESOLUTION_S,
     ends: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None,
+    vertical_m: float = CROSSING_VERTICAL_M,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Every time in ``[t_a, t_b)`` at which a clockwise beam meets each of N objects.
 
@@ -542,7 +547,8 @@ def beam_crossings(
       at ``resolution_s`` each sign change of D - 2πk is a crossing (tangency rule: the beam
       reaching the azimuth without passing it within the resolution is no crossing, nor are
       two crossings closer than the resolution; an object passing within v × resolution of
-      the antenna's vertical, where the azimuth is undefined, is not met there).
+      the antenna's vertical, where the azimuth is undefined, is not met there, nor is one
+      staying within ``vertical_m`` of it all through an interval).
 
     Each bracketed root is then solved by Newton's method with the object's own angular rate
     in the step, t ← t - D/(ω - az'), bisecting whenever a step leaves the bracket, to
@@ -563,6 +569,7 @@ def beam_crossings(
         along a moving antenna's track, the sphere's departure from the plane) [rad/s]
     min_separation_s : crossings of one object closer than this are one (the first) [s]
     tol_s, resolution_s : see :data:`CROSSING_TOL_S`, :data:`CROSSING_RESOLUTION_S`
+    vertical_m : see :data:`CROSSING_VERTICAL_M` [m]
     ends : optional (N,) azimuths [rad] and ground ranges [m] at ``t_a`` and at ``t_b``
         (az_a, ground_a, az_b, ground_b), when the caller has them (one revolution's end is
         the next one's start); else ``look_at`` gives them
@@ -626,6 +633,9 @@ def beam_crossings(
         mid_d = 0.5 * (d0 + big_d1)
         near = np.ceil((mid_d - half) / TWO_PI) <= np.floor((mid_d + half) / TWO_PI)
         rest &= ~unwraps | near
+        # an object that stays within vertical_m of the antenna's vertical all through the
+        # interval has no azimuth to meet there
+        rest &= 0.5 * (rho0 + rho1 + v * h) > vertical_m
         leaf = rest & (h <= resolution_s)
         if leaf.any():
             brackets.append(_sign_changes(np.flatnonzero(leaf & unwraps), iv, big_d1))
@@ -653,13 +663,15 @@ def beam_crossings(
         keep = np.ones(b_i.size, dtype=bool)
         same = b_i[1:] == b_i[:-1]
         close = same & (t[1:] - t[:-1] < min_separation_s)
-        if close.any():  # a run of close crossings is one: keep its first
-            last_kept = t[0]
-            for j in range(1, t.size):
-                if b_i[j] == b_i[j - 1] and t[j] - last_kept < min_separation_s:
-                    keep[j] = False
-                else:
-                    last_kept = t[j]
+        if close.any():  # a run of close crossings is one: keep its first (objects with one)
+            for obj in np.unique(b_i[1:][close]).tolist():
+                rows = np.flatnonzero(b_i == obj)
+                last_kept = t[rows[0]]
+                for j in rows[1:].tolist():
+                    if t[j] - last_kept < min_separation_s:
+                        keep[j] = False
+                    else:
+                        last_kept = t[j]
             b_i, t = b_i[keep], t[keep]
     return b_i.astype(np.int64), t
 
