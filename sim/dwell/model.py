@@ -1109,7 +1109,7 @@ class DwellModel:
         """The pairs (i, j), i < j, of looks the radar cannot tell apart (see
         :meth:`_resolution_groups`): found among the looks within a dwell of each other in
         time, sorted."""
-        t_ot = self.theta_b * self.radar.scan_period_s / (2.0 * math.pi)
+        t_ot = float(geometry.sweep_time(self.theta_b, self.radar.scan_period_s))
         # one line of time, the batches apart by more than a dwell
         t0 = float(t.min())
         key = batch * (float(t.max()) - t0 + 2.0 * t_ot + 1.0) + (t - t0)

@@ -46,7 +46,7 @@ import numpy as np
 import simpy
 import simpy.rt
 
-from shipradar.sensors.geometry import K_FACTOR
+from shipradar.sensors.geometry import K_FACTOR, sweep_time
 from shipradar.sim.engine.order import EventOrder
 from shipradar.sim.stream import protocol
 from shipradar.sim.stream.framing import Slices, sector_columns, target_columns
@@ -1183,7 +1183,9 @@ class _RadarProcess:
         ends = (az[inv[:n]], ground[inv[:n]], az[inv[n:]], ground[inv[n:]])
         pair, tc = beam_crossings(look_at, t_a, t_b, beam[:-1][scan_of], beam[1:][scan_of],
                                   self.omega, speed, rate_slack_rad_s=_RATE_SLACK_RAD_S,
-                                  min_separation_s=self.model.theta_b / self.omega, ends=ends)
+                                  min_separation_s=float(sweep_time(
+                                      self.model.theta_b, self.radar.scan_period_s)),
+                                  ends=ends)
         # the first revolution's margin lies before the run: a target on the start azimuth
         # (met at -2e-15 s by rounding) is met at the start, where it exists
         return pair, np.maximum(tc, 0.0)
