@@ -416,7 +416,7 @@ def prepare_march(
     if max_range_m <= 0:
         raise ValueError("max_range_m must be > 0")
     m_of_h = prop.profile_from_spec(profile) if isinstance(profile, Mapping) else profile
-    pattern = elevation_pattern if elevation_pattern is not None else prop._isotropic
+    pattern = elevation_pattern if elevation_pattern is not None else prop.isotropic_pattern
     steps = grid_steps(freq_hz, pe_top_height(max_height_m, max_range_m, antenna_height_m),
                        max_range_m, m_of_h, fidelity, max_angle_rad, polarization=pol,
                        surface=surface)

@@ -614,12 +614,20 @@ def horizon_range(h1: ArrayLike, h2: ArrayLike, k_factor: float = K_FACTOR) -> _
             + np.sqrt(2 * a_e * np.asarray(h2, np.float64)))
 
 
-def _two_ray_terms(
+def two_ray_terms(
     d: _Floats, h1: _Floats, h2: _Floats, freq: float, pol: str, wave: float,
     pattern: Callable[[NDArray[np.float64]], NDArray[np.float64]], tilt: float, k_factor: float,
     eps: NDArray[np.complex128] | complex, roughness_model: str,
 ) -> tuple[NDArray[np.float64], NDArray[np.complex128], NDArray[np.float64]]:
-    """Direct and reflected complex terms of the interference-region multipath factor."""
+    """Direct and reflected complex terms of the interference-region multipath factor.
+
+    The two terms of the two-ray pattern propagation factor at ground ranges ``d`` [m] between
+    heights ``h1`` and ``h2`` [m] over a 4/3 earth of factor ``k_factor`` (``freq`` [Hz],
+    ``pol`` 'H'/'V', ``wave`` the wave height [m], ``pattern`` the voltage pattern of the
+    elevation [rad], ``tilt`` [rad], ``eps`` the sea's relative permittivity): the direct
+    term, the reflected term (F = |direct + reflected|) and the grazing angle [rad] at the
+    specular point. The dwell model evaluates them per target (the on-line multipath).
+    """
     a_e = k_factor * EARTH_RADIUS_M
     lam = sc.c / freq
     d1 = _reflection_geometry(d, h1, h2, a_e)
@@ -843,7 +851,7 @@ def two_ray_factor(
         the reflected ray far down the pattern; F -> 0 at zero target height over a smooth sea.
     """
     pol = normalize_polarization(polarization)
-    pattern = _isotropic if elevation_pattern is None else elevation_pattern
+    pattern = isotropic_pattern if elevation_pattern is None else elevation_pattern
     d, h1, h2 = np.broadcast_arrays(
         *[np.asarray(v, dtype=np.float64) for v in (range_m, antenna_height_m, target_height_m)]
     )
@@ -855,8 +863,8 @@ def two_ray_factor(
     d_h = horizon_range(h1, h2, k_factor)
 
     def two_ray(dd: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        gd, refl, psi = _two_ray_terms(dd, h1, h2, freq, pol, wave_height_m, pattern, tilt_rad,
-                                       k_factor, eps, roughness_model)
+        gd, refl, psi = two_ray_terms(dd, h1, h2, freq, pol, wave_height_m, pattern, tilt_rad,
+                                      k_factor, eps, roughness_model)
         return np.abs(gd + refl), psi
 
     d_lim = interference_region_limit(h1, h2, freq, k_factor)
@@ -880,5 +888,6 @@ def two_ray_factor(
     return np.where(d <= d_lim, f_inter, np.where(d < d_h, intermediate, diffraction))
 
 
-def _isotropic(elev_rad: NDArray[np.float64]) -> NDArray[np.float64]:
+def isotropic_pattern(elev_rad: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Voltage pattern 1 at every elevation [rad]: no pattern in the propagation factor."""
     return np.ones_like(np.asarray(elev_rad, dtype=np.float64))

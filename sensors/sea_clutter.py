@@ -180,7 +180,9 @@ def from_db(x_db: ArrayLike) -> NDArray[np.float64]:
     return np.where(x_db > DB_FLOOR, 10.0 ** (np.maximum(x_db, DB_FLOOR) / 10.0), 0.0)
 
 
-def _polarization(polarization: str) -> Polarization:
+def polarization_letter(polarization: str) -> Polarization:
+    """The polarization as the models' letter, 'H' or 'V' (also accepts 'HH'/'horizontal',
+    'VV'/'vertical', any case); ValueError naming the value otherwise."""
     p = str(polarization).upper()
     if p in ("H", "HH", "HORIZONTAL"):
         return "H"
@@ -416,7 +418,7 @@ def git_reflectivity(
     ndarray
         σ0 [m²/m²], ≥ 0, broadcast shape of the inputs.
     """
-    pol = _polarization(polarization)
+    pol = polarization_letter(polarization)
     f = _f(freq_hz)
     if np.any(~((f >= GIT_EXTRAPOLATION_MIN_FREQ_HZ) & (f <= GIT_MAX_FREQ_HZ))):
         raise ValueError(

@@ -336,7 +336,7 @@ def _improvement_estimate(scenario: Scenario, radar, where: str):
     else:
         n_taps = inputs["n_pulses"]
         n_filters = inputs["n_filters"]
-    spread, doppler = ti._axes(inputs, n_taps)
+    spread, doppler = ti.improvement_axes(inputs, n_taps)
     n_s, n_d = spread.size, doppler.size
     stagger = "stagger_prf_hz" in inputs
     # every response evaluated with its own steering vector: 2 calls (grid and white limit);

@@ -142,7 +142,7 @@ def sea_clutter_map_inputs(
     kind, bw, sl, tilt = elevation_pattern
     return {
         "freq_hz": float(freq_hz),
-        "polarization": sc._polarization(polarization),
+        "polarization": sc.polarization_letter(polarization),
         "antenna_height_m": float(antenna_height_m),
         "beamwidth_az_rad": float(beamwidth_az_rad),
         "pulse_width_s": float(pulse_width_s),

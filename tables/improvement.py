@@ -295,7 +295,9 @@ def stagger_scales(inputs: dict[str, Any]) -> tuple[float, ...]:
     return tuple(inputs["prf_hz"] / f_k for f_k in inputs["stagger_prf_hz"])
 
 
-def _axes(inputs: dict[str, Any], n_taps: int) -> tuple[NDArray, NDArray]:
+def improvement_axes(inputs: dict[str, Any], n_taps: int) -> tuple[NDArray, NDArray]:
+    """The table's axes for its ``inputs`` and a filter of ``n_taps`` taps: log10 of the
+    clutter spread over the PRF [-] and the Doppler over the PRF in [0, 1] [-]."""
     res = RESOLUTIONS[inputs["resolution"]]
     n_spread = round((LOG10_SPREAD_MAX - LOG10_SPREAD_MIN) * res.spread_per_decade) + 1
     log_spread = np.linspace(LOG10_SPREAD_MIN, LOG10_SPREAD_MAX, n_spread)
@@ -387,7 +389,7 @@ def build_improvement_table(processor: str, **kwargs: Any) -> Table | None:
     if inputs is None:
         return None
     weights = processor_weights(inputs)
-    log_spread, doppler = _axes(inputs, weights.shape[-1])
+    log_spread, doppler = improvement_axes(inputs, weights.shape[-1])
     spread = 10.0**log_spread
     limit = inputs["stability_limit_db"]
     pick = inputs.get("pick", "response")

@@ -111,11 +111,11 @@ def parse_dis_url(url: str, *, allow_remote: bool = False) -> tuple[str, int, bo
 def _ecef_to_local(frame: LocalFrame, xyz: np.ndarray) -> np.ndarray:
     """Local (east, north, up) [m] of ECEF points (N, 3) [m]: geodetic on WGS-84, then the
     frame's projection (up = height above the ellipsoid)."""
-    from shipradar.sim.world.traffic import _local_positions
+    from shipradar.sim.world.traffic import local_positions
 
     lat, lon, h = geodesy.ecef2geodetic(xyz[:, 0], xyz[:, 1], xyz[:, 2])
     lat, lon, h = (np.atleast_1d(np.asarray(a, float)) for a in (lat, lon, h))
-    return np.column_stack([_local_positions(frame, lat, lon), h])
+    return np.column_stack([local_positions(frame, lat, lon), h])
 
 
 def ecef_state_to_local(frame: LocalFrame, xyz: np.ndarray, vel: np.ndarray,

@@ -1266,7 +1266,7 @@ class _TwoRayFallback:
         self._cache: dict[float, tuple[float, float, float, float]] = {}
 
     def _terms(self, d, h2):
-        gd, refl, _ = self._prop._two_ray_terms(
+        gd, refl, _ = self._prop.two_ray_terms(
             d, np.full(d.shape, self.h1), h2, self.freq, self.pol, self.wave, self.pattern, 0.0,
             self.k_factor, self.eps, "miller-brown")
         return np.abs(gd + refl)

@@ -475,7 +475,7 @@ def _times_s(table, entry: Traffic, index: int, names: dict[str, Any],
     return t + entry.time_offset_s
 
 
-def _local_positions(frame: LocalFrame, lat: np.ndarray, lon: np.ndarray) -> np.ndarray:
+def local_positions(frame: LocalFrame, lat: np.ndarray, lon: np.ndarray) -> np.ndarray:
     """East/north [m] in the scenario frame of latitudes, longitudes [deg] (the projection of
     :meth:`LocalFrame.en_of_geodetic`, for arrays)."""
     x = np.column_stack(geodesy.geodetic2ecef(lat, lon, np.zeros_like(lat))) - frame.centre
@@ -498,8 +498,8 @@ def _reported_velocity(frame: LocalFrame, lat: np.ndarray, lon: np.ndarray,
     h = _VELOCITY_STEP_S
     dlat = np.degrees(v_north * h / m)
     dlon = np.degrees(v_east * h / (n * np.cos(phi)))
-    fwd = _local_positions(frame, lat + dlat, lon + dlon)
-    back = _local_positions(frame, lat - dlat, lon - dlon)
+    fwd = local_positions(frame, lat + dlat, lon + dlon)
+    back = local_positions(frame, lat - dlat, lon - dlon)
     return (fwd - back) / (2.0 * h)
 
 
@@ -586,7 +586,7 @@ def read_traffic(entry: Traffic, index: int, scenario: Scenario,
     drop(~dup, "repeated time")
     rows, code, tr = rows[~dup], code[~dup], tr[~dup]
 
-    en = _local_positions(frame, lat[rows], lon[rows]) if rows.size else np.zeros((0, 2))
+    en = local_positions(frame, lat[rows], lon[rows]) if rows.size else np.zeros((0, 2))
     pos = np.column_stack([en, alt[rows]]) if rows.size else np.zeros((0, 3))
     # runs: consecutive fixes of one id no more than max_gap_s apart
     new_id = np.ones(rows.size, dtype=bool)

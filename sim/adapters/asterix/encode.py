@@ -154,7 +154,9 @@ def _be(values: np.ndarray, nbytes: int) -> list[np.ndarray]:
     return [((v >> (8 * k)) & 0xFF).astype(np.uint8) for k in range(nbytes - 1, -1, -1)]
 
 
-def _check_sac_sic(sac: int, sic: int) -> None:
+def check_sac_sic(sac: int, sic: int) -> None:
+    """Refuse a System Area Code or System Identification Code outside [0, 255]
+    (AsterixError naming it)."""
     for name, v in (("SAC", sac), ("SIC", sic)):
         if not (isinstance(v, (int, np.integer)) and 0 <= v <= 255):
             raise AsterixError(f"I048/010, I034/010: {name} must be an integer in [0, 255], "
@@ -234,7 +236,7 @@ def _cat048_bytes(time_s, range_m, azimuth_rad, *, sac, sic, start_sod_s, snr_db
     (clutter + 2 doppler, :func:`_cat048_layout`; None: every record is plain, without
     FSPEC octet 3) and the width of a plain record."""
     if not (type(sac) is int and type(sic) is int and 0 <= sac <= 255 and 0 <= sic <= 255):
-        _check_sac_sic(sac, sic)
+        check_sac_sic(sac, sic)
         sac, sic = int(sac), int(sic)
     r = np.asarray(range_m, dtype=float)
     az = np.asarray(azimuth_rad, dtype=float)
@@ -628,7 +630,7 @@ def encode_cat034_sector_crossings(
     list[bytes]
         Data blocks; records are FSPEC 0xF0 (010, 000, 030, 020), 8 octets each.
     """
-    _check_sac_sic(sac, sic)
+    check_sac_sic(sac, sic)
     if len(time_s) <= _CROSSINGS_IN_PYTHON:
         # the usual call (one boundary per plots message, a few after quiet sectors): plain
         # integers beat numpy's per-call overhead here; same rounding (half to even) and
@@ -701,7 +703,7 @@ def encode_cat034_north_marker(
     I034/050 says: COM NOGO 0 (operational), RDPC 0, no overload, time source valid; PSR
     channel A, no overload. I034/060: no reduction step, STC map 0, POL as given.
     """
-    _check_sac_sic(sac, sic)
+    check_sac_sic(sac, sic)
     if not 0.0 < rotation_period_s < 65536 / PERIOD_PER_S:
         raise AsterixError(f"I034/041: rotation period must be in (0, 512) s, got "
                            f"{rotation_period_s}")

@@ -36,7 +36,7 @@ from shipradar.sim.adapters.asterix.encode import (
     TOD_PER_DAY,
     TOD_PER_S,
     AsterixError,
-    _check_sac_sic,
+    check_sac_sic,
     encode_cat034_north_marker,
     encode_cat034_sector_crossings,
     encode_cat048,
@@ -262,7 +262,7 @@ class AsterixStream:
             # a recording made before SAC/SIC existed: the scenario's default rule
             taken = {c for s, c in self._codes if s == 0}
             pair = (0, next(c for c in range(1, 256) if c not in taken))
-        _check_sac_sic(pair[0], pair[1])
+        check_sac_sic(pair[0], pair[1])
         sac, sic = int(pair[0]), int(pair[1])
         other = self._codes.get((sac, sic))
         if other is not None and other != sensor:

@@ -162,7 +162,7 @@ class RunData:
                                                        else 0.0))
 
 
-class _Collect:
+class Collect:
     """Accumulates the simulator's messages into :class:`RunData` (from a recording or in
     process: the same code)."""
 
@@ -228,7 +228,9 @@ class _Collect:
             radars=radars, inputs=inputs, coverage=coverage)
 
 
-def _add_tracks(data: RunData, frames_or_payload, recv_s: float, *, decoded: bool) -> None:
+def add_tracks(data: RunData, frames_or_payload, recv_s: float, *, decoded: bool) -> None:
+    """Append one tracker message (its frames, or its payload when ``decoded``) received at
+    ``recv_s`` [s] to ``data``."""
     try:
         msg = (tracks_from_payload(frames_or_payload, recv_s) if decoded
                else check_tracks(frames_or_payload, recv_s))
@@ -254,7 +256,7 @@ def load_run(run_dir: str | Path) -> RunData:
     if timing.exists():
         with np.load(timing) as z:
             sent, recv = z["stream_sent_s"], z["tracks_recv_s"]
-    col = _Collect()
+    col = Collect()
     with read_recording(run_dir / "stream.rec") as reader:
         for i, (_t, frames) in enumerate(reader):
             topic, t, p = decode(frames)
@@ -265,6 +267,6 @@ def load_run(run_dir: str | Path) -> RunData:
     if path.exists():
         with read_recording(path) as reader:
             for i, (_t, frames) in enumerate(reader):
-                _add_tracks(data, frames, math.nan if recv is None or i >= recv.size
+                add_tracks(data, frames, math.nan if recv is None or i >= recv.size
                             else float(recv[i]), decoded=False)
     return data

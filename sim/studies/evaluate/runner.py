@@ -47,7 +47,7 @@ import zmq
 from shipradar.sim.stream.bus import Bus, Publisher, PublisherStalledError, RunInterrupted
 from shipradar.sim.stream.protocol import ProtocolError, decode, encode
 from shipradar.sim.stream.recording import Recorder
-from shipradar.sim.studies.evaluate.data import TOPIC_TRACKS, RunData, _add_tracks, _Collect
+from shipradar.sim.studies.evaluate.data import TOPIC_TRACKS, Collect, RunData, add_tracks
 
 __all__ = ["RunSpec", "fill_placeholders", "free_port", "run_tracker_command",
            "run_tracker_object"]
@@ -301,7 +301,7 @@ def run_tracker_command(spec: RunSpec) -> dict[str, Any]:
     finally:
         if bus is not None:
             bus.close(linger_ms=0)
-        elif publisher is not None and not publisher._closed:
+        elif publisher is not None:  # close is idempotent
             publisher.close(linger_ms=0)
         if proc is not None:
             exited = proc.poll()
@@ -384,7 +384,7 @@ class _InProcessSink:
     of truth; ``meta``, ``plots`` and ``eos`` go to the tracker, whose answers are checked
     and kept with their wall times. ``record`` encodes everything for the run directory."""
 
-    def __init__(self, tracker, collect: _Collect, data_tracks: RunData, t0: float,
+    def __init__(self, tracker, collect: Collect, data_tracks: RunData, t0: float,
                  record: bool):
         self.tracker = tracker
         self.collect = collect
@@ -410,7 +410,7 @@ class _InProcessSink:
             return
         for p in (out if isinstance(out, (list, tuple)) else [out]):
             recv = time.perf_counter() - self.t0
-            _add_tracks(self.data, p, recv, decoded=True)
+            add_tracks(self.data, p, recv, decoded=True)
             if self.tracks is not None:
                 try:
                     self.tracks.append((float(p.get("time_s", t)), encode(TOPIC_TRACKS,
@@ -456,7 +456,7 @@ def run_tracker_object(scenario, tracker, *, seed: int, duration_s: float | None
     info: dict[str, Any] = {"seed": seed, "status": "ok", "error": None,
                             "scenario": scenario.name, "duration_s": duration,
                             "tracker": type(obj).__name__}
-    collect = _Collect()
+    collect = Collect()
     holder = RunData(info, [], "", np.zeros(0), np.zeros((0, 0, 3)), np.zeros((0, 0, 3)),
                      np.zeros((0, 0), bool), {}, {})
     t0 = time.perf_counter()
