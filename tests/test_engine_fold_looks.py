@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from shipradar.sim.engine.simulation import _RadarProcess
+from shipradar.sim.engine.simulation import RadarProcess
 
 
 def _sequential(last, calls, scan0, count):
@@ -29,7 +29,7 @@ def _sequential(last, calls, scan0, count):
 
 
 def _process(k, last):
-    proc = _RadarProcess.__new__(_RadarProcess)
+    proc = RadarProcess.__new__(RadarProcess)
     proc._last_look = last
     proc._looks = []
     return proc

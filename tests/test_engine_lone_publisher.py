@@ -18,7 +18,7 @@ from tests.helpers import ROOT, KeepingPublisher
 def _count_resumptions(monkeypatch):
     """Count the radar process's resumptions (its timeouts)."""
     seen = []
-    run = engine._RadarProcess.run
+    run = engine.RadarProcess.run
 
     def counted(self, env, per_sector=True):
         gen = run(self, env, per_sector)
@@ -31,7 +31,7 @@ def _count_resumptions(monkeypatch):
             seen.append(event)
             value = yield event
 
-    monkeypatch.setattr(engine._RadarProcess, "run", counted)
+    monkeypatch.setattr(engine.RadarProcess, "run", counted)
     return seen
 
 

@@ -1,4 +1,4 @@
-"""The ends of scan are computed per block of revolutions (``_RadarProcess._scan_end_states``:
+"""The ends of scan are computed per block of revolutions (``RadarProcess._scan_end_states``:
 states, coverage and last looks of every end of scan of a block at once) and give what one
 computation per end of scan gives; a radar alone on the batched path resumes once per
 revolution and gives SimPy's recording byte for byte."""

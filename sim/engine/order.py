@@ -2,7 +2,7 @@
 
 :class:`simpy.Environment` runs its events from a heap ordered by (time, priority, event
 id), the id counting events in the order they were *scheduled*. A radar's process
-(:meth:`shipradar.sim.engine.simulation._RadarProcess.run`) only ever waits on a timeout,
+(:meth:`shipradar.sim.engine.simulation.RadarProcess.run`) only ever waits on a timeout,
 which it schedules while it runs: its initialisation is an URGENT event at t = 0 (one per
 process, in the order the processes are started), and each resumption schedules the next one
 (a NORMAL event, with the next id) at ``now + delay``. So the order in which the radars

@@ -81,6 +81,7 @@ from shipradar.sim.world.trajectory import trajectories
 
 if TYPE_CHECKING:
     from shipradar.sim.dwell.look import LookResults
+    from shipradar.sim.dwell.model import DwellModel
 
 #: Plot origin codes on the truth topic.
 ORIGIN_TARGET, ORIGIN_NOISE, ORIGIN_SEA_CLUTTER = 0, 1, 2
@@ -183,14 +184,14 @@ class Simulation:
         self.jammers = trajectories(scenario.jammers, self.frame, hold=True)
         self.tables = tables if tables is not None else load_scene_tables(scenario)
         seeds = np.random.SeedSequence(self.seed).spawn(len(scenario.radars()))
-        self.radars = []
+        self.radars: list[RadarProcess] = []
         for k, (platform, radar) in enumerate(scenario.radars()):
             if only_radars is not None and k not in only_radars:
                 continue
             p_index = scenario.platforms.index(platform)
             model = DwellModel(scenario, platform, radar, self.tables, self.target_set)
             rng = np.random.default_rng(seeds[k])
-            process = _RadarProcess(self, p_index, platform, radar, model, rng)
+            process = RadarProcess(self, p_index, platform, radar, model, rng)
             process.index = k
             self.radars.append(process)
 
@@ -279,7 +280,7 @@ class Simulation:
         return self.bus is None or takes_batches(self.bus)
 
     def _run_batched(self, bar: Any = None) -> None:
-        """Run the radars' processes (:meth:`_RadarProcess.run`, the same code as under
+        """Run the radars' processes (:meth:`RadarProcess.run`, the same code as under
         SimPy) on a plain clock, and hand the recording a scan's messages at once.
 
         The processes resume in SimPy's own order (:class:`shipradar.sim.engine.order.EventOrder`:
@@ -440,7 +441,7 @@ class Simulation:
 
 
 class _Clock(Protocol):
-    """What :meth:`_RadarProcess.run` asks of its clock: a :class:`simpy.Environment`, or the
+    """What :meth:`RadarProcess.run` asks of its clock: a :class:`simpy.Environment`, or the
     batched path's :class:`_FastClock`."""
 
     @property
@@ -458,7 +459,7 @@ def _is_plain_bus(bus: Any) -> bool:
 
 
 class _FastClock:
-    """What :meth:`_RadarProcess.run` asks of a SimPy environment (``now``, ``timeout``),
+    """What :meth:`RadarProcess.run` asks of a SimPy environment (``now``, ``timeout``),
     for :meth:`Simulation._run_batched`: a timeout is its delay, the loop does the rest."""
 
     __slots__ = ("now",)
@@ -499,11 +500,16 @@ class _BatchingBus:
         self.bus.flush(fsync)
 
 
-class _RadarProcess:
-    """One rotating radar: sector events, beam crossings, false alarms, frames."""
+class RadarProcess:
+    """One rotating radar: sector events, beam crossings, false alarms, frames.
+
+    Public (issue 31): :attr:`Simulation.radars` lists them, and a study observes a radar's
+    looks or sets its common random numbers through its :attr:`model`'s public, typed
+    ``on_look`` and ``look_uniforms`` before the run.
+    """
 
     def __init__(self, sim: Simulation, p_index: int, platform: Platform, radar: Radar,
-                 model, rng: np.random.Generator):
+                 model: DwellModel, rng: np.random.Generator):
         self.sim = sim
         self.p_index = p_index
         self.platform = platform
@@ -1433,7 +1439,7 @@ class _RadarProcess:
 
 @dataclass
 class _ScanEnds:
-    """The ends of a block's revolutions (:meth:`_RadarProcess._scan_end_states`): revolution
+    """The ends of a block's revolutions (:meth:`RadarProcess._scan_end_states`): revolution
     ``scan0 + j`` ends at ``t[j]`` [s]."""
 
     scan0: int
@@ -1445,7 +1451,7 @@ class _ScanEnds:
     lon: list[float]
     #: the ``truth[targets]`` columns, revolution j in rows j k:(j + 1) k; None without targets
     columns: dict[str, np.ndarray] | None
-    #: their messages (:meth:`_RadarProcess._frame_ends`)
+    #: their messages (:meth:`RadarProcess._frame_ends`)
     targets: Slices | None = None
     #: the bodies of each revolution's ``eos`` and ``truth[targets]`` and the next scan's
     #: ``meta`` items of its scan and antenna state, for a bus that takes frames
@@ -1477,7 +1483,7 @@ _RANGE_PROFILES: dict[int, tuple[weakref.ref, np.ndarray, np.ndarray, float]] = 
 @dataclass
 class _Revolution:
     """One revolution's ``plots`` and ``truth[plots]`` messages framed ahead
-    (:meth:`_RadarProcess._frame_block`), one pair per non-empty sector, in sector order."""
+    (:meth:`RadarProcess._frame_block`), one pair per non-empty sector, in sector order."""
 
     #: bodies (for a bus that takes frames) or payloads
     encoded: bool
