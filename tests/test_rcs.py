@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from shipradar.sensors import rcs
@@ -84,14 +84,16 @@ def test_receding_climbs_and_dives_use_the_true_angle_off_the_nose(los, vel, psi
     vel=st.lists(st.floats(-1e3, 1e3), min_size=3, max_size=3),
     ratio=st.floats(1.0, 50.0),
 )
+@example(los=[943.0, 282.375, 282.375], vel=[943.0, 282.375, 282.375], ratio=38.0)  # tail-on
 def test_missile_rcs_is_15_at_the_angle_between_velocity_and_radar(los, vel, ratio):
     """Any geometry, receding, climbing, diving or crossing: σ is [15] at the angle between
-    the velocity and the direction to the radar (a dot product), as an RCS table reads it."""
+    the velocity and the direction to the radar (from the vectors alone), as an RCS table
+    reads it."""
     los, vel = np.array(los), np.array(vel)
     if np.linalg.norm(los) < 1.0 or np.linalg.norm(vel) < 1e-3:
         return
-    cos_psi = np.dot(vel, -los) / (np.linalg.norm(vel) * np.linalg.norm(los))
-    psi = np.arccos(np.clip(cos_psi, -1.0, 1.0))
+    # atan2 of the cross and dot products: well conditioned at 0 and π (arccos is not)
+    psi = np.arctan2(np.linalg.norm(np.cross(vel, -los)), np.dot(vel, -los))
     theta, phi = rcs.aspect_angles(los, vel)
     diameter = 0.3
     length = ratio * diameter
