@@ -33,6 +33,7 @@ from opendis.dis7 import (
     EntityID,
     EntityStatePdu,
     EntityType,
+    EulerAngles,
     FirePdu,
     RemoveEntityPdu,
     StartResumePdu,
@@ -69,6 +70,14 @@ def offset(east_m: float, north_m: float) -> tuple[float, float]:
             lon0 + math.degrees(east_m / (6_388_000.0 * math.cos(math.radians(lat0)))))
 
 
+def orientation(lat: float, lon: float, heading_deg: float) -> EulerAngles:
+    """DIS Euler angles (psi, theta; phi 0) [rad] of a level body heading ``heading_deg``
+    (true north, clockwise) at lat/lon [deg]: its x axis in ECEF."""
+    h = math.radians(heading_deg)
+    x, y, z = enu_to_ecef_vector(lat, lon, math.sin(h), math.cos(h), 0.0)
+    return EulerAngles(math.atan2(y, x), -math.asin(max(-1.0, min(1.0, z))), 0.0)
+
+
 def entity_state(exercise: int, number: int, kind: tuple[int, ...], marking: str,
                  lat: float, lon: float, h: float, vel_enu, acc_enu, algorithm: int,
                  appearance: int = 0) -> bytes:
@@ -79,6 +88,9 @@ def entity_state(exercise: int, number: int, kind: tuple[int, ...], marking: str
     pdu.entityType = EntityType(*kind)
     pdu.entityLocation = Vector3Double(*geodetic_to_ecef(lat, lon, h))
     pdu.entityLinearVelocity = Vector3Float(*enu_to_ecef_vector(lat, lon, *vel_enu))
+    # the body heads along its horizontal velocity (north when at rest)
+    pdu.entityOrientation = orientation(
+        lat, lon, math.degrees(math.atan2(vel_enu[0], vel_enu[1])) % 360.0)
     pdu.deadReckoningParameters.deadReckoningAlgorithm = algorithm
     pdu.deadReckoningParameters.entityLinearAcceleration = Vector3Float(
         *enu_to_ecef_vector(lat, lon, *acc_enu))

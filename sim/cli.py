@@ -300,6 +300,9 @@ def _check_entities(args, s) -> None:
     several processes); a recording runs in fast mode; the scene's targets come from it."""
     dis = getattr(args, "dis", None)
     spec = getattr(args, "entities", None)
+    if dis is None and getattr(args, "dis_wait_start", False):
+        raise BadInput("--dis-wait-start: waits for a DIS Start/Resume PDU, so it needs "
+                       "--dis udp://ADDRESS:PORT")
     if dis is not None:
         from shipradar.sim.adapters.dis import parse_dis_url
 
@@ -404,7 +407,8 @@ def cmd_run(args) -> int:
             entities = DisReceiver(args.dis, LocalFrame(s.origin), exercise_id=args.dis_exercise,
                                    site_app=args.dis_address,
                                    queue_size=(s.external or External()).queue_size,
-                                   allow_remote=args.allow_remote)
+                                   allow_remote=args.allow_remote,
+                                   wait_start=args.dis_wait_start)
         elif args.entities is not None:
             from shipradar.sim.stream.entities import entity_source
             from shipradar.sim.world.scenario import External
@@ -829,6 +833,9 @@ def _add_run(sub: _Subcommands) -> None:
                    help="this radar's DIS site and application numbers, for Start/Resume and "
                         "Stop/Freeze PDUs addressed to it (those addressed to all apply "
                         "anyway)")
+    r.add_argument("--dis-wait-start", action="store_true",
+                   help="hold the run's start until a Start/Resume PDU addressed to this "
+                        "radar (--dis-site-app) or to all: the simulation manager starts it")
     r.add_argument("--entities", metavar="ENDPOINT|RECORDING", default=None,
                    help="targets from a live ZeroMQ feed (topic entities; the run is paced "
                         "to the wall clock) or the entities of a recording (fast mode, any "

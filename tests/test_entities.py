@@ -270,3 +270,127 @@ def test_cli_resimulates_a_recording_in_fast_mode(tmp_path):
     assert proc.returncode == 0, proc.stderr
     summary = json.loads(proc.stdout.strip().splitlines()[-1])
     assert summary["live"]["entities"] == 1 and summary["target_plots"] >= 3
+
+
+def test_truth_flags_targets_outside_the_envelope():
+    """``truth[targets].outside_envelope``: true where an active entity is above
+    ``external.max_altitude_m`` or farther than ``max_range_m`` from the origin (computed here
+    from the dead-reckoned positions), false elsewhere and for inactive ones; the summary
+    counts the updates outside. Without a live source the key is absent."""
+    ext = {"max_altitude_m": 500.0, "max_range_m": 20_000.0}
+    scenario = parse_scenario(_scene(external=ext))
+
+    class Once:
+        endpoint = "test"
+
+        def __init__(self):
+            # low and near (inside); high (800 m); far (25 km); climbing from 200 m at
+            # 100 m/s, out through 500 m at t = 3 s
+            self.rows = [_rows(["in", "high", "far", "climb"], [0.0] * 4,
+                               [[0, 8e3, 10], [0, 9e3, 800], [0, 25e3, 0], [3e3, 8e3, 200]],
+                               [[0, 5, 0], [0, 0, 0], [0, 0, 0], [0, 0, 100.0]])]
+
+        def drain(self, now):
+            out, self.rows = self.rows, []
+            return out
+
+        def stats(self):
+            return {}
+
+    bus = CaptureBus()
+    summary = Simulation(scenario, bus=bus, entities=Once()).run()
+    assert summary["live"]["outside_envelope"] == 2  # high and far at their one update
+    truth = [(t, p) for top, t, p in bus.messages
+             if top == protocol.TOPIC_TRUTH and p["kind"] == "targets"]
+    assert len(truth) >= 3
+    for _, p in truth:
+        up = np.asarray(p["up_m"])
+        ground = np.hypot(p["east_m"], p["north_m"])
+        want = np.asarray(p["active"]) & ((up > ext["max_altitude_m"])
+                                          | (ground > ext["max_range_m"]))
+        assert np.asarray(p["outside_envelope"]).tolist() == want.tolist()
+        assert list(p["outside_envelope"][:3]) == [False, True, True]
+        assert p["outside_envelope"][3] == (200 + 100 * p["time_s"] > 500)
+    assert {bool(p["outside_envelope"][3]) for _, p in truth} == {False, True}
+    # the run's own targets (no live source): no such key
+    d = _scene(targets=[{"id": "t", "rcs": {"type": "constant", "sigma_m2": 1},
+                         "waypoints": [{"east_m": 0, "north_m": 5000}]}])
+    bus = CaptureBus()
+    Simulation(parse_scenario(d), bus=bus).run()
+    assert all("outside_envelope" not in p for top, _, p in bus.messages
+               if top == protocol.TOPIC_TRUTH and p["kind"] == "targets")
+
+
+# ------------------------------------------------------------------ evaluate on a live session
+def _growing_recording(tmp_path):
+    """A scene with no targets of its own and the recording of a run fed in-process: a ship
+    from t = 0 and a second from t = 2.5 s (the target list grows)."""
+    d = _scene(duration_s=6.0)
+    path = tmp_path / "live.yaml"
+    path.write_text(yaml.safe_dump(d))
+    rec = tmp_path / "live.rec"
+
+    class Two:
+        endpoint = "test"
+
+        def __init__(self):
+            self.sent = 0
+
+        def drain(self, now):
+            out = []
+            if self.sent == 0:
+                out.append(_rows(["ship-1"], [0.0], [[3000, 8000, 0]], [[0, 5, 0]],
+                                 type=["ship"]))
+                self.sent = 1
+            if self.sent == 1 and now >= 2.5:
+                out.append(_rows(["ship-2"], [now], [[-4000, 9000, 0]], [[3, 0, 0]],
+                                 type=["ship"]))
+                self.sent = 2
+            return out
+
+        def stats(self):
+            return {}
+
+    with Bus(None, Recorder(rec)) as bus:
+        Simulation(parse_scenario(d), bus=bus, entities=Two()).run()
+    return path, rec
+
+
+@pytest.mark.slow
+def test_evaluate_scores_a_tracker_on_an_entities_recording(tmp_path):
+    """``shipradar evaluate --entities RECORDING``: the harness runs the scene with the
+    recording's entities moving the targets (another seed), the oracle tracker (which
+    publishes the truth) scores GOSPA 0 and SIAP completeness 1 with both ships counted,
+    the second one only from its first state on."""
+    from shipradar.sim.studies.evaluate.data import load_run
+    from shipradar.sim.studies.evaluate.metrics import score_run
+    from shipradar.sim.studies.evaluate.runner import RunSpec, run_tracker_command
+
+    from .helpers import ROOT
+
+    path, rec = _growing_recording(tmp_path)
+    trackers = ROOT / "tests" / "evaluate_trackers.py"
+    spec = RunSpec(str(path), 11, str(tmp_path / "run"),
+                   f"{sys.executable} {trackers} oracle {{plots}} {{tracks}}",
+                   entities=str(rec))
+    info = run_tracker_command(spec)
+    assert info["status"] == "ok", info
+    assert info["summary"]["live"]["entities"] == 2
+    data = load_run(spec.run_dir)
+    assert data.target_ids == ["ship-1", "ship-2"]
+    assert data.truth_active[0].tolist() == [True, False]
+    assert data.truth_active[-1].tolist() == [True, True]
+    s = score_run(data)
+    assert s.run["gospa"] == 0.0 and s.run["siap_completeness"] == 1.0
+
+
+def test_evaluate_cli_refuses_a_recording_without_entities(tmp_path):
+    path = tmp_path / "s.yaml"
+    path.write_text(yaml.safe_dump(_scene()))
+    rec = tmp_path / "empty.rec"
+    with Recorder(rec):
+        pass
+    proc = _cli("evaluate", str(path), "--tracker", "x {plots} {tracks}", "--entities",
+                str(rec), "--quiet")
+    assert proc.returncode == 2, proc.stderr
+    assert "no entities topic" in proc.stderr and proc.stderr.strip().count("\n") == 0

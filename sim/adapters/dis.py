@@ -37,6 +37,7 @@ dropped and counted.
 from __future__ import annotations
 
 import ipaddress
+import math
 import socket
 import struct
 import threading
@@ -132,6 +133,25 @@ def ecef_state_to_local(frame: LocalFrame, xyz: np.ndarray, vel: np.ndarray,
     return pos, carry(vel), carry(acc)
 
 
+def ecef_heading_deg(xyz: np.ndarray, psi_theta: np.ndarray) -> np.ndarray:
+    """Heading [deg, true north, clockwise, in [0, 360)] of bodies at ECEF points (N, 3) [m]
+    whose DIS orientation is (psi, theta) (N, 2) [rad] (IEEE 1278.1 Euler angles from the
+    ECEF axes: yaw psi about z, then pitch theta about the new y): the body x axis,
+    (cos θ cos ψ, cos θ sin ψ, −sin θ), on the local east and north.  North is taken at the
+    geocentric latitude: for a level body the heading differs from the geodetic one by a
+    factor cos δ (δ ≤ 0.19°) on one component, at most (1 − cos δ)/2 rad = 1.6e-4 deg.
+    NaN where ψ or θ is."""
+    psi, theta = psi_theta[:, 0], psi_theta[:, 1]
+    x = np.column_stack([np.cos(theta) * np.cos(psi), np.cos(theta) * np.sin(psi),
+                         -np.sin(theta)])
+    lon = np.arctan2(xyz[:, 1], xyz[:, 0])
+    lat = np.arctan2(xyz[:, 2], np.hypot(xyz[:, 0], xyz[:, 1]))
+    east = x[:, 1] * np.cos(lon) - x[:, 0] * np.sin(lon)
+    north = (-np.sin(lat) * (np.cos(lon) * x[:, 0] + np.sin(lon) * x[:, 1])
+             + np.cos(lat) * x[:, 2])
+    return np.degrees(np.arctan2(east, north)) % 360.0
+
+
 class DisReceiver:
     """Entities from DIS Entity State PDUs received on a UDP socket (module notes).
 
@@ -143,12 +163,14 @@ class DisReceiver:
     site_app : the radar's own (site, application), for simulation management PDUs
     queue_size : rows held until the run takes them
     allow_remote : accept a non-loopback address
+    wait_start : hold the run's start until a Start/Resume PDU addressed to it (the
+        testbed's simulation manager starts the radar); entity states are received meanwhile
     timeout_s : how long an entity lives without a PDU [s] (the Remove rows' dead reckoning)
     """
 
     def __init__(self, url: str, frame: LocalFrame, *, exercise_id: int | None = None,
                  site_app: tuple[int, int] | None = None, queue_size: int = 100_000,
-                 allow_remote: bool = False):
+                 allow_remote: bool = False, wait_start: bool = False):
         try:
             from opendis.PduFactory import createPdu
         except ImportError:
@@ -189,6 +211,13 @@ class DisReceiver:
         self.frozen = threading.Event()
         self._running = threading.Event()  # the converse of frozen, to wait on
         self._running.set()
+        #: the run waits for a Start/Resume before it starts (:meth:`wait_for_start`)
+        self.wait_start = bool(wait_start)
+        #: wall seconds the run's start waited for Start/Resume
+        self.start_wait_s = 0.0
+        if self.wait_start:
+            self.frozen.set()
+            self._running.clear()
         #: set at the first Entity State PDU received (tests wait on it)
         self.first_entity = threading.Event()
         self._stop = threading.Event()
@@ -274,6 +303,8 @@ class DisReceiver:
         drp = pdu.deadReckoningParameters
         algo = int(drp.deadReckoningAlgorithm)
         xyz = np.array([[loc.x, loc.y, loc.z]], float)
+        o = pdu.entityOrientation
+        orient = (float(o.psi), float(o.theta))
         vel = np.array([[v.x, v.y, v.z]], float)
         a = drp.entityLinearAcceleration
         acc = np.array([[a.x, a.y, a.z]], float)
@@ -302,7 +333,8 @@ class DisReceiver:
         self.entity_states += 1
         # kept in ECEF: the frame's conversion is done for a whole batch at once (drain)
         self._last[eid] = (received, xyz[0], vel[0], acc[0])
-        self._queue_row(eid, received, xyz[0], vel[0], acc[0], type_text, name or eid, active)
+        self._queue_row(eid, received, xyz[0], vel[0], acc[0], type_text, name or eid, active,
+                        orient)
         self.first_entity.set()
 
     def _remove(self, pdu: Any, received: float) -> None:
@@ -323,35 +355,53 @@ class DisReceiver:
         if not gone:
             self._count(self.ignored, "remove of an unknown entity")
 
-    def _queue_row(self, eid, received, pos, vel, acc, type_text, name, active) -> None:
+    def _queue_row(self, eid, received, pos, vel, acc, type_text, name, active,
+                   orient=(math.nan, math.nan)) -> None:
         if self._queued >= self.queue_size:
             self.dropped += 1
             return
         self._rows.append({"id": eid, "received": received, "pos": pos, "vel": vel,
-                           "acc": acc, "type": type_text, "name": name, "active": active})
+                           "acc": acc, "type": type_text, "name": name, "active": active,
+                           "orient": orient})
         self._queued += 1
 
     # ------------------------------------------------------------------ the run's side
     def drain(self, now_s: float) -> list[dict[str, Any]]:
         """The states received since the last call, as one ``entities`` payload (times: the
-        simulated time of arrival, ``now_s`` less the wall time since)."""
+        simulated time of arrival, ``now_s`` less the wall time since; negative before the run's
+        start)."""
         with self._lock:
             rows, self._rows, self._queued = self._rows, [], 0
         if not rows:
             return []
         wall = time.monotonic()
         # the ECEF states of the batch into the local frame at once (vectorized)
-        pos, vel, acc = ecef_state_to_local(self.frame, np.array([r["pos"] for r in rows]),
-                                            np.array([r["vel"] for r in rows]),
+        xyz = np.array([r["pos"] for r in rows])
+        pos, vel, acc = ecef_state_to_local(self.frame, xyz, np.array([r["vel"] for r in rows]),
                                             np.array([r["acc"] for r in rows]))
+        heading = ecef_heading_deg(xyz, np.array([r["orient"] for r in rows]))
         return [{
             "source": "dis", "id": [r["id"] for r in rows],
-            "time_s": np.array([max(0.0, now_s - (wall - r["received"])) for r in rows]),
+            # received before the run started (--dis-wait-start, or before the first
+            # revolution): a negative time, so the latest of them stands (not all at 0)
+            "time_s": np.array([now_s - (wall - r["received"]) for r in rows]),
             "east_m": pos[:, 0], "north_m": pos[:, 1], "up_m": pos[:, 2],
             "v_east_mps": vel[:, 0], "v_north_mps": vel[:, 1], "v_up_mps": vel[:, 2],
             "a_east_mps2": acc[:, 0], "a_north_mps2": acc[:, 1], "a_up_mps2": acc[:, 2],
             "type": [r["type"] for r in rows], "name": [r["name"] for r in rows],
-            "active": np.array([r["active"] for r in rows], bool)}]
+            "active": np.array([r["active"] for r in rows], bool), "heading_deg": heading}]
+
+    def wait_for_start(self) -> float:
+        """Block until a Start/Resume PDU addressed to this radar (or to all) when the
+        receiver was made with ``wait_start`` (at once otherwise, or after :meth:`close`);
+        returns the wall seconds waited (``start_wait_s``)."""
+        if not self.wait_start:
+            return 0.0
+        t0 = time.monotonic()
+        while not self._running.wait(0.05) and not self._stop.is_set():
+            pass
+        self.start_wait_s = time.monotonic() - t0
+        return self.start_wait_s
 
     def wait_while_frozen(self) -> float:
         """Block while a Stop/Freeze holds the clock (until Start/Resume, or close());
@@ -372,6 +422,8 @@ class DisReceiver:
                     "bad_datagrams": dict(sorted(self.bad.items())),
                     "ignored": dict(sorted(self.ignored.items())),
                     "freezes": self.freezes, "frozen_s": round(self.frozen_s, 3),
+                    **({"start_wait_s": round(self.start_wait_s, 3)} if self.wait_start
+                       else {}),
                     "cpu_s": round(self.cpu_s, 3)}
 
     def close(self) -> None:

@@ -180,7 +180,15 @@ class Simulation:
         else:
             self.target_set = scene_targets(scenario)
         self.targets = self.target_set.trajectories(self.frame)
-        self.platforms = trajectories(scenario.platforms, self.frame, hold=True)
+        self.platforms: Any = trajectories(scenario.platforms, self.frame, hold=True)
+        #: the entities the platforms ride on (``platforms[].dis_entity``), None without
+        self.ridden = None
+        riders = {i: p.dis_entity for i, p in enumerate(scenario.platforms) if p.dis_entity}
+        if riders and entities is not None:
+            from shipradar.sim.world.live import LiveTargets, RiddenPlatforms
+
+            self.ridden = LiveTargets(scenario)
+            self.platforms = RiddenPlatforms(self.platforms, self.ridden, riders)
         self.jammers = trajectories(scenario.jammers, self.frame, hold=True)
         self.tables = tables if tables is not None else load_scene_tables(scenario)
         seeds = np.random.SeedSequence(self.seed).spawn(len(scenario.radars()))
@@ -230,6 +238,9 @@ class Simulation:
             self._emit_end()
             return out
         batched = self.batched
+        if self.live_source is not None and hasattr(self.live_source, "wait_for_start"):
+            # DIS --dis-wait-start: the simulation manager's Start/Resume starts the clock
+            self.live_source.wait_for_start()
         env = None if batched else self._environment()
         bar = None
         if self.progress:
@@ -371,23 +382,37 @@ class Simulation:
         if self.live_source is None or now <= self._live_refreshed:
             return
         from shipradar.sim.stream.schema import ENTITIES
-        from shipradar.sim.world.live import check_states
+        from shipradar.sim.world.live import check_states, take_rows
 
         self._live_refreshed = now
         live = self.target_set
+        ridden = self.ridden
+        riders = set(self.platforms.riders.values()) if ridden is not None else set()
         used = []
         for payload in self.live_source.drain(now):
             rows = check_states(payload, live.bad)
-            if rows is not None and rows["id"]:
-                applied = live.apply(rows, now)
-                if applied["id"]:
-                    used.append(applied)
+            if rows is None or not rows["id"]:
+                continue
+            parts = [(live, rows)]
+            if ridden is not None:  # the platforms' own entities are not targets
+                own = np.array([i in riders for i in rows["id"]], dtype=np.bool_)
+                if own.any():
+                    parts = [(live, take_rows(rows, ~own)), (ridden, take_rows(rows, own))]
+            for store, part in parts:
+                if part["id"]:
+                    applied = store.apply(part, now)
+                    if applied["id"]:
+                        used.append(applied)
         if not used or self.bus is None:
             return
         cols: dict[str, Any] = {"id": [i for u in used for i in u["id"]]}
         for key in ENTITIES.columns("n"):
             if ENTITIES[key].required or key == "active":
                 cols[key] = np.concatenate([u[key] for u in used])
+            elif key == "heading_deg":  # NaN (unknown) where a batch has none
+                if any(key in u for u in used):
+                    cols[key] = np.concatenate([u.get(key, np.full(len(u["id"]), np.nan))
+                                                for u in used])
             elif any(key in u for u in used):  # accelerations: 0 where a batch has none
                 cols[key] = np.concatenate([u.get(key, np.zeros(len(u["id"]))) for u in used])
         for key in ("type", "name"):
@@ -712,7 +737,7 @@ class RadarProcess:
         if lat is None or lon is None:
             la, lo, _ = self.sim.frame.geodetic(pos[None, :])
             lat, lon = float(la[0]), float(lo[0])
-        heading = self._heading(float(vel[0]), float(vel[1]))
+        heading = self._heading(float(vel[0]), float(vel[1]), t)
         up = float(pos[2] + self.radar.antenna_height_m)
         return {
             "position": {"lat_deg": lat, "lon_deg": lon, "alt_m": up,
@@ -721,9 +746,14 @@ class RadarProcess:
             "heading_deg": heading,
         }
 
-    def _heading(self, v_east: float, v_north: float) -> float:
+    def _heading(self, v_east: float, v_north: float, t: float | None = None) -> float:
         """The platform's heading [deg] from its velocity east and north [m/s], true north,
-        clockwise; the scenario's heading when it stands still."""
+        clockwise; the scenario's heading when it stands still; a platform riding on a DIS
+        entity (``dis_entity``) has its entity's heading at ``t`` [s] when the PDUs gave one."""
+        if self.sim.ridden is not None and t is not None:
+            h = self.sim.platforms.heading_deg(self.p_index, t)
+            if h is not None:
+                return h
         if math.hypot(v_east, v_north) > 0:
             return math.degrees(math.atan2(v_east, v_north)) % 360.0
         return self.platform.heading_deg
@@ -734,7 +764,8 @@ class RadarProcess:
         same numbers), for :func:`shipradar.sim.stream.protocol.float_rows`."""
         pos, vel = ends.pos, ends.vel
         up = pos[:, 2] + self.radar.antenna_height_m
-        heading = [self._heading(e, n) for e, n in vel[:, :2].tolist()]
+        heading = [self._heading(e, n, tt) for (e, n), tt in zip(vel[:, :2].tolist(), ends.t,
+                                                                 strict=True)]
         first = self.antenna_state(ends.t[0], pos[0], vel[0], ends.lat[0], ends.lon[0])
         return first, [np.asarray(ends.lat), np.asarray(ends.lon), up, pos[:, 0], pos[:, 1],
                        up, vel[:, 0], vel[:, 1], vel[:, 2], np.asarray(heading)]
@@ -1331,6 +1362,8 @@ class RadarProcess:
                        "v_up_mps": tvel[:, 2], "a_east_mps2": tacc[:, 0],
                        "a_north_mps2": tacc[:, 1], "a_up_mps2": tacc[:, 2],
                        "active": active, "in_coverage": cover}
+            if sim.live_source is not None:  # beyond the declared envelope (docs/external.md)
+                columns["outside_envelope"] = active & sim.targets.outside(tpos)
         self._ends = _ScanEnds(scan0, t.tolist(), pos, vel, lat.tolist(), lon.tolist(),
                                columns)
 

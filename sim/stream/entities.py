@@ -133,7 +133,8 @@ class EntityFeed:
                 except (TypeError, ValueError):
                     out.append(payload)  # counted by the checker
                     continue
-                a[np.isnan(a)] = max(0.0, now_s - (wall - received))
+                # before the run's start: negative, so the latest state stands
+                a[np.isnan(a)] = now_s - (wall - received)
                 payload = {**payload, "time_s": a}
             out.append(payload)
         return out

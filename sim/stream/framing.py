@@ -43,7 +43,11 @@ class Slices:
 
     def __post_init__(self) -> None:
         keys = (*self.fixed[0], *self.columns) if self.fixed else tuple(self.columns)
-        if keys != self.payload.keys:
+        # the declared keys in order; an optional one may be left out (none missing that is
+        # required, none unknown)
+        declared = tuple(f.key for f in self.payload.fields
+                         if f.key in keys or f.required)
+        if keys != declared:
             raise SchemaError(f"{self.payload.name}: framed keys {keys}, declared "
                               f"{self.payload.keys}")
 
@@ -136,7 +140,8 @@ def target_columns(sensor: str, scans: Sequence[int], times: Sequence[float],
     times : Sequence[float]
         Their ends [s] (each message's ``time_s``).
     columns : Mapping[str, numpy.ndarray]
-        Every column of :data:`shipradar.sim.stream.schema.TRUTH_TARGETS`, ``targets`` rows
+        The columns of :data:`shipradar.sim.stream.schema.TRUTH_TARGETS` (every required one;
+        an optional one left out is not sent), ``targets`` rows
         per revolution: revolution ``j``'s in rows ``j targets:(j + 1) targets``.
     targets : int
         Targets of the scene.
@@ -146,4 +151,5 @@ def target_columns(sensor: str, scans: Sequence[int], times: Sequence[float],
     fixed = _fixed(TRUTH_TARGETS, sensor=[sensor] * len(scans), scan=scans,
                    kind=["targets"] * len(scans), time_s=times)
     return Slices(TRUTH_TARGETS, fixed, np.arange(len(scans)),
-                  {key: (columns[key], start, stop) for key in TRUTH_TARGETS.columns()})
+                  {key: (columns[key], start, stop) for key in TRUTH_TARGETS.columns()
+                   if key in columns})

@@ -359,6 +359,11 @@ TRUTH_TARGETS = Payload(b"truth", "targets", (
        "any look", required=False),
     _f("interference", "int8[k]", "", "dominant interference of that look, index into "
        "`meta.interference_codes`; −1 before any look", required=False),
+    _f("outside_envelope", "bool[k]", "", "with a live source only (`--dis`, `--entities`): "
+       "the target is active and outside the scenario's `external` envelope at `time_s` "
+       "(higher than `max_altitude_m`, or farther than `max_range_m` from the origin when "
+       "set); its looks there use the documented fallback (the two-ray model beyond the PE "
+       "table). Absent without a live source", required=False),
 ))
 
 #: ``tracks``: a tracker's tracks (published by the tracker, not by shipradar).
@@ -402,6 +407,10 @@ ENTITIES = Payload(TOPIC_ENTITIES, None, (
        "`entity_types[].match` for its RCS and Swerling case", required=False),
     _f("name", "list[str]", "", "display name (`meta.target_names`)", required=False),
     _f("active", "bool[n]", "", "false: the entity leaves at `time_s` (its last state)",
+       required=False),
+    _f("heading_deg", "float64[n]", "deg", "heading of the entity's body (true north, "
+       "clockwise; DIS: from the Entity State PDU's orientation); used for a platform that "
+       "rides on the entity (`platforms[].dis_entity`); NaN or absent: unknown",
        required=False),
 ))
 

@@ -38,7 +38,7 @@ from shipradar.sim.world.scenario import (
     swerling_case,
 )
 
-__all__ = ["MACH_30_MPS", "LiveTargets", "check_states"]
+__all__ = ["MACH_30_MPS", "LiveTargets", "RiddenPlatforms", "check_states", "take_rows"]
 
 #: Fastest entity accepted [m/s]: Mach 30 at sea level (343 m/s); faster is "absurd".
 MACH_30_MPS = 30.0 * 343.0
@@ -133,6 +133,27 @@ def check_states(payload: dict[str, Any], bad: dict[str, int]) -> dict[str, Any]
     for key in ("type", "name"):
         out[key] = [extra[key][i] for i in keep]
     out["active"] = active[keep]
+    head = payload.get("heading_deg")
+    if head is not None:
+        try:
+            h = np.asarray(head, dtype=float).reshape(-1)
+        except (TypeError, ValueError):
+            h = np.full(n, np.nan)
+        out["heading_deg"] = h[keep] if h.size == n else np.full(keep.size, np.nan)
+    return out
+
+
+def take_rows(rows: dict[str, Any], mask: np.ndarray) -> dict[str, Any]:
+    """The rows of checked ``rows`` (:func:`check_states`) where ``mask`` is true."""
+    idx = np.flatnonzero(mask)
+    out: dict[str, Any] = {}
+    for key, v in rows.items():
+        if isinstance(v, np.ndarray):
+            out[key] = v[idx]
+        elif isinstance(v, list):
+            out[key] = [v[i] for i in idx]
+        else:
+            out[key] = v
     return out
 
 
@@ -171,6 +192,7 @@ class LiveTargets:
         self._a = np.zeros((cap, 3))
         self._t_first = np.zeros(cap)
         self._t_end = np.full(cap, np.inf)
+        self._h = np.full(cap, np.nan)
         self._default = ConstantRcs(sigma_m2=DEFAULT_ENTITY_RCS_M2)
 
     # ------------------------------------------------------------------ catalogue
@@ -222,6 +244,7 @@ class LiveTargets:
         self._t_u, self._p, self._v = more(self._t_u, 0.0), more(self._p, 0.0), more(self._v, 0.0)
         self._a = more(self._a, 0.0)
         self._t_first, self._t_end = more(self._t_first, 0.0), more(self._t_end, np.inf)
+        self._h = more(self._h, np.nan)
 
     def apply(self, rows: dict[str, Any], now: float) -> dict[str, Any]:
         """Apply checked rows (:func:`check_states`), in order; NaN times are ``now``.
@@ -270,17 +293,14 @@ class LiveTargets:
             self._v[rr] = state[ii, 3:6]
             self._a[rr] = state[ii, 6:]
             self._t_end[rr] = np.where(np.asarray(rows["active"], bool)[ii], np.inf, t[ii])
+            if "heading_deg" in rows:
+                self._h[rr] = rows["heading_deg"][ii]
         if new_sw:
             self.swerling = np.concatenate([self.swerling, np.asarray(new_sw, np.int8)])
         self.updates += len(applied)
-        ext = self.external
         if applied:
-            idx = np.asarray(applied)
-            reach = ext.max_range_m
-            over = state[idx, 2] > ext.max_altitude_m
-            if reach is not None:
-                over |= np.hypot(state[idx, 0], state[idx, 1]) > reach
-            self.outside_envelope += int(np.count_nonzero(over))
+            self.outside_envelope += int(np.count_nonzero(
+                self.outside(state[np.asarray(applied), :3])))
         keep = np.asarray(applied, dtype=np.int64)
         out: dict[str, Any] = {"id": [rows["id"][i] for i in applied],
                                "time_s": t[keep]}
@@ -296,7 +316,20 @@ class LiveTargets:
         if any(x is not None for x in names):
             out["name"] = ["" if x is None else str(x) for x in names]
         out["active"] = np.asarray(rows["active"], bool)[keep]
+        if "heading_deg" in rows:
+            out["heading_deg"] = rows["heading_deg"][keep]
         return out
+
+    def outside(self, pos: np.ndarray) -> np.ndarray:
+        """Whether positions (M, 3) [m] are outside the declared envelope (``external``):
+        higher than ``max_altitude_m``, or farther than ``max_range_m`` from the origin
+        (ground range) when it is set.  NaN positions are not outside."""
+        ext = self.external
+        with np.errstate(invalid="ignore"):
+            over = pos[:, 2] > ext.max_altitude_m
+            if ext.max_range_m is not None:
+                over |= np.hypot(pos[:, 0], pos[:, 1]) > ext.max_range_m
+        return over
 
     # ------------------------------------------------------------------ motion
     @property
@@ -343,3 +376,72 @@ class LiveTargets:
         return {"entities": self.n, "updates": self.updates,
                 "outside_envelope": self.outside_envelope,
                 "bad": dict(sorted(self.bad.items()))}
+
+
+class RiddenPlatforms:
+    """Platforms' motion where some ride on live entities (``platforms[].dis_entity``).
+
+    Wraps the platforms' own trajectories (:class:`shipradar.sim.world.kinematics
+    .Trajectories`, same interface): a riding platform follows its entity's dead-reckoned
+    state (:class:`LiveTargets` ``entities``, a list of its own, so the radar's ship is not
+    one of its targets) from the entity's first state on, its waypoints before; after the
+    entity leaves (timeout, deactivated) it holds the entity's last position, at rest.
+
+    Parameters
+    ----------
+    base : the platforms' own trajectories
+    entities : the riding platforms' entities
+    riders : platform index -> entity id
+    """
+
+    def __init__(self, base: Any, entities: LiveTargets, riders: dict[int, str]):
+        self.base = base
+        self.entities = entities
+        self.riders = dict(riders)
+        self.count = base.count
+        #: a ridden platform manoeuvres (its velocity changes with every state)
+        self.linear = False
+
+    def _row(self, p: int) -> int | None:
+        eid = self.riders.get(p)
+        return None if eid is None else self.entities._row.get(eid)
+
+    @property
+    def max_speed(self) -> np.ndarray:
+        """The platforms' bound on horizontal speed [m/s]: a ridden one's the larger of its
+        waypoints' and its entity's (:attr:`LiveTargets.max_speed`)."""
+        out = np.array(self.base.max_speed, dtype=float)
+        bound = self.entities.max_speed
+        for p in self.riders:
+            r = self._row(p)
+            if r is not None:
+                out[p] = max(out[p], float(bound[r]))
+        return out
+
+    def state(self, t: Any, rows: Any = None):
+        """Positions, velocities, activity at ``t`` of platforms ``rows`` (as the base)."""
+        pos, vel, active = self.base.state(t, rows)
+        rows_a = np.broadcast_to(np.asarray(rows), np.shape(t)).reshape(-1)
+        t_a = np.broadcast_to(np.asarray(t, dtype=float), np.shape(t)).reshape(-1)
+        for p in self.riders:
+            r = self._row(p)
+            if r is None:
+                continue
+            sel = np.flatnonzero((rows_a == p) & (t_a >= self.entities.t_first[r]))
+            if not sel.size:
+                continue
+            last = float(self.entities.t_last[r])
+            tt = np.minimum(t_a[sel], last)
+            epos, evel, _ = self.entities.state(tt, np.full(sel.size, r))
+            evel[t_a[sel] > last] = 0.0
+            pos[sel], vel[sel] = epos, evel
+        return pos, vel, active
+
+    def heading_deg(self, p: int, t: float) -> float | None:
+        """Platform ``p``'s heading at ``t`` [deg] from its entity's latest state (its
+        orientation), None when it has none (not riding, not yet seen, no orientation)."""
+        r = self._row(p)
+        if r is None or t < float(self.entities.t_first[r]):
+            return None
+        h = float(self.entities._h[r])
+        return None if not np.isfinite(h) else h % 360.0

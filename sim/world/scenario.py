@@ -915,6 +915,11 @@ class Platform(_Model):
         description="manoeuvres sailed in order from the (single) waypoint; empty: waypoints")
     smoothing: Smoothing | None = Field(
         None, description="round waypoint corners with coordinated turns; None: jumps")
+    dis_entity: str | None = Field(
+        None, pattern=r"^[0-9]{1,5}:[0-9]{1,5}:[0-9]{1,5}$",
+        description="ride on this DIS entity (SITE:APP:ENTITY): with a live source its "
+        "position, velocity and heading come from the entity's states (dead-reckoned at each "
+        "crossing); the waypoints until its first state")
 
     _check_times = field_validator("waypoints")(
         classmethod(lambda cls, v: _check_waypoint_times(v)))

@@ -47,6 +47,10 @@ def _arguments(p: argparse.ArgumentParser) -> None:
                    help="after a run, quiet time before the tracker is stopped [s]")
     p.add_argument("--realtime", type=float, default=None, metavar="FACTOR",
                    help="pace the runs at FACTOR x the wall clock (latency without queueing)")
+    p.add_argument("--entities", default=None, metavar="RECORDING",
+                   help="move the targets by the entities topic of a recording (a live "
+                        "--dis or --entities session, re-simulated with each run's seed); "
+                        "docs/external.md")
     p.add_argument("--c", type=float, default=2000.0, help="GOSPA cut-off c [m]")
     p.add_argument("--p", type=float, default=1.0, help="GOSPA order p")
     p.add_argument("--siap-threshold", type=float, default=None,
@@ -138,12 +142,30 @@ def main(args: argparse.Namespace) -> int:
     if args.runs < 1:
         print(f"evaluate: --runs must be >= 1, got {args.runs}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    if args.entities is not None:
+        from shipradar.sim.stream.entities import EntitiesError, RecordedEntities
+        from shipradar.sim.world.scenario import load_scenario
+
+        try:
+            if not Path(args.entities).is_file():
+                raise EntitiesError(f"--entities: {args.entities!r} is not a recording file")
+            if RecordedEntities(args.entities).messages == 0:
+                raise EntitiesError(f"--entities: {args.entities!r} has no entities topic "
+                                    f"(record a run with --dis or --entities)")
+            s = load_scenario(scenario)
+            if s.targets or s.traffic:
+                raise EntitiesError(f"--entities: the targets come from {args.entities!r}; "
+                                    f"the scene must have no targets: or traffic: of its own")
+        except EntitiesError as exc:
+            print(f"evaluate: {exc}", file=sys.stderr)
+            return EXIT_BAD_INPUT
     summary = study.run_study(
         scenario, args.tracker, runs=args.runs, out=args.out, seed=args.seed,
         duration_s=args.duration, config=config, scheduler=args.scheduler,
         workers=args.workers, wait_timeout_s=args.wait_timeout,
         stall_timeout_s=args.stall_timeout, drain_s=args.drain, realtime=args.realtime,
-        progress=not args.quiet and sys.stderr.isatty(), report=not args.no_report)
+        progress=not args.quiet and sys.stderr.isatty(), report=not args.no_report,
+        entities=args.entities)
     _print_summary(summary)
     for f in summary["failed"]:
         print(f"run seed {f['seed']} failed: {f['error']} (exit code {f['exit_code']})",

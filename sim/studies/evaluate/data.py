@@ -192,6 +192,9 @@ class Collect:
                 self.target_ids = list(p.get("target_ids", []))
                 if self.ref is None:
                     self.ref = s
+            elif len(p.get("target_ids", ())) > len(self.target_ids):
+                # a live source's targets: the list grows, earlier ids keep their index
+                self.target_ids = list(p["target_ids"])
         elif topic == EOS.topic:
             q = p["position"]
             self.eos.setdefault(p["sensor"], []).append(
@@ -209,7 +212,24 @@ class Collect:
                 self.active.append(np.asarray(p["active"], bool))
 
     def result(self, info: dict[str, Any]) -> RunData:
-        k = len(self.target_ids)
+        # a list that grew (a live source): earlier rows padded, a target not yet there is
+        # inactive (NaN state, not in coverage)
+        k = max([len(self.target_ids), *(len(a) for a in self.active)])
+
+        def pad(rows: list[np.ndarray], fill: Any) -> list[np.ndarray]:
+            out = []
+            for a in rows:
+                if len(a) < k:
+                    a = np.concatenate([a, np.full((k - len(a), *a.shape[1:]), fill,
+                                                   dtype=a.dtype)])
+                out.append(a)
+            return out
+
+        self.pos, self.vel = pad(self.pos, np.nan), pad(self.vel, np.nan)
+        self.active = pad(self.active, False)
+        self.coverage = {s: list(zip([a for a, _ in v], pad([c for _, c in v], False),
+                                     strict=True))
+                         for s, v in self.coverage.items()}
         radars = {}
         for s, r in self.radars.items():
             eos = self.eos.get(s, [])

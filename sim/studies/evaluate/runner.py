@@ -83,6 +83,9 @@ class RunSpec:
     realtime : float or None
         Run paced at this multiple of the wall clock (latency then measures the tracker, not
         its input queue); None: as fast as the tracker reads.
+    entities : str or None
+        A recording whose ``entities`` topic moves the targets (a live session re-simulated,
+        ``shipradar run --entities RECORDING``); None: the scenario's own targets.
     """
 
     scenario: str
@@ -94,6 +97,16 @@ class RunSpec:
     stall_timeout_s: float = 120.0
     drain_s: float = 5.0
     realtime: float | None = None
+    entities: str | None = None
+
+
+def _entities(path: str | None):
+    """The recorded entities of ``path`` (a fresh reader per run), or None."""
+    if path is None:
+        return None
+    from shipradar.sim.stream.entities import RecordedEntities
+
+    return RecordedEntities(path)
 
 
 def free_port(kind: int = socket.SOCK_STREAM) -> int:
@@ -277,7 +290,8 @@ def run_tracker_command(spec: RunSpec) -> dict[str, Any]:
 
             sim_bus = AsterixBus(bus, UdpSender(asterix_ep), 1400)
         sim = Simulation(scenario, bus=sim_bus, seed=spec.seed, duration_s=duration,
-                         realtime=spec.realtime, tables=tables)
+                         realtime=spec.realtime, tables=tables,
+                         entities=_entities(spec.entities))
         t_run = time.perf_counter()
         try:
             summary = sim.run()
@@ -428,7 +442,8 @@ class _InProcessSink:
 
 
 def run_tracker_object(scenario, tracker, *, seed: int, duration_s: float | None = None,
-                       tables=None, run_dir: str | Path | None = None) -> RunData:
+                       tables=None, run_dir: str | Path | None = None,
+                       entities: str | None = None) -> RunData:
     """One seeded run with an in-process tracker object; the run's data, ready to score.
 
     Parameters
@@ -446,6 +461,8 @@ def run_tracker_object(scenario, tracker, *, seed: int, duration_s: float | None
     tables : SceneTables or None
     run_dir : path or None
         Also write the run directory (recordings, timings, ``run.json``) for ``--rescore``.
+    entities : str or None
+        A recording whose ``entities`` move the targets (:class:`RunSpec`).
     """
     from shipradar.sim.engine.simulation import Simulation
 
@@ -461,7 +478,8 @@ def run_tracker_object(scenario, tracker, *, seed: int, duration_s: float | None
                      np.zeros((0, 0), bool), {}, {})
     t0 = time.perf_counter()
     sink = _InProcessSink(obj, collect, holder, t0, record=run_dir is not None)
-    sim = Simulation(scenario, bus=sink, seed=seed, duration_s=duration, tables=tables)
+    sim = Simulation(scenario, bus=sink, seed=seed, duration_s=duration, tables=tables,
+                     entities=_entities(entities))
     try:
         info["summary"] = sim.run()
     except Exception as exc:  # the tracker's failure is the run's result

@@ -90,7 +90,7 @@ def run_study(scenario: str, tracker: str, *, runs: int, out: str | Path,
               workers: int | None = None, client=None, wait_timeout_s: float = 30.0,
               stall_timeout_s: float = 120.0, drain_s: float = 5.0,
               realtime: float | None = None, progress: bool = False,
-              report: bool = True) -> dict[str, Any]:
+              report: bool = True, entities: str | None = None) -> dict[str, Any]:
     """Run and score a study (module docstring); returns :func:`write_results`' summary.
 
     Parameters
@@ -115,6 +115,9 @@ def run_study(scenario: str, tracker: str, *, runs: int, out: str | Path,
         Workers of the ``LocalCluster`` (default: the cores).
     client : distributed.Client or None
         An open client to use instead.
+    entities : str or None
+        A recording whose ``entities`` topic moves the targets in every run (a live session
+        re-simulated with each seed, ``shipradar run --entities RECORDING``).
     """
     from distributed import Client, as_completed
 
@@ -134,10 +137,14 @@ def run_study(scenario: str, tracker: str, *, runs: int, out: str | Path,
     settings = {"scenario": scenario, "scenario_name": s.name, "tracker": tracker,
                 "runs": runs, "seed": base, "seeds": seeds, "duration_s": duration_s,
                 "metrics": config.as_dict(), "realtime": realtime}
+    if entities is not None:
+        entities = str(Path(entities).resolve())
+        settings["entities"] = entities
     (out / "study.json").write_text(json.dumps(settings, indent=1))
     specs = [RunSpec(scenario, sd, str((out / "runs" / run_dir_name(sd)).resolve()), tracker,
                      duration_s=duration_s, wait_timeout_s=wait_timeout_s,
-                     stall_timeout_s=stall_timeout_s, drain_s=drain_s, realtime=realtime)
+                     stall_timeout_s=stall_timeout_s, drain_s=drain_s, realtime=realtime,
+                     entities=entities)
              for sd in seeds]
     cluster = own = None
     t0 = time.perf_counter()
