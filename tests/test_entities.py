@@ -372,7 +372,8 @@ def test_evaluate_scores_a_tracker_on_an_entities_recording(tmp_path):
     trackers = ROOT / "tests" / "evaluate_trackers.py"
     spec = RunSpec(str(path), 11, str(tmp_path / "run"),
                    f"{sys.executable} {trackers} oracle {{plots}} {{tracks}}",
-                   entities=str(rec))
+                   entities=str(rec), realtime=3.0)  # paced: a 30 ms run would end before
+    # the harness's tracks subscription has joined the oracle's freshly bound publisher
     info = run_tracker_command(spec)
     assert info["status"] == "ok", info
     assert info["summary"]["live"]["entities"] == 2
