@@ -64,6 +64,7 @@ ALL = 0xFFFF
 #: Entity State PDU appearance: bit 23 is the state, 1 = deactivated (IEEE 1278.1 / SISO-REF-010).
 DEACTIVATED_BIT = 1 << 23
 _PDU_ESPDU, _PDU_REMOVE, _PDU_START, _PDU_STOP = 1, 12, 13, 14
+_ZERO3 = (0.0, 0.0, 0.0)
 #: Step of the central difference that carries an ECEF vector into the local frame [s].
 _JACOBIAN_STEP = 0.5
 
@@ -197,7 +198,8 @@ class DisReceiver:
         self._lock = threading.Lock()
         self._rows: list[dict[str, Any]] = []
         self._queued = 0
-        self._last: dict[str, tuple[float, np.ndarray, np.ndarray, np.ndarray]] = {}
+        self._last: dict[str, tuple[float, tuple[float, ...], tuple[float, ...],
+                                    tuple[float, ...]]] = {}
         self.datagrams = 0
         self.entity_states = 0
         self.dropped = 0
@@ -302,26 +304,28 @@ class DisReceiver:
         loc, v = pdu.entityLocation, pdu.entityLinearVelocity
         drp = pdu.deadReckoningParameters
         algo = int(drp.deadReckoningAlgorithm)
-        xyz = np.array([[loc.x, loc.y, loc.z]], float)
-        o = pdu.entityOrientation
-        orient = (float(o.psi), float(o.theta))
-        vel = np.array([[v.x, v.y, v.z]], float)
         a = drp.entityLinearAcceleration
-        acc = np.array([[a.x, a.y, a.z]], float)
-        if not (np.isfinite(xyz).all() and np.isfinite(vel).all() and np.isfinite(acc).all()):
+        # one PDU's numbers as Python floats: numpy's per-call overhead on 3-vectors was a
+        # quarter of the receive path (benchmarks/dis_load.py); arrays are made per batch
+        xyz = (float(loc.x), float(loc.y), float(loc.z))
+        vel = (float(v.x), float(v.y), float(v.z))
+        acc = (float(a.x), float(a.y), float(a.z))
+        if not all(map(math.isfinite, (*xyz, *vel, *acc))):
             self._count(self.bad, "not finite")
             return
-        if float(np.linalg.norm(xyz)) < 6.0e6:  # the earth's centre, not a place on it
+        if math.hypot(*xyz) < 6.0e6:  # the earth's centre, not a place on it
             self._count(self.bad, "inside the earth")
             return
+        o = pdu.entityOrientation
+        orient = (float(o.psi), float(o.theta))
         if algo == 1:
-            vel[:] = 0.0
+            vel = _ZERO3
         if algo not in (4, 5):
             if algo in (6, 7, 8, 9):
                 self._count(self.ignored, "body-axis dead reckoning taken as FPW")
             elif algo not in (1, 2, 3):
                 self._count(self.ignored, f"dead reckoning algorithm {algo} taken as FPW")
-            acc[:] = 0.0
+            acc = _ZERO3
         try:
             name = pdu.marking.charactersString().strip()
         except (UnicodeDecodeError, ValueError):
@@ -332,10 +336,10 @@ class DisReceiver:
                      f"{t.specific}:{t.extra}")
         self.entity_states += 1
         # kept in ECEF: the frame's conversion is done for a whole batch at once (drain)
-        self._last[eid] = (received, xyz[0], vel[0], acc[0])
-        self._queue_row(eid, received, xyz[0], vel[0], acc[0], type_text, name or eid, active,
-                        orient)
-        self.first_entity.set()
+        self._last[eid] = (received, xyz, vel, acc)
+        self._queue_row(eid, received, xyz, vel, acc, type_text, name or eid, active, orient)
+        if not self.first_entity.is_set():
+            self.first_entity.set()
 
     def _remove(self, pdu: Any, received: float) -> None:
         r = pdu.receivingEntityID
@@ -347,7 +351,8 @@ class DisReceiver:
             last = self._last.pop(eid, None)
             if last is None:
                 continue
-            t0, p, v, a = last  # dead-reckoned in ECEF, as DIS does, to the removal
+            t0, p3, v3, a3 = last  # dead-reckoned in ECEF, as DIS does, to the removal
+            p, v, a = np.asarray(p3), np.asarray(v3), np.asarray(a3)
             dt = received - t0
             self._queue_row(eid, received, p + v * dt + 0.5 * a * dt * dt, v + a * dt, a,
                             None, None, False)
