@@ -53,8 +53,62 @@ def _schemas() -> dict[str, dict]:
             for p in schema.PAYLOADS}
 
 
+def _keywords(node, out: set[str]) -> set[str]:
+    """Every keyword of a schema (the keys of schema objects, not of ``properties``)."""
+    if isinstance(node, dict):
+        for k, v in node.items():
+            out.add(k)
+            if k == "properties":
+                for sub in v.values():
+                    _keywords(sub, out)
+            elif isinstance(v, (dict, list)) and k not in ("enum", "const", "required",
+                                                             "default", "examples"):
+                _keywords(v, out)
+    elif isinstance(node, list):
+        for v in node:
+            _keywords(v, out)
+    return out
+
+
+def test_one_dialect_and_declared_annotations():
+    """Every file states draft-07 (AsyncAPI 3.0's JSON Schema dialect, the AsyncAPI document's
+    ``schemaFormat`` too), so a default validator picks it without guessing; every keyword
+    is the dialect's own or one of the declared annotations (a strict validator's check)."""
+    doc = yaml.safe_load((COMMITTED / contract.ASYNCAPI_FILE).read_text(encoding="utf-8"))
+    known = set(jsonschema.Draft7Validator.META_SCHEMA["properties"])
+    for name, s in _schemas().items():
+        assert s["$schema"] == contract.DIALECT
+        assert jsonschema.validators.validator_for(s) is jsonschema.Draft7Validator
+        embedded = doc["components"]["schemas"][name.replace("[", "_").replace("]", "")]
+        assert embedded["schemaFormat"] == "application/schema+json;version=draft-07"
+        assert embedded["schema"]["$schema"] == contract.DIALECT
+        unknown = _keywords(s, set()) - known - set(contract.ANNOTATIONS)
+        assert not unknown, (name, unknown)
+    assert "x-topic" in contract.ANNOTATIONS  # the keyword a strict validator first refused
+
+
+def test_version_2_keys_are_required_in_version_2(validators):
+    """``if v = 2 then required [...]``: a version-2 message lacking a key version 2 added
+    is refused, the same message as version 1 passes."""
+    validator, _ = validators[(b"eos", None)]
+    good = {"v": 2, "t": 4.0, "sensor": "r", "scan": 0, "time_s": 4.0,
+            "position": {"lat_deg": 45.0, "lon_deg": -63.0, "alt_m": 20.0, "east_m": 0.0,
+                         "north_m": 0.0, "up_m": 20.0},
+            "velocity_enu_mps": [0.0, 5.0, 0.0], "heading_deg": 0.0, "complete": True}
+    assert validator.is_valid(good)
+    lacking = {k: v for k, v in good.items() if k != "complete"}
+    assert not validator.is_valid(lacking)
+    assert validator.is_valid({**lacking, "v": 1})
+    assert not validator.is_valid({**good, "position": {"lat_deg": 45.0}})
+    for p in schema.PAYLOADS:
+        want = [f.key for f in p.fields if f.required_since == 2]
+        got = [k for c in _schemas()[p.name].get("allOf", []) for k in c["then"]["required"]]
+        assert got == want, p.name
+
+
 def test_json_schemas_are_valid_and_follow_the_schema_module():
     for name, s in _schemas().items():
+        jsonschema.Draft7Validator.check_schema(s)
         jsonschema.Draft202012Validator.check_schema(s)
         p = next(p for p in schema.PAYLOADS if p.name == name)
         assert list(s["properties"]) == ["v", "t", *p.keys]
@@ -92,7 +146,7 @@ def validators():
     out = {}
     for name, s in _schemas().items():
         p = next(p for p in schema.PAYLOADS if p.name == name)
-        out[(p.topic, p.kind)] = (jsonschema.Draft202012Validator(s), s)
+        out[(p.topic, p.kind)] = (jsonschema.validators.validator_for(s)(s), s)
     return out
 
 

@@ -3,7 +3,7 @@
 Two kinds of file, written into ``sim/stream/contract/`` and shipped in the wheel
 (``shipradar/sim/stream/contract/``, read with :func:`contract_dir`):
 
-- ``<payload>.schema.json``, one JSON Schema (draft 2020-12) per payload of
+- ``<payload>.schema.json``, one JSON Schema (draft-07, :data:`DIALECT`) per payload of
   :data:`shipradar.sim.stream.schema.PAYLOADS` (``meta``, ``plots``, ``eos``,
   ``truth-plots``, ``truth-targets``, ``tracks``): the decoded body (envelope ``v``, ``t``
   and the payload's keys) in its JSON form, that of ``shipradar tail`` and
@@ -43,7 +43,9 @@ from shipradar.sim.stream.protocol import (
 from shipradar.sim.stream.schema import PAYLOADS, Field, Payload
 
 __all__ = [
+    "ANNOTATIONS",
     "ASYNCAPI_FILE",
+    "DIALECT",
     "asyncapi_document",
     "contract_dir",
     "contract_files",
@@ -55,7 +57,13 @@ __all__ = [
 
 #: File name of the AsyncAPI document in the contract directory.
 ASYNCAPI_FILE = "asyncapi.yaml"
-_DRAFT = "https://json-schema.org/draft/2020-12/schema"
+#: The JSON Schema dialect of every file: draft-07, the one AsyncAPI 3.0 embeds
+#: (``application/schema+json;version=draft-07``); the keywords used mean the same in 2020-12.
+DIALECT = "http://json-schema.org/draft-07/schema#"
+#: Annotation keywords the schemas carry besides JSON Schema's own (no validation meaning):
+#: a strict validator is told them (ajv: ``ajv.addVocabulary(ANNOTATIONS)``, section 10).
+ANNOTATIONS: tuple[str, ...] = ("x-topic", "x-unit", "x-dtype", "x-typestr", "x-length",
+                                "x-encoding", "x-keys")
 _ID_BASE = "https://shipradar.invalid/contract/v{v}/"  # names, not a place to fetch from
 
 # JSON form of one element of a column, by numpy kind
@@ -111,6 +119,12 @@ def field_schema(field: Field) -> dict[str, Any]:
     if field.unit:
         out["x-unit"] = field.unit
     kind = field.type.strip()
+    if kind == "map" and field.key == "radar":
+        return {**_radar_schema(), **out}
+    if kind == "map" and field.keys:
+        return {"type": "object", **out,
+                "required": [k.key for k in field.keys],
+                "properties": {k.key: field_schema(k) for k in field.keys}}
     scalar = _scalar(kind)
     if scalar is not None:
         return {**scalar, **out}
@@ -137,6 +151,36 @@ def field_schema(field: Field) -> dict[str, Any]:
                      "shipradar.sim.stream.contract.field_schema does not know; extend it")
 
 
+def _inline(node: Any, defs: dict[str, Any]) -> Any:
+    """``node`` with every ``{"$ref": "#/$defs/X", ...}`` replaced by definition X (merged
+    with the ``$ref``'s sibling keys), recursively: a self-contained schema that reads the
+    same inside the AsyncAPI document; ``additionalProperties: false`` dropped."""
+    if isinstance(node, dict):
+        ref = node.get("$ref")
+        if isinstance(ref, str) and ref.startswith("#/$defs/"):
+            target = _inline(defs[ref[len("#/$defs/"):]], defs)
+            return {**target, **{k: _inline(v, defs) for k, v in node.items() if k != "$ref"}}
+        # the scenario refuses unknown keys; a message may carry new ones (section 2)
+        return {k: _inline(v, defs) for k, v in node.items()
+                if not (k == "additionalProperties" and v is False)}
+    if isinstance(node, list):
+        return [_inline(v, defs) for v in node]
+    return node
+
+
+def _radar_schema() -> dict[str, Any]:
+    """``meta.radar``: the scenario format's radar (its pydantic model, whose field names
+    carry their units and whose descriptions their meaning), as JSON Schema (serialised
+    form, nested models inlined)."""
+    from shipradar.sim.world.scenario import Radar
+
+    raw = Radar.model_json_schema(mode="serialization")
+    defs = raw.pop("$defs", {})
+    body = _inline(raw, defs)
+    body.pop("title", None)
+    return body
+
+
 def schema_file_name(payload: Payload) -> str:
     """``meta.schema.json``, ..., ``truth-plots.schema.json`` (topic and kind)."""
     return payload.name.replace("[", "-").replace("]", "") + ".schema.json"
@@ -153,7 +197,7 @@ def payload_schema(payload: Payload) -> dict[str, Any]:
     Returns
     -------
     dict
-        A draft 2020-12 JSON Schema.
+        A draft-07 JSON Schema (:data:`DIALECT`).
     """
     props: dict[str, Any] = {
         "v": {"enum": list(SUPPORTED_SCHEMA_VERSIONS),
@@ -168,7 +212,7 @@ def payload_schema(payload: Payload) -> dict[str, Any]:
         props["kind"] = {**props["kind"], "const": payload.kind}
     topic = payload.topic.decode("ascii")
     return {
-        "$schema": _DRAFT,
+        "$schema": DIALECT,
         "$id": _ID_BASE.format(v=SCHEMA_VERSION) + schema_file_name(payload),
         "title": f"shipradar {payload.name} message, schema version {SCHEMA_VERSION}",
         "description": (
@@ -182,7 +226,21 @@ def payload_schema(payload: Payload) -> dict[str, Any]:
         "required": ["v", "t", *(f.key for f in payload.fields if f.required)],
         "properties": props,
         "additionalProperties": True,
+        **_required_by_version(payload),
     }
+
+
+def _required_by_version(payload: Payload) -> dict[str, Any]:
+    """``allOf`` of one ``if v = V then required [...]`` per version whose messages carry
+    more keys than ``required`` lists (empty for a payload without such keys)."""
+    conds = []
+    for v in SUPPORTED_SCHEMA_VERSIONS:
+        keys = [f.key for f in payload.fields if not f.required and f.required_since is not None
+                and f.required_since <= v]
+        if keys:
+            conds.append({"if": {"properties": {"v": {"const": v}}, "required": ["v"]},
+                          "then": {"required": keys}})
+    return {"allOf": conds} if conds else {}
 
 
 def _ref_name(payload: Payload) -> str:
@@ -219,7 +277,7 @@ def asyncapi_document() -> dict[str, Any]:
         body = payload_schema(p)
         body.pop("$id")
         schemas[name] = {"schemaFormat": "application/schema+json;version=draft-07",
-                         "schema": _draft07(body)}
+                         "schema": body}
         messages[name] = {
             "name": name,
             "title": p.name,
@@ -288,16 +346,6 @@ def asyncapi_document() -> dict[str, Any]:
         "operations": operations,
         "components": {"schemas": schemas, "messages": messages},
     }
-
-
-def _draft07(schema: Any) -> Any:
-    """A draft 2020-12 schema of this module in draft-07 terms (AsyncAPI's JSON Schema
-    dialect): the same keywords but ``$schema``; this module uses none of 2020-12's own."""
-    if isinstance(schema, dict):
-        return {k: _draft07(v) for k, v in schema.items() if k != "$schema"}
-    if isinstance(schema, list):
-        return [_draft07(v) for v in schema]
-    return schema
 
 
 def contract_files() -> dict[str, str]:

@@ -79,6 +79,14 @@ class Field:
     required : bool
         False for a key a reader must do without (absent for some radars, or from streams
         recorded before it was added without a schema bump).
+    required_since : int or None
+        For a key that is not ``required``: the schema version from which every message of
+        its payload carries it (2 for the keys version 2 added, docs/protocol.md section 2),
+        so a reader of that version may rely on it; None when some messages of the current
+        version lack it too.
+    keys : tuple of Field
+        For a ``map``: its keys (each with type, unit and meaning; all present), when the map
+        has a fixed set of them.
     """
 
     key: str
@@ -86,6 +94,8 @@ class Field:
     unit: str
     meaning: str
     required: bool = True
+    required_since: int | None = None
+    keys: tuple[Field, ...] = ()
 
     @property
     def dtype(self) -> np.dtype | None:
@@ -192,8 +202,26 @@ class Payload:
                 raise SchemaError(f"{self.name}: {f.key!r} is {v.dtype}, expected {f.dtype}")
 
 
-def _f(key: str, type_: str, unit: str, meaning: str, required: bool = True) -> Field:
-    return Field(key, type_, unit, meaning, required)
+def _f(key: str, type_: str, unit: str, meaning: str, required: bool = True,
+       since: int | None = None, keys: tuple[Field, ...] = ()) -> Field:
+    return Field(key, type_, unit, meaning, required, since, keys)
+
+
+#: The keys of an antenna ``position`` map (``meta``, ``eos``).
+_POSITION_KEYS = (
+    _f("lat_deg", "float", "deg", "geodetic latitude, WGS-84"),
+    _f("lon_deg", "float", "deg", "geodetic longitude, WGS-84"),
+    _f("alt_m", "float", "m", "antenna height above the sea surface"),
+    _f("east_m", "float", "m", "east, local frame"),
+    _f("north_m", "float", "m", "north, local frame"),
+    _f("up_m", "float", "m", "up, local frame (equal to `alt_m`)"),
+)
+#: The keys of ``meta.origin``.
+_ORIGIN_KEYS = (
+    _f("lat_deg", "float", "deg", "geodetic latitude of the local frame's origin, WGS-84"),
+    _f("lon_deg", "float", "deg", "geodetic longitude, WGS-84"),
+    _f("alt_m", "float", "m", "altitude of the origin above the sea surface"),
+)
 
 
 _SENSOR = _f("sensor", "str", "", "radar id")
@@ -208,18 +236,21 @@ META = Payload(b"meta", None, (
     _f("platform", "str", "", "id of the platform (ship) carrying it"),
     _f("scan", "int", "", "scan number that starts now (0-based)"),
     _f("position", "map", "", "antenna position at the start of the scan (`t`), as in `eos`: "
-       "`lat_deg`, `lon_deg`, `alt_m`, `east_m`, `north_m`, `up_m` (below)", required=False),
+       "`lat_deg`, `lon_deg`, `alt_m`, `east_m`, `north_m`, `up_m` (below)",
+       required=False, since=2,
+       keys=_POSITION_KEYS),
     _f("velocity_enu_mps", "list[3] float", "m/s", "platform velocity at `t`, east/north/up",
-       required=False),
+       required=False, since=2),
     _f("heading_deg", "float", "deg", "platform heading at `t`, true north, clockwise",
-       required=False),
+       required=False, since=2),
     _f("radar", "map", "", "every radar parameter of the scenario, by its scenario name and "
        "unit (`peak_power_w`, `frequency_hz`, `beamwidth_az_deg`, `rotation_rpm`, `prf_hz`, "
        "`instrumented_range_m`, …)"),
     _f("scan_period_s", "float", "s", "antenna revolution period"),
     _f("sectors_per_scan", "int", "", "sectors (hence `plots` messages at most) per revolution"),
     _f("sector_s", "float", "s", "sector length, `scan_period_s / sectors_per_scan`: a `plots` "
-       "message at `t` holds plots with `t − sector_s < time_s ≤ t` (below)", required=False),
+       "message at `t` holds plots with `t − sector_s < time_s ≤ t` (below)",
+       required=False, since=2),
     _f("pfa", "float", "", "probability of false alarm per cell from t_fa, DREV-R-9429 [68]-[72]"),
     _f("noise_false_alarms_per_scan", "float", "", "expected noise false alarms per "
        "revolution"),
@@ -229,13 +260,20 @@ META = Payload(b"meta", None, (
     _f("clutter_false_alarm_profile", "map", "", "with the above: `range_edges_m` (float64 "
        "array, ring edges in ground range from 0, 250 m apart) and `per_scan` (float64 array, "
        "expected sea-clutter false alarms per scan in each ring): what a tracker needs for a "
-       "range-dependent clutter density", required=False),
+       "range-dependent clutter density", required=False, keys=(
+           _f("range_edges_m", "float64[r+1]", "m", "ring edges in ground range from 0"),
+           _f("per_scan", "float64[r]", "", "expected sea-clutter false alarms per scan in "
+              "each ring"))),
     _f("clutter_false_alarm_density", "map", "", "with the above, per slant-range ring and "
        "azimuth sector: `range_edges_m` (float64[r+1], ring edges in slant range, 250 m apart), "
        "`azimuth_edges_rad` (float64[a+1], 36 sectors of 10° from 0 to 2π, true north), "
        "`per_scan` "
        "(float64[r, a], expected sea-clutter false alarms per scan in each cell; the plots' "
-       "`range_m` and `azimuth_rad` fall in these cells)", required=False),
+       "`range_m` and `azimuth_rad` fall in these cells)", required=False, keys=(
+           _f("range_edges_m", "float64[r+1]", "m", "ring edges in slant range"),
+           _f("azimuth_edges_rad", "float64[a+1]", "rad", "sector edges, true north"),
+           _f("per_scan", "float64[r, a]", "", "expected sea-clutter false alarms per scan "
+              "in each cell (ring, sector)"))),
     _f("target_ids", "list[str]", "", "scenario target ids; `truth` refers to targets by index "
        "in this list. Fixed for the run, except with a live source (`--entities`): then new "
        "ids are appended at a scan's `meta` (an index never changes its id; each list extends "
@@ -248,7 +286,7 @@ META = Payload(b"meta", None, (
     _f("interference_codes", "list[str]", "", "names of the `plots` interference codes: "
        "`[\"noise\", \"clutter\", \"jamming\"]`"),
     _f("origin", "map", "", "geodetic origin of the local frame (`lat_deg`, `lon_deg`, "
-       "`alt_m`)"),
+       "`alt_m`)", keys=_ORIGIN_KEYS),
     _f("start_time", "str", "", "scenario start, ISO 8601 (simulated time 0)"),
     _f("sac_sic", "list[2] int", "", "the radar's ASTERIX data source (SAC, SIC), defaults "
        "resolved (docs/asterix.md)"),
@@ -286,12 +324,12 @@ EOS = Payload(b"eos", None, (
     _f("time_s", "float", "s", "end of scan (equal to `t`)"),
     _f("position", "map", "", "antenna position: `lat_deg`, `lon_deg` (WGS-84), `alt_m` "
        "(antenna height above the sea surface [m]) and `east_m`, `north_m`, `up_m` (local "
-       "frame [m]; `up_m` equals `alt_m`)"),
+       "frame [m]; `up_m` equals `alt_m`)", keys=_POSITION_KEYS),
     _f("velocity_enu_mps", "list[3] float", "m/s", "platform velocity, east/north/up"),
     _f("heading_deg", "float", "deg", "platform heading, true north, clockwise"),
     _f("complete", "bool", "", "true when the antenna completed the revolution; false on a "
        "run's last scan cut short by the end of the run (its plots cover the azimuths swept "
-       "until `time_s` only)", required=False),
+       "until `time_s` only)", required=False, since=2),
 ))
 
 #: ``end``: the end of the run, once, after every radar's last messages.
@@ -315,13 +353,13 @@ TRUTH_PLOTS = Payload(b"truth", "plots", (
     _f("true_range_m", "float64[n]", "m", "true slant range of the plot's strongest "
        "contributor (`target`) at the plot's `time_s`, the geometry the plot measures: "
        "`plots.range_m − true_range_m` is the range error; NaN for false alarms",
-       required=False),
+       required=False, since=2),
     _f("true_azimuth_rad", "float64[n]", "rad", "its true azimuth at `time_s`, true north "
-       "(wrap the difference into [−π, π)); NaN for false alarms", required=False),
+       "(wrap the difference into [−π, π)); NaN for false alarms", required=False, since=2),
     _f("true_range_rate_mps", "float64[n]", "m/s", "its true range rate relative to the "
        "antenna at "
        "`time_s`, positive receding, not folded (the measured one is folded by the PRF); NaN "
-       "for false alarms", required=False),
+       "for false alarms", required=False, since=2),
     _f("contrib_offsets", "int64[n+1]", "", "plot i's contributors are "
        "`contrib_targets[contrib_offsets[i]:contrib_offsets[i+1]]`"),
     _f("contrib_targets", "int32[m]", "", "target indices of every target merged into each "
@@ -350,15 +388,17 @@ TRUTH_TARGETS = Payload(b"truth", "targets", (
        "frozen values)"),
     _f("in_coverage", "bool[k]", "", "the radar `sensor` can see it at `time_s`: active, ground "
        "range from the antenna within `instrumented_range_m`, and inside the radio horizon "
-       "over the 4/3 earth, √(2 a_e h_a) + √(2 a_e h_t)", required=False),
+       "over the 4/3 earth, √(2 a_e h_a) + √(2 a_e h_t)", required=False, since=2),
     _f("look_time_s", "float64[k]", "s", "time of the target's last look by this radar (the "
-       "beam's crossing, at or before `time_s`); NaN before any look", required=False),
+       "beam's crossing, at or before `time_s`); NaN before any look",
+       required=False, since=2),
     _f("pd", "float64[k]", "", "expected probability of detection of that look (of the "
-       "contact it was in when unresolved from others); NaN before any look", required=False),
+       "contact it was in when unresolved from others); NaN before any look",
+       required=False, since=2),
     _f("snr_db", "float64[k]", "dB", "S/I of that look (DREV-R-9429 [66]-[67]); NaN before "
-       "any look", required=False),
+       "any look", required=False, since=2),
     _f("interference", "int8[k]", "", "dominant interference of that look, index into "
-       "`meta.interference_codes`; −1 before any look", required=False),
+       "`meta.interference_codes`; −1 before any look", required=False, since=2),
     _f("outside_envelope", "bool[k]", "", "with a live source only (`--dis`, `--entities`): "
        "the target is active and outside the scenario's `external` envelope at `time_s` "
        "(higher than `max_altitude_m`, or farther than `max_range_m` from the origin when "
