@@ -34,10 +34,10 @@ the sector (trapezoid rule), so η = P_fac × cells is the expected count of the
 
 Table: axes the sector centres (ground range [m], azimuth [rad]); values P_fac [-]; extras
 ``cells`` [-], ``expected_count`` (η per scan) [-] and ``weibull_a`` (sector mean) [-].  The cache
-key holds exactly what changes it: the sea-map inputs except the four that change only its
-Doppler extras, P_fa (unless HP with a user P_facmax), K_clutter, P_facmax (HP only), the
-sector counts and, only when it is not "seed", the P_fac model (so that the keys of seed-model
-tables are those of builder version 1; with a user HP P_facmax the model changes only the
+key holds exactly what changes it: the sea-map builder version and its inputs except the four
+that change only its Doppler extras, P_fa (unless HP with a user P_facmax), K_clutter, P_facmax
+(HP only), the sector counts and, only when it is not "seed", the P_fac model (so that the keys
+of seed-model tables do not move with it; with a user HP P_facmax the model changes only the
 spike S/I, yet it is kept in the key, as the table carries it to the generator).
 """
 
@@ -52,6 +52,7 @@ import numpy as np
 from shipradar.sensors import false_alarms as fa
 from shipradar.sensors import sea_clutter as sc
 from shipradar.sensors.noise import range_cell_m
+from shipradar.tables.clutter import SEA_MAP_VERSION
 from shipradar.tables.store import Table, get_or_build
 
 PFAC_MAP_NAME = "pfac_map"
@@ -97,6 +98,9 @@ def pfac_map_inputs(
     user_max = hp and p_fac_max is not None
     inputs: dict[str, Any] = {
         "sea_map": sea,
+        # the map is made from the sea map's nodes: a new sea-map builder makes a new P_fac map
+        # (version 2's near-range nodes moved the sector means while the key stood still)
+        "sea_map_version": SEA_MAP_VERSION,
         # P_fa sets [95] (VP) and the default P_facmax (HP); not a user P_facmax
         "pfa": None if user_max else float(pfa),
         "k_clutter": float(k_clutter),
