@@ -262,6 +262,26 @@ def test_asyncapi_document_uses_the_json_schemas():
             contract.schema_file_name(next(p for p in schema.PAYLOADS if p.name == name))
 
 
+def test_truth_kinds_have_a_discriminator():
+    """The two payloads of `truth` are one union told apart by `kind` (AsyncAPI Schema
+    Object's `discriminator`), each member's `kind` a `const` naming it, and the channel maps
+    each `kind` to its message."""
+    doc = yaml.safe_load((COMMITTED / contract.ASYNCAPI_FILE).read_text(encoding="utf-8"))
+    union = doc["components"]["schemas"]["truth"]
+    assert union["discriminator"] == "kind"
+    kinds = {}
+    for member in union["oneOf"]:
+        path = member["$ref"].removeprefix("#/").split("/")
+        target = doc
+        for part in path:
+            target = target[part]
+        kinds[target["properties"]["kind"]["const"]] = path[2]
+    assert kinds == {p.kind: p.name.replace("[", "_").replace("]", "")
+                     for p in schema.PAYLOADS if p.topic == b"truth"}
+    mapping = doc["channels"]["truth"]["x-discriminator"]["mapping"]
+    assert {k: v.rsplit("/", 1)[1] for k, v in mapping.items()} == kinds
+
+
 # --------------------------------------------------------------------- the run summary
 def _summary_rows() -> list[tuple[str, str]]:
     """(key, meaning) of each row of docs/protocol.md section 11's table."""

@@ -63,7 +63,7 @@ DIALECT = "http://json-schema.org/draft-07/schema#"
 #: Annotation keywords the schemas carry besides JSON Schema's own (no validation meaning):
 #: a strict validator is told them (ajv: ``ajv.addVocabulary(ANNOTATIONS)``, section 10).
 ANNOTATIONS: tuple[str, ...] = ("x-topic", "x-unit", "x-dtype", "x-typestr", "x-length",
-                                "x-encoding", "x-keys")
+                                "x-encoding")
 _ID_BASE = "https://shipradar.invalid/contract/v{v}/"  # names, not a place to fetch from
 
 # JSON form of one element of a column, by numpy kind
@@ -293,6 +293,18 @@ def asyncapi_document() -> dict[str, Any]:
             "messages": {}})
         ch["messages"][name] = {"$ref": f"#/components/messages/{name}"}
         ch["servers"] = [{"$ref": f"#/servers/{_INPUTS.get(topic, 'shipradar')}"}]
+    # one topic, several payloads (truth): a union a code generator can dispatch on, by the
+    # key whose value names the payload (AsyncAPI Schema Object's `discriminator`)
+    for topic, ch in channels.items():
+        kinds = [p for p in PAYLOADS if p.topic.decode("ascii") == topic and p.kind]
+        if len(kinds) > 1:
+            schemas[topic] = {
+                "description": f"Any message on `{topic}`: its key `kind` names which.",
+                "discriminator": "kind",
+                "oneOf": [{"$ref": f"#/components/schemas/{_ref_name(p)}/schema"}
+                          for p in kinds]}
+            ch["x-discriminator"] = {"propertyName": "kind", "mapping": {
+                p.kind: f"#/components/messages/{_ref_name(p)}" for p in kinds}}
     operations = {}
     for topic, ch in channels.items():
         action = "receive" if topic in _INPUTS else "send"
