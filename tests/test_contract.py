@@ -250,6 +250,47 @@ def test_asyncapi_document_passes_the_asyncapi_parser():
     assert report["operations"] == report["channels"]
 
 
+_AJV_JS = """
+const fs = require('fs'); const path = require('path');
+const Ajv = require('ajv').default;
+const [dir, vocabulary] = [process.argv[2], JSON.parse(process.argv[3])];
+const out = {};
+for (const f of fs.readdirSync(dir).filter(f => f.endsWith('.schema.json'))) {
+  const schema = JSON.parse(fs.readFileSync(path.join(dir, f)));
+  for (const [mode, words] of [['declared', vocabulary], ['undeclared', []]]) {
+    const ajv = new Ajv({ strict: true }); ajv.addVocabulary(words);
+    try { ajv.compile(schema); out[f + ' ' + mode] = 'ok'; }
+    catch (e) { out[f + ' ' + mode] = e.message; }
+  }
+}
+console.log(JSON.stringify(out));
+"""
+
+
+def test_ajv_strict_loads_the_schemas_with_the_declared_annotations():
+    """ajv 8 (the AsyncAPI parser's own, from npm) in strict mode with its default dialect
+    (draft-07) compiles every schema once told :data:`contract.ANNOTATIONS` (section 10),
+    and refuses them without (the setting section 10 states is needed)."""
+    where = _asyncapi_parser()
+    if where is None or not (where / "node_modules/ajv/package.json").exists():
+        message = "node/npm or ajv unavailable (npm install @asyncapi/parser)"
+        if os.environ.get("CI"):
+            pytest.fail(message)
+        pytest.skip(message)
+    (where / "ajv_strict.cjs").write_text(_AJV_JS, encoding="utf-8")
+    proc = subprocess.run(["node", str(where / "ajv_strict.cjs"), str(COMMITTED),
+                           json.dumps(list(contract.ANNOTATIONS))],
+                          capture_output=True, text=True, timeout=120, cwd=where)
+    assert proc.returncode == 0, proc.stderr
+    report = json.loads(proc.stdout)
+    assert len(report) == 2 * len(schema.PAYLOADS)
+    for name, verdict in report.items():
+        if name.endswith("declared") and not name.endswith("undeclared"):
+            assert verdict == "ok", (name, verdict)
+        else:
+            assert "unknown keyword" in verdict, (name, verdict)
+
+
 def test_asyncapi_document_uses_the_json_schemas():
     doc = yaml.safe_load((COMMITTED / contract.ASYNCAPI_FILE).read_text(encoding="utf-8"))
     assert doc["asyncapi"] == "3.0.0"

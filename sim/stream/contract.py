@@ -239,7 +239,8 @@ def _required_by_version(payload: Payload) -> dict[str, Any]:
                 and f.required_since <= v]
         if keys:
             conds.append({"if": {"properties": {"v": {"const": v}}, "required": ["v"]},
-                          "then": {"required": keys}})
+                          # the keys declared beside `required` too (ajv's strictRequired)
+                          "then": {"properties": {k: True for k in keys}, "required": keys}})
     return {"allOf": conds} if conds else {}
 
 
