@@ -155,7 +155,8 @@ def validators():
 def test_every_recorded_message_is_valid(tmp_path, validators, name, duration_s):
     """Each message of a real recording, decoded (section 5) and in its JSON form (as
     ``shipradar tail`` prints it), validates against its payload's JSON Schema; its keys are
-    all declared there, and the columns of one length (``x-length``) have one length."""
+    all declared there, and the columns of one length (``x-length``) have one length. The
+    first message of each payload, without any one key version 2 added, is refused."""
     counts: Counter[str] = Counter()
     with read_recording(_record(tmp_path, name, duration_s), strict=True) as reader:
         for _, (topic, body) in reader:
@@ -174,7 +175,13 @@ def test_every_recorded_message_is_valid(tmp_path, validators, name, duration_s)
             assert all(len(v) == 1 for v in lengths.values()), lengths
             if "n" in lengths and "n+1" in lengths:
                 assert lengths["n+1"] == {next(iter(lengths["n"])) + 1}
-            counts[f"{topic.decode()}" + (f"[{kind}]" if kind else "")] += 1
+            label = f"{topic.decode()}" + (f"[{kind}]" if kind else "")
+            if not counts[label]:  # a real version-2 message lacking a version-2 key fails
+                p = next(p for p in schema.PAYLOADS if p.name == label)
+                for key in (f.key for f in p.fields if f.required_since == 2):
+                    assert doc["v"] == 2 and key in doc, (label, key)
+                    assert not validator.is_valid({k: v for k, v in doc.items() if k != key})
+            counts[label] += 1
     # every payload shipradar sends (all but the trackers' tracks, and the entities only a
     # live run records, tests/test_entities.py) occurs
     assert set(counts) == {p.name for p in schema.PAYLOADS
