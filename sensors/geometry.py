@@ -138,7 +138,8 @@ def pulses_per_beam(
     Returns
     -------
     ndarray
-        N_n [-] (not rounded; may be below 1 for a fast scan, see :func:`shipradar.sensors.detection.effective_pulses`).
+        N_n [-] (not rounded; may be below 1 for a fast scan, see
+        :func:`shipradar.sensors.detection.effective_pulses`).
     """
     f_r = np.asarray(prf_hz, dtype=np.float64)
     _require_positive("prf_hz", f_r)

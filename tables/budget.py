@@ -417,9 +417,10 @@ def estimate_build(scenario: Scenario, *, include_pd: bool = True) -> list[Build
     """Estimated build time and size of every table the scene reads, cached or not.
 
     From the builders' own grid rules (:func:`shipradar.tables.propagation.table_grid`,
-    :func:`shipradar.tables.improvement.improvement_axes`, :func:`shipradar.tables.scene.clutter_grid_size`,
-    ...) and the cost constants :data:`COST`; nothing is built. ``include_pd``: also the exact-P_d
-    tables the run's dwell model builds (``tables build`` does not build them).
+    :func:`shipradar.tables.improvement.improvement_axes`,
+    :func:`shipradar.tables.scene.clutter_grid_size`, ...) and the cost constants :data:`COST`;
+    nothing is built. ``include_pd``: also the exact-P_d tables the run's dwell model builds
+    (``tables build`` does not build them).
     """
     from shipradar.tables.scene import table_specs
     from shipradar.tables.store import inputs_hash
