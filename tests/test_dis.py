@@ -137,19 +137,8 @@ def test_a_run_fed_frozen_and_resumed_by_dis():
     is seen, and the entity states go into the stream's entities topic."""
     port = free_port()
     rx = DisReceiver(f"udp://127.0.0.1:{port}", FRAME)
-    proc = subprocess.Popen([sys.executable, str(SENDER), "--port", str(port), "--seconds",
-                             "8", "--freeze-at", "1.5", "--resume-at", "2.5"])
-    try:
-        assert rx.first_entity.wait(30.0)
-        bus = CaptureBus()
-        sim = Simulation(parse_scenario(_scene()), bus=bus, realtime=1.0, entities=rx)
-        t0 = time.monotonic()
-        summary = sim.run()
-        wall = time.monotonic() - t0
-    finally:
-        proc.kill()
-        proc.wait(10)
-        rx.close()
+    summary, wall, bus = _run_beside_sender(
+        rx, port, ["--freeze-at", "1.5", "--resume-at", "2.5"], _scene())
     src = summary["live"]["source"]
     assert src["freezes"] == 1
     assert src["frozen_s"] == pytest.approx(1.0, abs=0.4)
@@ -167,20 +156,8 @@ def test_a_run_held_until_the_simulation_manager_starts_it():
     port = free_port()
     rx = DisReceiver(f"udp://127.0.0.1:{port}", FRAME, wait_start=True)
     assert rx.frozen.is_set()
-    proc = subprocess.Popen([sys.executable, str(SENDER), "--port", str(port), "--seconds",
-                             "8", "--resume-at", "2.0"])
-    try:
-        assert rx.first_entity.wait(30.0)
-        bus = CaptureBus()
-        sim = Simulation(parse_scenario(_scene(duration_s=2.0)), bus=bus, realtime=1.0,
-                         entities=rx)
-        t0 = time.monotonic()
-        summary = sim.run()
-        wall = time.monotonic() - t0
-    finally:
-        proc.kill()
-        proc.wait(10)
-        rx.close()
+    summary, wall, _ = _run_beside_sender(rx, port, ["--resume-at", "2.0"],
+                                          _scene(duration_s=2.0))
     src = summary["live"]["source"]
     # the first PDU reached us at most ~0.3 s after the sender started (2 s before Start)
     assert 1.0 < src["start_wait_s"] < 2.3
@@ -428,3 +405,22 @@ def test_the_demos_missile_flown_by_dis(tmp_path):
         assert abs(z.mean()) < 4.0 / np.sqrt(n)
         assert z.std() == pytest.approx(1.0, abs=5.0 / np.sqrt(2 * n))
         assert stats.kstest(z, "norm").pvalue > 1e-3
+
+
+def _run_beside_sender(rx, port, sender_args, scene):
+    """Run ``scene`` at the wall clock's pace on ``rx`` while examples/dis_sender.py (8 s,
+    ``sender_args``) sends to ``port`` from its own process: (summary, wall seconds, bus)."""
+    proc = subprocess.Popen([sys.executable, str(SENDER), "--port", str(port), "--seconds",
+                             "8", *sender_args])
+    try:
+        assert rx.first_entity.wait(30.0)
+        bus = CaptureBus()
+        sim = Simulation(parse_scenario(scene), bus=bus, realtime=1.0, entities=rx)
+        t0 = time.monotonic()
+        summary = sim.run()
+        wall = time.monotonic() - t0
+    finally:
+        proc.kill()
+        proc.wait(10)
+        rx.close()
+    return summary, wall, bus

@@ -70,22 +70,12 @@ def check_states(payload: dict[str, Any], bad: dict[str, int]) -> dict[str, Any]
         return None
     n = len(ids)
     cols: dict[str, np.ndarray] = {}
-    for key in _COLUMNS:
+    # the state columns are required; the accelerations are optional (zero when absent)
+    for key in (*_COLUMNS, *_ACCEL):
         v = payload.get(key)
-        if v is None:
+        if v is None and key in _COLUMNS:
             count(f"no {key} column")
             return None
-        try:
-            a = np.asarray(v, dtype=float).reshape(-1)
-        except (TypeError, ValueError):
-            count(f"{key} not numbers")
-            return None
-        if a.size != n:
-            count("columns of unequal lengths")
-            return None
-        cols[key] = a
-    for key in _ACCEL:
-        v = payload.get(key)
         try:
             a = np.zeros(n) if v is None else np.asarray(v, dtype=float).reshape(-1)
         except (TypeError, ValueError):
