@@ -182,10 +182,11 @@ def test_every_recorded_message_is_valid(tmp_path, validators, name, duration_s)
                     assert doc["v"] == 2 and key in doc, (label, key)
                     assert not validator.is_valid({k: v for k, v in doc.items() if k != key})
             counts[label] += 1
-    # every payload shipradar sends (all but the trackers' tracks, and the entities only a
-    # live run records, tests/test_entities.py) occurs
+    # every payload shipradar sends (all but the trackers' tracks and registration, and the
+    # entities only a live run records, tests/test_entities.py) occurs
     assert set(counts) == {p.name for p in schema.PAYLOADS
-                           if p.topic not in (schema.TOPIC_TRACKS, schema.TOPIC_ENTITIES)}, counts
+                           if p.topic not in (schema.TOPIC_TRACKS, schema.TOPIC_REGISTRATION,
+                                              schema.TOPIC_ENTITIES)}, counts
     print(f"{name}: {sum(counts.values())} messages valid {dict(counts)}")
 
 
@@ -199,6 +200,22 @@ def test_a_wrong_message_is_refused(validators):
                 {k: v for k, v in good.items() if k != "range_m"},
                 {**good, "plot_id": [1.5]}, {**good, "scan": "0"}):
         assert not validator.is_valid(bad)
+
+
+def test_registration_message_is_checked(validators):
+    """A tracker's ``registration`` message (section 4.8): the keys of
+    ``truth[sensors]``'s errors, each optional; ``sensor`` and ``time_s`` required."""
+    validator, s = validators[(schema.TOPIC_REGISTRATION, None)]
+    good = {"v": protocol.SCHEMA_VERSION, "t": 8.0, "sensor": "a", "time_s": 8.0,
+            "source": "template", "range_bias_m": 150.0, "azimuth_bias_rad": 0.005,
+            "sigma_range_bias_m": 10.0}
+    assert validator.is_valid(good)
+    assert validator.is_valid({k: v for k, v in good.items() if k != "source"})
+    for bad in ({k: v for k, v in good.items() if k != "sensor"},
+                {k: v for k, v in good.items() if k != "time_s"},
+                {**good, "range_bias_m": "150"}, {**good, "sensor": 3}):
+        assert not validator.is_valid(bad)
+    assert s["x-topic"] == "registration"
 
 
 # --------------------------------------------------------------------- the AsyncAPI document

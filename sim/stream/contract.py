@@ -5,18 +5,19 @@ Two kinds of file, written into ``sim/stream/contract/`` and shipped in the whee
 
 - ``<payload>.schema.json``, one JSON Schema (draft-07, :data:`DIALECT`) per payload of
   :data:`shipradar.sim.stream.schema.PAYLOADS` (``meta``, ``plots``, ``eos``,
-  ``truth-plots``, ``truth-targets``, ``tracks``): the decoded body (envelope ``v``, ``t``
-  and the payload's keys) in its JSON form, that of ``shipradar tail`` and
-  :func:`shipradar.sim.stream.protocol.to_jsonable` (docs/protocol.md section 5): a numpy
-  column is a list of its elements, NaN and ±inf are ``null``.  Every key carries its unit
+  ``truth-plots``, ``truth-targets``, ``tracks``, ``entities``, ``registration``): the
+  decoded body (envelope ``v``, ``t`` and the payload's keys) in its JSON form, that of
+  ``shipradar tail`` and :func:`shipradar.sim.stream.protocol.to_jsonable`
+  (docs/protocol.md section 5): a numpy column is a list of its elements, NaN and ±inf are
+  ``null``.  Every key carries its unit
   (``x-unit``) and meaning (``description``); a column also its element type on the wire
   (``x-dtype``, ``x-typestr``: msgpack extension type 1, docs/protocol.md section 3) and its
   length (``x-length``: ``n`` one per plot, ``n+1``, ``m``, ``k`` one per target), which JSON
   Schema itself cannot tie between keys.  Unknown keys are allowed (a new key does not bump
   the schema version, section 2); required ones are listed.
 - ``asyncapi.yaml``: an AsyncAPI 3.0 document of the ZeroMQ PUB/SUB topics (channels
-  ``meta``, ``plots``, ``eos``, ``truth`` and the tracker's ``tracks``), whose message
-  payloads are the same schemas.
+  ``meta``, ``plots``, ``eos``, ``truth``, the tracker's ``tracks`` and ``registration``),
+  whose message payloads are the same schemas.
 
 ``python -m shipradar.sim.stream.contract OUTDIR`` writes them (the committed copy is
 checked current by ``tests/test_contract.py``).
@@ -262,9 +263,13 @@ _CHANNELS = {
     "entities": "Entity states a program publishes on its own endpoint for shipradar to "
                 "read (`shipradar run SCENARIO --entities ENDPOINT`): an input channel. "
                 "shipradar's recording holds the updates a run used on this topic too.",
+    "registration": "A tracker's estimates of a radar's errors (range and azimuth biases, "
+                    "time-stamp offset), published by the tracker on the endpoint of its "
+                    "tracks and scored by `shipradar evaluate` against `truth[sensors]`.",
 }
-#: Channels shipradar reads (a tracker's tracks, a feed's entities) and the server of each.
-_INPUTS = {"tracks": "tracker", "entities": "feed"}
+#: Channels shipradar reads (a tracker's tracks and registration, a feed's entities) and the
+#: server of each.
+_INPUTS = {"tracks": "tracker", "registration": "tracker", "entities": "feed"}
 
 
 def asyncapi_document() -> dict[str, Any]:
@@ -346,8 +351,8 @@ def asyncapi_document() -> dict[str, Any]:
             "tracker": {
                 "host": "127.0.0.1:5557", "protocol": "zmq", "protocolVersion": "3.1",
                 "title": "a tracker's publisher",
-                "description": "The endpoint a tracker publishes its tracks on "
-                               "(`shipradar view --tracks ENDPOINT`)."},
+                "description": "The endpoint a tracker publishes its tracks (`shipradar view "
+                               "--tracks ENDPOINT`) and its registration estimates on."},
             "feed": {
                 "host": "127.0.0.1:5560", "protocol": "zmq", "protocolVersion": "3.1",
                 "title": "an entity feed's publisher",

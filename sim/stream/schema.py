@@ -2,8 +2,8 @@
 
 One :class:`Field` per key, one :class:`Payload` (fields in the order a message carries them)
 per topic and kind: :data:`META`, :data:`PLOTS`, :data:`EOS`, :data:`END`, :data:`TRUTH_PLOTS`,
-:data:`TRUTH_TARGETS`, and :data:`TRACKS` (published back by a tracker). Everything else
-derives from this module (STYLE lesson 12):
+:data:`TRUTH_TARGETS`, and :data:`TRACKS` and :data:`REGISTRATION` (published back by a
+tracker). Everything else derives from this module (STYLE lesson 12):
 
 - the engine (:mod:`shipradar.sim.engine.simulation`) builds its messages with
   :meth:`Payload.message` (keys in this order, none missing, none unknown), takes its plot
@@ -39,7 +39,9 @@ __all__ = [
     "PLOTS",
     "PLOT_COLUMNS",
     "PLOT_TRUTH_COLUMNS",
+    "REGISTRATION",
     "TOPIC_ENTITIES",
+    "TOPIC_REGISTRATION",
     "TOPIC_TRACKS",
     "TRACKS",
     "TRUTH_PLOTS",
@@ -454,9 +456,34 @@ ENTITIES = Payload(TOPIC_ENTITIES, None, (
        required=False),
 ))
 
+#: Topic of the sensor-bias estimates a tracker publishes back (scored by ``shipradar
+#: evaluate``, docs/protocol.md section 4.8).
+TOPIC_REGISTRATION: bytes = b"registration"
+
+#: ``registration``: a tracker's estimates of a radar's errors (published by the tracker on
+#: the endpoint of its ``tracks``, not by shipradar). Each estimate has the name, unit and
+#: sign of the error it estimates in ``truth[sensors]`` (reported − true).
+REGISTRATION = Payload(TOPIC_REGISTRATION, None, (
+    _f("sensor", "str", "", "the radar whose errors are estimated"),
+    _f("time_s", "float", "s", "time of the estimates, since scenario start"),
+    _f("source", "str", "", "name of the tracker (or its estimator)", required=False),
+    _f("range_bias_m", "float", "m", "estimated range bias: reported range = true (1 + "
+       "`range_scale_ppm` 10⁻⁶) + `range_bias_m` + noise", required=False),
+    _f("range_scale_ppm", "float", "ppm", "estimated range scale error", required=False),
+    _f("azimuth_bias_rad", "float", "rad", "estimated azimuth bias of the radar's plots "
+       "(reported − true azimuth, true north): scored against `truth[sensors]` "
+       "`azimuth_bias_rad` + `heading_bias_rad`, the two errors the plots cannot tell apart",
+       required=False),
+    _f("time_offset_s", "float", "s", "estimated time-stamp offset: a plot's `time_s` − its "
+       "true time", required=False),
+    _f("sigma_range_bias_m", "float", "m", "1σ of `range_bias_m`", required=False),
+    _f("sigma_azimuth_bias_rad", "float", "rad", "1σ of `azimuth_bias_rad`", required=False),
+    _f("sigma_time_offset_s", "float", "s", "1σ of `time_offset_s`", required=False),
+))
+
 #: Every payload, in the order docs/protocol.md section 4 shows their tables.
 PAYLOADS: tuple[Payload, ...] = (META, PLOTS, EOS, END, TRUTH_PLOTS, TRUTH_TARGETS, TRACKS,
-                                 ENTITIES)
+                                 ENTITIES, REGISTRATION)
 
 #: The per-plot columns the radar model makes (the ``plots`` columns but ``plot_id``, which
 #: the engine numbers when a sector is framed), in message order.
