@@ -35,11 +35,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import constants
 
-from shipradar.sensors.geometry import K_FACTOR, ROUNDED_EARTH_RADIUS_M
+from shipradar.sensors.geometry import EARTH_RADIUS_M, K_FACTOR
 
 #: Effective Earth radius of the standard atmosphere (gradient -40 N/km, ITU-R P.453) [m]:
-#: k times the rounded radius ITU-R uses (shipradar.sensors.geometry).
-EFFECTIVE_EARTH_RADIUS_M = K_FACTOR * ROUNDED_EARTH_RADIUS_M
+#: k times the mean radius (shipradar.sensors.geometry).
+EFFECTIVE_EARTH_RADIUS_M = K_FACTOR * EARTH_RADIUS_M
 #: Mean annual global reference atmosphere at sea level, ITU-R P.835-6 §1.1 / P.676 Fig. 1.
 STANDARD_TEMPERATURE_K = 288.15
 STANDARD_PRESSURE_HPA = 1013.25

@@ -20,14 +20,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import constants
 
-#: Mean earth radius [m] (IUGG mean radius R1).
+#: Mean earth radius [m] (IUGG mean radius R1), the one radius of every layer (the rounded
+#: 6371 km of ITU-R P.834/P.676 and of [24]'s 3.57 km/√m is 1.4e-6 below it).
 EARTH_RADIUS_M = 6_371_008.8
-#: The earth radius sensors/sea_clutter.py and sensors/atmosphere.py compute with [m] (the
-#: rounded 6371 km of ITU-R P.834/P.676 and of [24]'s R_H = 3.57 (√h_a + √h_e) km): 8.8 m
-#: (1.4e-6) below EARTH_RADIUS_M. Kept apart only because joining them moves the shipped
-#: recordings (issue 31 names the join; the clutter and atmosphere tables' versions change
-#: with it).
-ROUNDED_EARTH_RADIUS_M = 6_371_000.0
 #: Effective earth-radius factor k of the standard atmosphere (gradient -40 N/km; Blake 1986,
 #: sec. 6.3; ITU-R P.453): a_e = k · EARTH_RADIUS_M.
 K_FACTOR = 4.0 / 3.0

@@ -77,7 +77,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import constants
 from scipy.special import gammaln
 
-from shipradar.sensors.geometry import K_FACTOR, ROUNDED_EARTH_RADIUS_M
+from shipradar.sensors.geometry import EARTH_RADIUS_M, K_FACTOR
 
 Polarization = Literal["H", "V"]
 
@@ -263,7 +263,7 @@ def _effective_radius(k_factor: ArrayLike) -> NDArray[np.float64]:
     k = _f(k_factor)
     if np.any(k <= 0.0):
         raise ValueError("k_factor must be > 0")
-    return k * ROUNDED_EARTH_RADIUS_M
+    return k * EARTH_RADIUS_M
 
 
 def slant_range_m(
@@ -281,7 +281,7 @@ def slant_range_m(
     antenna_height_m : array_like
         Antenna height h above the sea [m], > 0.
     k_factor : array_like, optional
-        Effective earth radius factor k (a_e = k · 6371 km).
+        Effective earth radius factor k (a_e = k · ``EARTH_RADIUS_M``).
     """
     a = _effective_radius(k_factor)
     d, h = _f(ground_range_m), _f(antenna_height_m)

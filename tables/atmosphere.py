@@ -37,7 +37,7 @@ __all__ = ["TABLE_NAME", "TABLE_VERSION", "atmospheric_loss_grid", "atmospheric_
 #: Table builder name and version (bump on any change of the model in
 #: :mod:`shipradar.sensors.atmosphere`).
 TABLE_NAME = "atmospheric_loss"
-TABLE_VERSION = 2
+TABLE_VERSION = 3  # 3: the mean earth radius (issue 31)
 
 #: The ITU-R recommendation versions each itur release selects by default (P.676, P.840), so
 #: that a table's key is computed without importing itur, which imports astropy, scipy.stats

@@ -55,8 +55,8 @@ from shipradar.tables.store import Table, get_or_build
 SEA_MAP_NAME = "sea_clutter_map"
 WEATHER_MAP_NAME = "weather_clutter_map"
 #: Builder versions (part of the cache key): bump when the model changes.
-SEA_MAP_VERSION = 2
-WEATHER_MAP_VERSION = 3
+SEA_MAP_VERSION = 3  # 3: the mean earth radius (issue 31)
+WEATHER_MAP_VERSION = 4  # 4: the mean earth radius (issue 31)
 #: Default grid: 1501 ranges (100 m steps at 150 km) and 1° in azimuth.
 DEFAULT_N_RANGE = 1501
 DEFAULT_N_AZIMUTH = 360

@@ -57,7 +57,7 @@ from shipradar.tables.store import Table, get_or_build
 
 PFAC_MAP_NAME = "pfac_map"
 #: Builder version (part of the cache key): bump when the model changes.
-PFAC_MAP_VERSION = 1
+PFAC_MAP_VERSION = 1  # (the sea map's version is in its inputs: the radius of issue 31 moved it)
 #: Sea-map inputs that change only the Doppler extras (not P_sc, σ0 or a): not in the key.
 DOPPLER_ONLY_INPUTS = ("rotation_rate_rad_s", "motion_compensated", "ship_speed_mps",
                        "ship_heading_rad")

@@ -25,7 +25,7 @@ from shipradar.tables.store import Table, cache_dir, cache_path, inputs_hash, lo
 
 #: Table builder name and version (bump on any change of :func:`noise.sky_temperature_k`).
 TABLE_NAME = "sky_temperature"
-TABLE_VERSION = 1
+TABLE_VERSION = 2  # 2: the mean earth radius (issue 31)
 #: The table's second elevation node above the beam maximum [rad] (a table axis has two
 #: nodes at least; only the first, the beam maximum, is read).
 SECOND_NODE_ABOVE_RAD = 0.5

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from shipradar.sensors import doppler_filters as df
-from shipradar.sensors.geometry import ROUNDED_EARTH_RADIUS_M
+from shipradar.sensors.geometry import EARTH_RADIUS_M
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -133,7 +133,7 @@ def _scans_reference(gen, t_scan, t_end, beam, omega, rng):
     eps_r, eps_t = expected_errors(si, gen.n_pulses, gen.range_cell_m, gen.beamwidth_rad,
                                    h_range=gen.h_range, h_azimuth=gen.h_azimuth)
     d = ground
-    a = gen.k_factor * ROUNDED_EARTH_RADIUS_M
+    a = gen.k_factor * EARTH_RADIUS_M
     h = gen.antenna_height_m
     s = np.sin(d / (2.0 * a))
     slant = np.sqrt(h * h + 4.0 * a * (a + h) * s * s)
@@ -223,7 +223,7 @@ def test_slant_range_in_place_is_the_formula(shape):
     d = rng.uniform(0.0, 2e5, shape)
     for h, k in ((25.0, 4.0 / 3.0), (rng.uniform(1.0, 50.0, shape), 1.0),
                  (np.array(12.0), np.array([1.2, 4.0 / 3.0])[:1] if shape else 1.2)):
-        a = np.asarray(k, dtype=float) * ROUNDED_EARTH_RADIUS_M
+        a = np.asarray(k, dtype=float) * EARTH_RADIUS_M
         hh = np.asarray(h, dtype=float)
         s = np.sin(d / (2.0 * a))
         ref = np.sqrt(hh * hh + 4.0 * a * (a + hh) * s * s)

@@ -29,7 +29,7 @@ from shipradar.sensors import sea_clutter as sc
 from shipradar.sensors import weather_clutter as wc
 
 C = 299_792_458.0
-A_E = 4.0 / 3.0 * 6_371_000.0
+A_E = 4.0 / 3.0 * 6_371_008.8
 #: the scenario schema's frequency bounds [Hz] (sim/world/scenario.py, Radar.frequency_hz)
 F_MIN, F_MAX = 0.5e9, 100e9
 

@@ -31,7 +31,7 @@ F_HZ, H_A, BW_DEG, TAU_S, PRF_HZ, T_SCAN_S, T_FA_S, N_CH = 5.6e9, 25.0, 1.8, 0.2
     1.0, 60.0, 2
 P_T_W, GAIN_DB, L_TR_DB, EL_BW_DEG, TILT_DEG = 60e3, 28.0, 4.0, 20.0, 2.0
 WIND_MPS, WIND_FROM_DEG, W_H_M, SEA_STATE, DUCT_M = 7.0, 45.0, 0.875, 3, 10.0
-A_E = 4.0 / 3.0 * 6_371_000.0
+A_E = 4.0 / 3.0 * 6_371_008.8
 LAM = C0 / F_HZ
 C_R = C0 * TAU_S / 2.0
 TH = math.radians(BW_DEG)
@@ -55,12 +55,13 @@ def slant(d):
 
 def grazing(d):
     r = slant(d)
-    return np.arcsin(((A_E + H_A) ** 2 - A_E**2 - r**2) / (2 * A_E * r))
+    # clipped: at d -> 0 the cancellation leaves the sine a rounding above 1
+    return np.arcsin(np.clip(((A_E + H_A) ** 2 - A_E**2 - r**2) / (2 * A_E * r), -1.0, 1.0))
 
 
 def depression(d):
     r = slant(d)
-    return np.arcsin(((A_E + H_A) ** 2 + r**2 - A_E**2) / (2 * (A_E + H_A) * r))
+    return np.arcsin(np.clip(((A_E + H_A) ** 2 + r**2 - A_E**2) / (2 * (A_E + H_A) * r), -1.0, 1.0))
 
 
 def git_vv_db(psi, f_hz, phi):

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from shipradar.sensors import sea_clutter as sc
 
 C = 299_792_458.0
-A_E = 4.0 / 3.0 * 6_371_000.0
+A_E = 4.0 / 3.0 * 6_371_008.8
 
 
 # --------------------------------------------------------------------------- GIT by hand

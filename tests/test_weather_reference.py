@@ -31,7 +31,7 @@ from shipradar.tables.scene import SceneTables, table_specs
 ROOT = Path(__file__).resolve().parents[1]
 
 C = 299_792_458.0
-EARTH_RADIUS_M = 6_371_000.0
+EARTH_RADIUS_M = 6_371_008.8
 #: [42]: K = 7e-48 up to 6 GHz, 13e-48 from 35 GHz, linear between [s⁴/m].
 K_LOW, K_HIGH = 7.0e-48, 13.0e-48
 #: [45]: the seed's shear k [1/s] and turbulence σ_turb [m/s] (Nathanson).

@@ -518,7 +518,7 @@ class DwellModel:
         az_edges = np.linspace(0.0, 2.0 * math.pi, n_az + 1)
         if gen.eta.size == 0:
             return np.zeros(1), az_edges, np.zeros((0, n_az))
-        h, a_e = gen.antenna_height_m, gen.k_factor * geometry.ROUNDED_EARTH_RADIUS_M
+        h, a_e = gen.antenna_height_m, gen.k_factor * geometry.EARTH_RADIUS_M
         r_top = float(sea_clutter.slant_range_m(gen.r_max_m.max(), h, gen.k_factor))
         edges = ring_m * np.arange(int(math.ceil(r_top / ring_m)) + 1, dtype=float)
         # slant R -> ground d: R² = h² + 4 a_e (a_e + h) sin²(d / 2 a_e), inverted
