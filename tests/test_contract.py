@@ -135,7 +135,15 @@ def _ext_hook(code: int, data: bytes):
 
 def _record(tmp_path: Path, name: str, duration_s: float) -> Path:
     path = tmp_path / f"{name}.srrec"
+    name, _, errors = name.partition("+")
     s = load_scenario(ROOT / f"scenarios/{name}.yaml")
+    if errors:  # issue 33: truth[sensors], navigated meta and eos
+        d = s.model_dump(mode="json")
+        d["platforms"][0]["navigation"] = {"east_error_m": 20.0, "heading_bias_deg": {
+            "mean": 0.1, "sigma": 0.05, "correlation_time_s": 60.0}}
+        d["platforms"][0]["radars"][0]["errors"] = {
+            "range_bias_m": 150.0, "time_offset_s": 0.05, "time_jitter_s": 0.001}
+        s = type(s).model_validate(d)
     with Bus(None, Recorder(path)) as bus:
         Simulation(s, bus=bus, duration_s=duration_s, seed=7).run()
     return path
@@ -151,7 +159,7 @@ def validators():
 
 
 @pytest.mark.parametrize(("name", "duration_s"), [
-    ("raid", 12.0), ("jammed_squall", 4.0), ("manoeuvres", 4.0)])
+    ("raid", 12.0), ("jammed_squall", 4.0), ("manoeuvres", 4.0), ("raid+errors", 6.0)])
 def test_every_recorded_message_is_valid(tmp_path, validators, name, duration_s):
     """Each message of a real recording, decoded (section 5) and in its JSON form (as
     ``shipradar tail`` prints it), validates against its payload's JSON Schema; its keys are
@@ -182,11 +190,13 @@ def test_every_recorded_message_is_valid(tmp_path, validators, name, duration_s)
                     assert doc["v"] == 2 and key in doc, (label, key)
                     assert not validator.is_valid({k: v for k, v in doc.items() if k != key})
             counts[label] += 1
-    # every payload shipradar sends (all but the trackers' tracks and registration, and the
-    # entities only a live run records, tests/test_entities.py) occurs
+    # every payload shipradar sends (all but the trackers' tracks and registration, the
+    # entities only a live run records, tests/test_entities.py, and the sensors' errors only
+    # a scene with errors has) occurs
     assert set(counts) == {p.name for p in schema.PAYLOADS
                            if p.topic not in (schema.TOPIC_TRACKS, schema.TOPIC_REGISTRATION,
-                                              schema.TOPIC_ENTITIES)}, counts
+                                              schema.TOPIC_ENTITIES)
+                           and (p is not schema.TRUTH_SENSORS or "+errors" in name)}, counts
     print(f"{name}: {sum(counts.values())} messages valid {dict(counts)}")
 
 

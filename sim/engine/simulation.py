@@ -57,6 +57,7 @@ from shipradar.sim.stream.schema import (
     PLOT_COLUMNS,
     PLOT_TRUTH_COLUMNS,
     TRUTH_PLOTS,
+    TRUTH_SENSORS,
     SchemaError,
     empty_plots,
 )
@@ -80,6 +81,7 @@ from shipradar.sim.world.traffic import scene_targets
 from shipradar.sim.world.trajectory import trajectories
 
 if TYPE_CHECKING:
+    from shipradar.sensors.sensor_errors import RadarErrors
     from shipradar.sim.dwell.look import LookResults
     from shipradar.sim.dwell.model import DwellModel
 
@@ -200,6 +202,12 @@ class Simulation:
             model = DwellModel(scenario, platform, radar, self.tables, self.target_set)
             rng = np.random.default_rng(seeds[k])
             process = RadarProcess(self, p_index, platform, radar, model, rng)
+            if scenario.has_sensor_errors:  # issue 33: own streams, none drawn otherwise
+                from shipradar.sensors.sensor_errors import RadarErrors
+
+                process.errors = RadarErrors(
+                    radar.errors, platform.navigation, seed=self.seed, radar_id=radar.id,
+                    platform_id=platform.id, sector_s=process.sector_s)
             process.index = k
             self.radars.append(process)
 
@@ -546,7 +554,16 @@ class RadarProcess:
         self.n_sectors = sim.scenario.fidelity.sectors_per_scan
         self.sector_s = radar.scan_period_s / self.n_sectors
         self.plot_counter = 0
-        self._radar_dump = radar.model_dump(mode="json")
+        # a real sensor does not tell its errors (issue 33: truth[sensors] does)
+        self._radar_dump = radar.model_dump(mode="json", exclude={"errors"})
+        #: its errors and its platform's navigation's (issue 33), None in a scene without
+        self.errors: RadarErrors | None = None
+        # the true times of the block's plots when errors changed their time stamps (the
+        # sectors hold the plots the beam made in them)
+        self._block_true_t: np.ndarray | None = None
+        # the latency of the current scan's last sector message [s] (truth[sensors]), NaN
+        # before any
+        self._scan_latency = math.nan
         self._meta_items: tuple[int, bytes, bytes] | None = None
         # what the bus takes (_bus_caps), found once per bus: a runtime-checkable protocol's
         # isinstance costs ~20 us, once per sector it was half of a sparse recorded run
@@ -734,10 +751,15 @@ class RadarProcess:
         if pos is None or vel is None:
             p, v = self.platform_state(np.array([t]))
             pos, vel = p[0], v[0]
+            if self.errors is not None and self.errors.navigates:  # as navigated (issue 33)
+                pos = pos + self.errors.navigation_offset(np.array([t]))[0]
+                lat = lon = None
         if lat is None or lon is None:
             la, lo, _ = self.sim.frame.geodetic(pos[None, :])
             lat, lon = float(la[0]), float(lo[0])
         heading = self._heading(float(vel[0]), float(vel[1]), t)
+        if self.errors is not None and self.errors.navigates:
+            heading = (heading + math.degrees(float(self.errors.heading_bias_rad(t)))) % 360.0
         up = float(pos[2] + self.radar.antenna_height_m)
         return {
             "position": {"lat_deg": lat, "lon_deg": lon, "alt_m": up,
@@ -766,6 +788,9 @@ class RadarProcess:
         up = pos[:, 2] + self.radar.antenna_height_m
         heading = [self._heading(e, n, tt) for (e, n), tt in zip(vel[:, :2].tolist(), ends.t,
                                                                  strict=True)]
+        if self.errors is not None and self.errors.navigates:  # the gyro's bias (issue 33)
+            bias = np.degrees(self.errors.heading_bias_rad(np.asarray(ends.t)))
+            heading = np.mod(np.asarray(heading) + bias, 360.0).tolist()
         first = self.antenna_state(ends.t[0], pos[0], vel[0], ends.lat[0], ends.lon[0])
         return first, [np.asarray(ends.lat), np.asarray(ends.lon), up, pos[:, 0], pos[:, 1],
                        up, vel[:, 0], vel[:, 1], vel[:, 2], np.asarray(heading)]
@@ -844,8 +869,12 @@ class RadarProcess:
             reached = next(s for s in range(1, n + 1) if (k + s) * sector_s >= duration)
             t_end = duration
         yield env.timeout(t_end - env.now)
+        self._scan_latency = math.nan
         if rev is not None:
-            self._send_sectors(rev, bisect.bisect_left(rev.sectors, reached))
+            count = bisect.bisect_left(rev.sectors, reached)
+            self._send_sectors(rev, count)
+            if count:
+                self._scan_latency = 0.0
         self.sim.stats.sectors += reached
         self._end_of_scan(t_end, scan)
         return k + reached
@@ -866,6 +895,7 @@ class RadarProcess:
             frames = self._bus_caps()[0]
             emit = frames.emit_frames if frames is not None else None
         plots_topic, truth_topic = protocol.TOPIC_PLOTS, protocol.TOPIC_TRUTH
+        self._scan_latency = math.nan
         for sector in range(n):
             if k * sector_s >= duration:
                 break
@@ -889,6 +919,7 @@ class RadarProcess:
                 else:
                     self._send_sector(t_b, rev.rows[i], rev.plots[i], rev.truth[i])
                 i += 1
+                self._scan_latency = 0.0
             stats.sectors += 1
             k += 1
             if sector == n - 1 or t_b >= duration:
@@ -1143,6 +1174,8 @@ class RadarProcess:
         sim = self.sim
         period = self.radar.scan_period_s
         self._block_scan0 = scan0  # the revolution of a look's batch 0 (_on_look)
+        if self.errors is not None:  # nothing before the block is asked again
+            self.errors.forget_before(scan0 * self.n_sectors * self.sector_s - 1.0)
         bounds = []
         for j in range(self.scans_per_block):
             t_a = (scan0 + j) * self.n_sectors * self.sector_s
@@ -1169,6 +1202,12 @@ class RadarProcess:
             self._ends.columns.update(zip(("look_time_s", "pd", "snr_db", "interference"),
                                           looks, strict=True))
         merged = _merge_parts(parts)
+        self._block_true_t = None
+        if self.errors is not None and self.errors.touches_plots:
+            # issue 33: the reported range, azimuth and time; the sectors still hold the
+            # plots the beam made in them (their true times)
+            self._block_true_t = merged["time_s"]
+            self.errors.apply(merged)
         edges = np.searchsorted(merged["revolution"], np.arange(len(bounds) + 1)).tolist()
         self._block_plots = (scan0, merged, edges)  # for _frame_block
         return list(zip(edges[:-1], edges[1:], strict=True))
@@ -1260,7 +1299,8 @@ class RadarProcess:
         assert self._block_plots is not None
         scan0, merged, edges = self._block_plots
         n = self.n_sectors
-        cuts = self._sector_cuts(scan0, merged["time_s"], edges)
+        true_t = self._block_true_t
+        cuts = self._sector_cuts(scan0, merged["time_s"] if true_t is None else true_t, edges)
         i1 = cuts.ravel()
         i0 = np.concatenate([np.asarray(edges[:-1], dtype=np.int64)[:, None], cuts[:, :-1]],
                             axis=1).ravel()
@@ -1347,13 +1387,18 @@ class RadarProcess:
         sim = self.sim
         t = self.sector_end(self.n_sectors * np.arange(scan0 + 1, scan0 + 1 + count) - 1)
         pos, vel = self.platform_state(t)
+        true_pos = pos
+        if self.errors is not None and self.errors.navigates:
+            # eos and the next meta report the navigated position (issue 33); coverage and
+            # truth[sensors] the true one
+            pos = pos + self.errors.navigation_offset(t)
         lat, lon, _ = sim.frame.geodetic(pos)
         columns = None
         n = sim.targets.n
         if n:
             tpos, tvel, tacc, active = sim.targets.state_acc(np.repeat(t, n),
                                                              np.tile(np.arange(n), t.size))
-            cover = self.in_coverage(np.repeat(pos, n, axis=0), tpos, active)
+            cover = self.in_coverage(np.repeat(true_pos, n, axis=0), tpos, active)
             # an inactive target has no state (schema 2): NaN, not a frozen one
             for a in (tpos, tvel, tacc):
                 a[~active] = np.nan
@@ -1365,7 +1410,7 @@ class RadarProcess:
             if sim.live_source is not None:  # beyond the declared envelope (docs/external.md)
                 columns["outside_envelope"] = active & sim.targets.outside(tpos)
         self._ends = _ScanEnds(scan0, t.tolist(), pos, vel, lat.tolist(), lon.tolist(),
-                               columns)
+                               columns, true_pos=true_pos)
 
     def _eos_payload(self, j: int, state: dict[str, Any] | None = None) -> dict[str, Any]:
         """``eos`` of the ``j``-th revolution of :attr:`_ends`, with the antenna's ``state``
@@ -1446,7 +1491,23 @@ class RadarProcess:
             bus.emit(protocol.TOPIC_EOS, t, self._eos_payload(j))
             if ends.targets is not None:
                 bus.emit(protocol.TOPIC_TRUTH, t, ends.targets.message(j))
+        if self.errors is not None:
+            bus.emit(protocol.TOPIC_TRUTH, t, self._truth_sensors(t, scan, j))
         bus.flush()
+
+    def _truth_sensors(self, t: float, scan: int, j: int) -> dict[str, Any]:
+        """``truth[sensors]`` at the end ``t`` [s] of revolution ``scan`` (the ``j``-th of
+        :attr:`_ends`): every error's value, the antenna's true position and heading, the
+        latency of the scan's last sector message (issue 33)."""
+        ends, errors = self._ends, self.errors
+        assert ends is not None and ends.true_pos is not None and errors is not None
+        pos, vel = ends.true_pos[j], ends.vel[j]
+        heading = self._heading(float(vel[0]), float(vel[1]), t)
+        return TRUTH_SENSORS.message(
+            sensor=self.radar.id, scan=scan, time_s=t, **errors.values(t),
+            true_east_m=float(pos[0]), true_north_m=float(pos[1]),
+            true_up_m=float(pos[2] + self.radar.antenna_height_m),
+            true_heading_rad=math.radians(heading), latency_s=self._scan_latency)
 
     def in_coverage(self, platform_pos: np.ndarray, target_pos: np.ndarray,
                     active: np.ndarray) -> np.ndarray:
@@ -1484,6 +1545,8 @@ class _ScanEnds:
     lon: list[float]
     #: the ``truth[targets]`` columns, revolution j in rows j k:(j + 1) k; None without targets
     columns: dict[str, np.ndarray] | None
+    #: the platform's true position (m, 3) [m]; ``pos`` is the navigated one (issue 33)
+    true_pos: np.ndarray | None = None
     #: their messages (:meth:`RadarProcess._frame_ends`)
     targets: Slices | None = None
     #: the bodies of each revolution's ``eos`` and ``truth[targets]`` and the next scan's

@@ -179,6 +179,8 @@ def _radar_schema() -> dict[str, Any]:
     defs = raw.pop("$defs", {})
     body = _inline(raw, defs)
     body.pop("title", None)
+    # a real sensor does not tell its errors (issue 33): the engine leaves them out of meta
+    body["properties"].pop("errors", None)
     return body
 
 
@@ -256,8 +258,9 @@ _CHANNELS = {
     "eos": "End of scan: the sensor's own position, velocity and heading.",
     "end": "End of the run: sent once, after every radar's last messages.",
     "truth": "Ground truth (for evaluators, not for the tracker under test): the origin of "
-             "each plot (kind `plots`, after each `plots` message) and every target's state "
-             "(kind `targets`, after each `eos`).",
+             "each plot (kind `plots`, after each `plots` message), every target's state "
+             "(kind `targets`, after each `eos`) and, in a scene with sensor errors, each "
+             "radar's errors (kind `sensors`, after `truth[targets]`).",
     "tracks": "A tracker's tracks, published by the tracker on its own endpoint (read by "
               "`shipradar view --tracks`), not by shipradar.",
     "entities": "Entity states a program publishes on its own endpoint for shipradar to "

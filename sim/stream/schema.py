@@ -45,6 +45,7 @@ __all__ = [
     "TOPIC_TRACKS",
     "TRACKS",
     "TRUTH_PLOTS",
+    "TRUTH_SENSORS",
     "TRUTH_TARGETS",
     "Field",
     "Payload",
@@ -408,6 +409,36 @@ TRUTH_TARGETS = Payload(b"truth", "targets", (
        "table). Absent without a live source", required=False),
 ))
 
+#: ``truth``, kind ``sensors``: each radar's errors at an end of scan (issue 33), published
+#: only when the scenario gives some radar a non-zero ``errors:`` or some platform a
+#: non-zero ``navigation:``.  Every error is (reported − true).
+TRUTH_SENSORS = Payload(b"truth", "sensors", (
+    _f("sensor", "str", "", "the radar whose scan ended"),
+    _f("scan", "int", "", "the scan that ended"),
+    _f("kind", "str", "", "`\"sensors\"`"),
+    _f("time_s", "float", "s", "true time of the values (the end of scan, `eos.time_s`)"),
+    _f("range_bias_m", "float", "m", "range bias: reported range = true (1 + "
+       "`range_scale_ppm` 10⁻⁶) + `range_bias_m` + noise"),
+    _f("range_scale_ppm", "float", "ppm", "range scale error"),
+    _f("azimuth_bias_rad", "float", "rad", "the radar's north alignment error: reported "
+       "azimuth = true + `azimuth_bias_rad` + `heading_bias_rad` + noise"),
+    _f("time_offset_s", "float", "s", "time-stamp offset: a plot's `time_s` = true time + "
+       "`time_offset_s` + jitter (Gaussian, per plot)"),
+    _f("heading_bias_rad", "float", "rad", "the platform's heading (gyro) bias: `meta` and "
+       "`eos` report true heading + this"),
+    _f("nav_east_error_m", "float", "m", "the platform's navigation error east: `meta` and "
+       "`eos` report the antenna at its true position + these"),
+    _f("nav_north_error_m", "float", "m", "navigation error north"),
+    _f("nav_up_error_m", "float", "m", "navigation error up"),
+    _f("true_east_m", "float", "m", "the antenna's true position east, local frame"),
+    _f("true_north_m", "float", "m", "true position north"),
+    _f("true_up_m", "float", "m", "true position up (antenna height above the sea)"),
+    _f("true_heading_rad", "float", "rad", "the platform's true heading, true north, "
+       "clockwise"),
+    _f("latency_s", "float", "s", "latency of the scan's last sector message (its `t` minus "
+       "its sector's end, queueing included, section 4.5); NaN when the scan sent none"),
+))
+
 #: ``tracks``: a tracker's tracks (published by the tracker, not by shipradar).
 TRACKS = Payload(TOPIC_TRACKS, None, (
     _f("sensor", "str", "", "the radar the tracker last processed"),
@@ -482,8 +513,8 @@ REGISTRATION = Payload(TOPIC_REGISTRATION, None, (
 ))
 
 #: Every payload, in the order docs/protocol.md section 4 shows their tables.
-PAYLOADS: tuple[Payload, ...] = (META, PLOTS, EOS, END, TRUTH_PLOTS, TRUTH_TARGETS, TRACKS,
-                                 ENTITIES, REGISTRATION)
+PAYLOADS: tuple[Payload, ...] = (META, PLOTS, EOS, END, TRUTH_PLOTS, TRUTH_TARGETS,
+                                 TRUTH_SENSORS, TRACKS, ENTITIES, REGISTRATION)
 
 #: The per-plot columns the radar model makes (the ``plots`` columns but ``plot_id``, which
 #: the engine numbers when a sector is framed), in message order.

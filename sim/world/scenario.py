@@ -470,6 +470,121 @@ class Losses(_Model):
     beam_shape_db: float = Field(1.6, ge=0.0, le=20.0, description="L_B [dB]")
 
 
+# --------------------------------------------------------------------------- sensor errors
+class ErrorTerm(_Model):
+    """One error of a sensor or of its platform's navigation (issue 33), in the unit of the
+    field that holds it: a constant ``mean`` plus, with ``sigma`` > 0, a zero-mean
+    first-order Gauss-Markov process of stationary standard deviation ``sigma`` and
+    correlation time ``correlation_time_s`` (autocorrelation σ² exp(−|τ|/T)), drawn from its
+    own random stream.  A bare number is a constant: ``range_bias_m: 150`` is ``{mean: 150}``.
+    Sign convention: the error is (reported − true)."""
+
+    mean: float = Field(0.0, description="constant part, in the unit of the field")
+    sigma: float = Field(0.0, ge=0.0, description="stationary 1σ of the Gauss-Markov part, "
+                         "in the unit of the field; 0: a constant")
+    correlation_time_s: float = Field(
+        600.0, gt=0.0, le=1.0e7, description="correlation time T of the Gauss-Markov part [s]")
+
+    @model_validator(mode="before")
+    @classmethod
+    def _number_is_constant(cls, data: Any) -> Any:
+        if isinstance(data, (int, float)) and not isinstance(data, bool):
+            return {"mean": data}
+        return data
+
+    @property
+    def is_zero(self) -> bool:
+        return self.mean == 0.0 and self.sigma == 0.0
+
+
+def _check_terms(obj: BaseModel, limits: dict[str, tuple[float, str]]) -> None:
+    """Each :class:`ErrorTerm` field of ``obj`` within its limit: ``|mean| <= limit`` and
+    ``sigma <= limit`` (``limits``: field -> (limit, unit)); the message names the field."""
+    for name, (limit, unit) in limits.items():
+        term = getattr(obj, name)
+        for key, v in (("mean", term.mean), ("sigma", term.sigma)):
+            if not math.isfinite(v) or abs(v) > limit:
+                lo = "0" if key == "sigma" else f"{-limit:g}"
+                raise ValueError(f".{name}.{key}: must be in [{lo}, {limit:g}] {unit}, "
+                                 f"got {v:g}")
+
+
+class Latency(_Model):
+    """Reporting latency of a radar's messages (issue 33): each sector's ``plots`` message
+    leaves ``fixed_s`` plus an exponentially distributed delay of mean ``random_mean_s``
+    after its sector ends, drawn per message from the radar's own stream; a radar's link is
+    first in, first out (a message never overtakes the one before it), so its own messages
+    keep their order while those of different radars interleave by arrival."""
+
+    fixed_s: float = Field(0.0, ge=0.0, le=600.0, description="fixed delay [s]")
+    random_mean_s: float = Field(
+        0.0, ge=0.0, le=600.0, description="mean of the exponential random delay [s]")
+
+    @property
+    def is_zero(self) -> bool:
+        return self.fixed_s == 0.0 and self.random_mean_s == 0.0
+
+
+class SensorErrors(_Model):
+    """A radar's imperfections (issue 33; all zero by default): registration biases, clock
+    errors and reporting latency.  ``meta`` does not show them; ``truth[sensors]`` does.
+
+    reported range = true (1 + range_scale_ppm 10⁻⁶) + range_bias_m + noise;
+    reported azimuth = true + azimuth_bias + the platform's heading bias + noise;
+    reported time = true + time_offset_s + jitter (Gaussian, 1σ ``time_jitter_s``, per plot).
+    Each bias is held over a sector (its value at the sector's end)."""
+
+    range_bias_m: ErrorTerm = Field(
+        ErrorTerm(), description="range bias [m] (a cable delay, a range-zero error)")
+    range_scale_ppm: ErrorTerm = Field(
+        ErrorTerm(), description="range scale error [ppm] (a clock frequency error)")
+    azimuth_bias_deg: ErrorTerm = Field(
+        ErrorTerm(), description="azimuth bias: north alignment of the antenna [deg]")
+    time_offset_s: ErrorTerm = Field(
+        ErrorTerm(), description="time-stamp offset of the radar's clock [s]")
+    time_jitter_s: float = Field(
+        0.0, ge=0.0, le=10.0, description="1σ of a Gaussian time-stamp jitter, per plot [s]")
+    latency: Latency = Field(Latency(), description="reporting latency of its messages")
+
+    @model_validator(mode="after")
+    def _limits(self) -> SensorErrors:
+        _check_terms(self, {"range_bias_m": (1.0e4, "m"), "range_scale_ppm": (1.0e4, "ppm"),
+                            "azimuth_bias_deg": (180.0, "deg"), "time_offset_s": (600.0, "s")})
+        return self
+
+    @property
+    def is_zero(self) -> bool:
+        return (self.range_bias_m.is_zero and self.range_scale_ppm.is_zero
+                and self.azimuth_bias_deg.is_zero and self.time_offset_s.is_zero
+                and self.time_jitter_s == 0.0 and self.latency.is_zero)
+
+
+class Navigation(_Model):
+    """The errors of a platform's navigation (issue 33; all zero by default), shared by every
+    radar on it: ``meta`` and ``eos`` report the navigated antenna position (true + error,
+    local frame) and heading (true + heading bias); the gyro's heading bias adds to every
+    radar's azimuth error.  Each error is held over ``update_s``."""
+
+    east_error_m: ErrorTerm = Field(ErrorTerm(), description="east position error [m]")
+    north_error_m: ErrorTerm = Field(ErrorTerm(), description="north position error [m]")
+    up_error_m: ErrorTerm = Field(ErrorTerm(), description="up position error [m]")
+    heading_bias_deg: ErrorTerm = Field(ErrorTerm(), description="heading (gyro) bias [deg]")
+    update_s: float = Field(
+        1.0, gt=0.0, le=3600.0, description="interval of the navigation solution: each "
+        "error's Gauss-Markov part is drawn on this grid and held between [s]")
+
+    @model_validator(mode="after")
+    def _limits(self) -> Navigation:
+        _check_terms(self, {"east_error_m": (1.0e4, "m"), "north_error_m": (1.0e4, "m"),
+                            "up_error_m": (1.0e3, "m"), "heading_bias_deg": (180.0, "deg")})
+        return self
+
+    @property
+    def is_zero(self) -> bool:
+        return (self.east_error_m.is_zero and self.north_error_m.is_zero
+                and self.up_error_m.is_zero and self.heading_bias_deg.is_zero)
+
+
 class Radar(_Model):
     """A rotating pulse-MTI/Doppler search radar (seed: symbols related to radar inputs)."""
 
@@ -539,6 +654,9 @@ class Radar(_Model):
         description="ASTERIX System Identification Code (I048/010, I034/010); default: the "
         "smallest code >= 1 that no other radar of the same SAC uses, in scenario order",
     )
+    errors: SensorErrors = Field(
+        SensorErrors(), description="registration biases, clock errors and reporting latency "
+        "(issue 33); none by default")
 
     @field_validator("stagger_prf_hz")
     @classmethod
@@ -920,6 +1038,9 @@ class Platform(_Model):
         description="ride on this DIS entity (SITE:APP:ENTITY): with a live source its "
         "position, velocity and heading come from the entity's states (dead-reckoned at each "
         "crossing); the waypoints until its first state")
+    navigation: Navigation = Field(
+        Navigation(), description="errors of the ship's navigation (issue 33): position and "
+        "heading; none by default")
 
     _check_times = field_validator("waypoints")(
         classmethod(lambda cls, v: _check_waypoint_times(v)))
@@ -1175,6 +1296,13 @@ class Scenario(_Model):
 
     def radars(self) -> list[tuple[Platform, Radar]]:
         return [(p, r) for p in self.platforms for r in p.radars]
+
+    @property
+    def has_sensor_errors(self) -> bool:
+        """True when some radar has a non-zero ``errors:`` or some platform a non-zero
+        ``navigation:`` (issue 33): the run then publishes ``truth[sensors]``."""
+        return any(not p.navigation.is_zero for p in self.platforms) or any(
+            not r.errors.is_zero for _, r in self.radars())
 
     @property
     def wave_height(self) -> float:
