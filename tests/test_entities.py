@@ -11,6 +11,8 @@ import textwrap
 import numpy as np
 import pytest
 import yaml
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from shipradar.sim.engine.simulation import Simulation
 from shipradar.sim.stream import protocol
@@ -121,6 +123,49 @@ def test_an_unmapped_type_gets_the_stated_default():
     live.apply(check_states(_rows(["x"], [0.0], [[0, 1e4, 0]], [[0, 0, 0]],
                                   type=["tank"]), live.bad), 0.0)
     assert live.rcs[0].sigma_m2 == 10.0 and live.swerling[0] == 1 and live.kinds == ["other"]
+
+
+def _reference_apply(known: dict, ids, times, values, active):
+    """Row-by-row model of the update rule (docs/external.md): in order, a row applies when
+    its time is later than its entity's latest; an entity keeps its last applied row."""
+    applied, late = [], 0
+    for i, (eid, t) in enumerate(zip(ids, times, strict=True)):
+        if eid in known and t <= known[eid][0]:
+            late += 1
+            continue
+        known[eid] = (t, values[i], active[i])
+        applied.append(i)
+    return applied, late
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.lists(st.tuples(st.integers(0, 5), st.integers(-3, 6), st.booleans()),
+                         min_size=1, max_size=25), min_size=1, max_size=4))
+def test_vectorized_apply_is_the_row_by_row_rule(batches):
+    """Batches with repeated entities, equal and falling times (Hypothesis): the vectorized
+    :meth:`LiveTargets.apply` applies exactly the rows, and leaves exactly the states, of a
+    row-by-row loop over the rule."""
+    live = LiveTargets(parse_scenario(_scene()))
+    known: dict = {}
+    late_total = 0
+    for k, batch in enumerate(batches):
+        ids = [f"e{e}" for e, _, _ in batch]
+        times = [float(t) for _, t, _ in batch]
+        east = [1000.0 * k + i for i in range(len(batch))]  # which row a state came from
+        active = [a for _, _, a in batch]
+        applied, late = _reference_apply(known, ids, times, east, active)
+        late_total += late
+        rows = check_states(_rows(ids, times, [[e, 5e3, 0] for e in east],
+                                  [[0, 0, 0]] * len(batch), active=active), live.bad)
+        got = live.apply(rows, now=0.0)
+        assert got["id"] == [ids[i] for i in applied]
+        assert got["east_m"].tolist() == [east[i] for i in applied]
+    assert live.bad.get("out_of_order", 0) == late_total
+    assert sorted(live.ids) == sorted(known)
+    for eid, (t, e, act) in known.items():
+        r = live.ids.index(eid)
+        assert live._t_u[r] == t and live._p[r, 0] == e
+        assert live._t_end[r] == (np.inf if act else t)
 
 
 # ------------------------------------------------------------------ a feed in another process

@@ -23,6 +23,8 @@ scene's target catalogue (ids, names, kinds, RCS, Swerling, as
 from __future__ import annotations
 
 import fnmatch
+import itertools
+import operator
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -37,6 +39,7 @@ from shipradar.sim.world.scenario import (
     Scenario,
     swerling_case,
 )
+from shipradar.sim.world.traffic import MotionTable
 
 __all__ = ["MACH_30_MPS", "LiveTargets", "RiddenPlatforms", "check_states", "take_rows"]
 
@@ -51,6 +54,27 @@ MAX_ID_CHARS = 64
 _COLUMNS = ("time_s", "east_m", "north_m", "up_m", "v_east_mps", "v_north_mps", "v_up_mps")
 #: Optional accelerations (second-order dead reckoning; 0 when absent).
 _ACCEL = ("a_east_mps2", "a_north_mps2", "a_up_mps2")
+#: Optional orientation columns (a ridden platform's heading; NaN: unknown).
+_ORIENTATION = ("heading_deg",)
+
+
+def _pick(values: Any, keep: np.ndarray, n: int) -> list:
+    """``values[i] for i in keep`` as a list (C-level gathers: no Python loop per row)."""
+    if keep.size == n:
+        return list(values)
+    if keep.size == 0:
+        return []
+    got = operator.itemgetter(*keep.tolist())(values)
+    return [got] if keep.size == 1 else list(got)
+
+
+def _good_ids(ids: Any) -> np.ndarray:
+    """Whether each id is a string of 1 to :data:`MAX_ID_CHARS` characters (bool (n,))."""
+    n = len(ids)
+    if set(map(type, ids)) <= {str}:  # the usual case: lengths at C speed
+        lengths = np.fromiter(map(len, ids), np.int64, n)
+        return (lengths > 0) & (lengths <= MAX_ID_CHARS)
+    return np.array([isinstance(i, str) and 0 < len(i) <= MAX_ID_CHARS for i in ids], bool)
 
 
 def check_states(payload: dict[str, Any], bad: dict[str, int]) -> dict[str, Any] | None:
@@ -58,7 +82,11 @@ def check_states(payload: dict[str, Any], bad: dict[str, int]) -> dict[str, Any]
     by reason; None when the message as a whole is unusable (counted).
 
     Returns a dict with ``id`` (list of str), the :data:`_COLUMNS` (float64 arrays),
-    ``type`` and ``name`` (lists, None where absent) and ``active`` (bool array).
+    the accelerations (zero when absent; ``accelerated`` says whether they were given),
+    ``state`` (m, 9) (positions, velocities, accelerations side by side),
+    ``type`` and ``name`` (lists, None where absent), ``active`` (bool array) and, when the
+    payload has them, ``heading_deg`` (and ``heading_rate_dps``) (float arrays, NaN where
+    unusable).  Vectorized: no Python loop per row.
     """
     def count(reason: str, k: int = 1) -> None:
         if k:
@@ -85,13 +113,11 @@ def check_states(payload: dict[str, Any], bad: dict[str, int]) -> dict[str, Any]
             count("columns of unequal lengths")
             return None
         cols[key] = a
-    extra: dict[str, Any] = {}
     for key in ("type", "name"):
         v = payload.get(key)
         if v is not None and (not isinstance(v, (list, tuple)) or len(v) != n):
             count("columns of unequal lengths")
             return None
-        extra[key] = list(v) if v is not None else [None] * n
     act = payload.get("active")
     try:
         active = np.ones(n, bool) if act is None else np.asarray(act, dtype=bool).reshape(-1)
@@ -101,7 +127,7 @@ def check_states(payload: dict[str, Any], bad: dict[str, int]) -> dict[str, Any]
     if active.size != n:
         count("columns of unequal lengths")
         return None
-    ok = np.array([isinstance(i, str) and 0 < len(i) <= MAX_ID_CHARS for i in ids], bool)
+    ok = _good_ids(ids)
     count("bad id", int(np.count_nonzero(~ok)))
     state = np.column_stack([cols[k] for k in (*_COLUMNS[1:], *_ACCEL)])
     finite = np.isfinite(state).all(axis=1) & ~np.isinf(cols["time_s"])
@@ -118,37 +144,42 @@ def check_states(payload: dict[str, Any], bad: dict[str, int]) -> dict[str, Any]
         ok &= ~mask
     keep = np.flatnonzero(ok)
     out: dict[str, Any] = {k: cols[k][keep] for k in (*_COLUMNS, *_ACCEL)}
+    out["state"] = state[keep]  # (m, 9): position, velocity, acceleration, for apply
     out["accelerated"] = any(payload.get(k) is not None for k in _ACCEL)
-    out["id"] = [ids[i] for i in keep]
+    out["id"] = _pick(ids, keep, n)
     for key in ("type", "name"):
-        out[key] = [extra[key][i] for i in keep]
+        v = payload.get(key)
+        out[key] = [None] * keep.size if v is None else _pick(v, keep, n)
     out["active"] = active[keep]
-    head = payload.get("heading_deg")
-    if head is not None:
+    for key in _ORIENTATION:
+        v = payload.get(key)
+        if v is None:
+            continue
         try:
-            h = np.asarray(head, dtype=float).reshape(-1)
+            h = np.asarray(v, dtype=float).reshape(-1)
         except (TypeError, ValueError):
             h = np.full(n, np.nan)
-        out["heading_deg"] = h[keep] if h.size == n else np.full(keep.size, np.nan)
+        out[key] = h[keep] if h.size == n else np.full(keep.size, np.nan)
     return out
 
 
 def take_rows(rows: dict[str, Any], mask: np.ndarray) -> dict[str, Any]:
     """The rows of checked ``rows`` (:func:`check_states`) where ``mask`` is true."""
     idx = np.flatnonzero(mask)
+    n = mask.size
     out: dict[str, Any] = {}
     for key, v in rows.items():
         if isinstance(v, np.ndarray):
             out[key] = v[idx]
         elif isinstance(v, list):
-            out[key] = [v[i] for i in idx]
+            out[key] = _pick(v, idx, n)
         else:
             out[key] = v
     return out
 
 
 @dataclass
-class LiveTargets:
+class LiveTargets(MotionTable):
     """The entities of a live source: catalogue and dead-reckoned motion (module notes).
 
     Parameters
@@ -236,48 +267,81 @@ class LiveTargets:
         self._t_first, self._t_end = more(self._t_first, 0.0), more(self._t_end, np.inf)
         self._h = more(self._h, np.nan)
 
-    def apply(self, rows: dict[str, Any], now: float) -> dict[str, Any]:
-        """Apply checked rows (:func:`check_states`), in order; NaN times are ``now``.
-
-        Returns the rows applied (the same columns, times resolved), for the recording.
-        """
-        t = np.where(np.isnan(rows["time_s"]), now, rows["time_s"])
-        state = np.column_stack([rows[k] for k in (*_COLUMNS[1:], *_ACCEL)])
-        applied = []
+    def _rows_of(self, ids: list[str], types: list, names: list, t: np.ndarray
+                 ) -> np.ndarray:
+        """Each id's row (int64 (m,)); an id not known yet becomes a new entity at its first
+        row (catalogued: kind, RCS, Swerling by its type; its name), in order."""
+        m = len(ids)
+        r = np.fromiter(map(self._row.get, ids, itertools.repeat(-1, m)), np.int64, m)
+        new = np.flatnonzero(r < 0)
+        if not new.size:
+            return r
         new_sw: list[int] = []
-        # in order, row by row, only what decides: the entity's row and whether the state is
-        # newer than its latest; the arrays then take each entity's last applied state at once
-        times = t.tolist()
-        latest: dict[int, float] = {}
-        last_of: dict[int, int] = {}
-        t_u = self._t_u
-        for i, eid in enumerate(rows["id"]):
-            r = self._row.get(eid)
-            if r is None:
-                r = self._row[eid] = len(self.ids)
-                self._grow(r + 1)
-                t_u = self._t_u
-                kind, model, case = self._classify(rows["type"][i])
-                name = rows["name"][i]
+        for i in new.tolist():  # first appearances only: a loop over new entities
+            eid = ids[i]
+            k = self._row.get(eid)
+            if k is None:
+                k = self._row[eid] = len(self.ids)
+                self._grow(k + 1)
+                kind, model, case = self._classify(types[i])
+                name = names[i]
                 self.ids.append(eid)
                 self.names.append(str(name).strip() if name else eid)
                 self.kinds.append(kind)
                 self.rcs.append(model)
                 new_sw.append(case)
-                self._t_first[r] = times[i]
-                prev = -np.inf
-            else:
-                seen = latest.get(r)
-                prev = float(t_u[r]) if seen is None else seen
-            if times[i] <= prev:
-                self.bad["out_of_order"] = self.bad.get("out_of_order", 0) + 1
-                continue
-            latest[r] = times[i]
-            last_of[r] = i
-            applied.append(i)
-        if last_of:
-            rr = np.fromiter(last_of.keys(), np.int64, len(last_of))
-            ii = np.fromiter(last_of.values(), np.int64, len(last_of))
+                self._t_first[k] = t[i]
+                self._t_u[k] = -np.inf  # its first row is newer than anything
+            r[i] = k
+        self.swerling = np.concatenate([self.swerling, np.asarray(new_sw, np.int8)])
+        return r
+
+    def apply(self, rows: dict[str, Any], now: float) -> dict[str, Any]:
+        """Apply checked rows (:func:`check_states`), in order; NaN times are ``now``.
+
+        A row is applied when its time is later than its entity's latest state, that of the
+        rows before it included (otherwise counted ``out_of_order``); each entity then takes
+        its last applied row.  Vectorized: the rows are grouped by entity with a stable sort
+        and the latest time before each row is a running maximum within its group.
+
+        Returns the rows applied (the same columns, times resolved), for the recording.
+        """
+        ids = rows["id"]
+        m = len(ids)
+        t = np.where(np.isnan(rows["time_s"]), now, rows["time_s"])
+        state = rows.get("state")
+        if state is None:
+            state = np.column_stack([rows[k] for k in (*_COLUMNS[1:], *_ACCEL)])
+        r = self._rows_of(ids, rows["type"], rows["name"], t)
+        # group the rows by entity, keeping their order within a group
+        order = np.argsort(r, kind="stable")
+        rs, ts = r[order], t[order]
+        start = np.ones(m, bool)
+        start[1:] = rs[1:] != rs[:-1]
+        group = np.cumsum(start) - 1
+        # the latest time of the rows before each one in its group: a running maximum of the
+        # times' ranks, each group offset above the previous ones so that the maximum
+        # restarts with every group
+        by_time = np.argsort(ts, kind="stable")
+        rank = np.empty(m, np.int64)
+        rank[by_time] = np.arange(m)
+        upto = np.maximum.accumulate(group * m + rank) - group * m
+        before = np.full(m, -np.inf)
+        before[1:] = ts[by_time][upto[:-1]]
+        before[start] = -np.inf
+        fresh = ts > np.maximum(self._t_u[rs], before)
+        mask = np.zeros(m, bool)
+        mask[order[fresh]] = True
+        applied = np.flatnonzero(mask)
+        late = m - applied.size
+        if late:
+            self.bad["out_of_order"] = self.bad.get("out_of_order", 0) + late
+        # each entity's last applied row (the latest, applied times rising in a group)
+        pos = np.flatnonzero(fresh)
+        if pos.size:
+            g = group[pos]
+            last = pos[np.append(g[1:] != g[:-1], True)]
+            rr, ii = rs[last], order[last]
             self._t_u[rr] = t[ii]
             self._p[rr] = state[ii, :3]
             self._v[rr] = state[ii, 3:6]
@@ -285,29 +349,27 @@ class LiveTargets:
             self._t_end[rr] = np.where(np.asarray(rows["active"], bool)[ii], np.inf, t[ii])
             if "heading_deg" in rows:
                 self._h[rr] = rows["heading_deg"][ii]
-        if new_sw:
-            self.swerling = np.concatenate([self.swerling, np.asarray(new_sw, np.int8)])
-        self.updates += len(applied)
-        if applied:
-            self.outside_envelope += int(np.count_nonzero(
-                self.outside(state[np.asarray(applied), :3])))
-        keep = np.asarray(applied, dtype=np.int64)
-        out: dict[str, Any] = {"id": [rows["id"][i] for i in applied],
-                               "time_s": t[keep]}
+        self.updates += applied.size
+        if applied.size:
+            self.outside_envelope += int(np.count_nonzero(self.outside(state[applied, :3])))
+        out: dict[str, Any] = {"id": _pick(ids, applied, m), "time_s": t[applied]}
         for j, k in enumerate(_COLUMNS[1:]):
-            out[k] = state[keep, j]
+            out[k] = state[applied, j]
         if rows.get("accelerated"):
             for j, k in enumerate(_ACCEL):
-                out[k] = state[keep, 6 + j]
-        types = [rows["type"][i] for i in applied]
-        names = [rows["name"][i] for i in applied]
-        if any(x is not None for x in types):
-            out["type"] = ["" if x is None else str(x) for x in types]
-        if any(x is not None for x in names):
-            out["name"] = ["" if x is None else str(x) for x in names]
-        out["active"] = np.asarray(rows["active"], bool)[keep]
-        if "heading_deg" in rows:
-            out["heading_deg"] = rows["heading_deg"][keep]
+                out[k] = state[applied, 6 + j]
+        for key in ("type", "name"):
+            got = _pick(rows[key], applied, m)
+            kinds = set(map(type, got))
+            if kinds <= {str}:  # the usual case, checked at C speed
+                if got:
+                    out[key] = got
+            elif kinds != {type(None)}:
+                out[key] = ["" if x is None else str(x) for x in got]
+        out["active"] = np.asarray(rows["active"], bool)[applied]
+        for key in _ORIENTATION:
+            if key in rows:
+                out[key] = rows[key][applied]
         return out
 
     def outside(self, pos: np.ndarray) -> np.ndarray:
@@ -341,15 +403,11 @@ class LiveTargets:
         return (np.hypot(self._v[:n, 0], self._v[:n, 1])
                 + np.hypot(self._a[:n, 0], self._a[:n, 1]) * (self.timeout_s + 120.0))
 
-    def state(self, t, rows=None):
-        """Positions (M, 3) [m], velocities (M, 3) [m/s], activity (M,) at times ``t``."""
-        pos, vel, _, active = self.state_acc(t, rows, accel=False)
-        return pos, vel, active
-
     def state_acc(self, t, rows=None, accel: bool = True):
-        """:meth:`state` with the accelerations (zero: constant-velocity dead reckoning)."""
-        rows = np.arange(self.n) if rows is None else np.asarray(rows, dtype=np.int64)
-        t = np.broadcast_to(np.asarray(t, dtype=float), rows.shape)
+        """Positions (M, 3) [m], velocities (M, 3) [m/s], accelerations (M, 3) [m/s²] (zero:
+        constant-velocity dead reckoning; None unless ``accel``) and activity (M,) at times
+        ``t`` [s] (:meth:`MotionTable.state` without the accelerations)."""
+        rows, t = self._rows_times(self.n, t, rows)
         dt = (t - self._t_u[rows])[:, None]
         acc = self._a[rows]
         pos = self._p[rows] + dt * (self._v[rows] + 0.5 * dt * acc)

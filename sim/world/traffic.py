@@ -52,8 +52,8 @@ from shipradar.sim.world.kinematics import (
 )
 from shipradar.sim.world.scenario import Rcs, Scenario, Target, Traffic, swerling_case
 
-__all__ = ["CUBIC", "PieceTable", "SceneTargets", "TrafficError", "hermite_coefficients",
-           "monotone_slopes", "scene_targets"]
+__all__ = ["CUBIC", "MotionTable", "PieceTable", "SceneTargets", "TrafficError",
+           "hermite_coefficients", "monotone_slopes", "scene_targets"]
 
 #: Piece kind of :class:`PieceTable` beside kinematics' LINEAR/ARC/SINE: p0 + v0 τ + c2 τ²
 #: + c3 τ³ (a cubic Hermite interval between two fixes).
@@ -185,7 +185,30 @@ def hermite_coefficients(p0: np.ndarray, p1: np.ndarray, v0: np.ndarray, v1: np.
 
 
 # --------------------------------------------------------------------------- the piece table
-class PieceTable:
+class MotionTable:
+    """The motion interface shared by the target tables that compute their accelerations
+    with their states (:class:`PieceTable`, :class:`shipradar.sim.world.live.LiveTargets`):
+    :meth:`state` is :meth:`state_acc` without the accelerations."""
+
+    def state(self, t, rows=None):
+        """Positions (M, 3) [m], velocities (M, 3) [m/s] and activity (M,) of objects
+        ``rows`` (all when None) at times ``t`` [s] (a scalar or one per row)."""
+        pos, vel, _, active = self.state_acc(t, rows, accel=False)
+        return pos, vel, active
+
+    def state_acc(self, t, rows=None, accel: bool = True):
+        """:meth:`state` with the accelerations (M, 3) [m/s²] third (None unless ``accel``)."""
+        raise NotImplementedError
+
+    @staticmethod
+    def _rows_times(n: int, t, rows) -> tuple[np.ndarray, np.ndarray]:
+        """``rows`` as an index array (all ``n`` objects when None) and ``t`` broadcast
+        to it."""
+        rows = np.arange(n) if rows is None else np.asarray(rows, dtype=np.int64)
+        return rows, np.broadcast_to(np.asarray(t, dtype=float), rows.shape)
+
+
+class PieceTable(MotionTable):
     """Trajectories of N objects, each a ragged list of pieces, evaluated for all at once.
 
     The interface of :class:`shipradar.sim.world.kinematics.Trajectories` (``n``, ``hold``,
@@ -242,15 +265,9 @@ class PieceTable:
             todo = todo[lo[todo] < hi[todo]]
         return lo
 
-    def state(self, t, rows=None):
-        """Positions (M, 3) [m], velocities (M, 3) [m/s] and activity (M,)."""
-        pos, vel, _, active = self.state_acc(t, rows, accel=False)
-        return pos, vel, active
-
     def state_acc(self, t, rows=None, accel: bool = True):
         """:meth:`state` with the accelerations (M, 3) [m/s²] third (None unless ``accel``)."""
-        rows = np.arange(self.n) if rows is None else np.asarray(rows, dtype=np.int64)
-        t = np.broadcast_to(np.asarray(t, dtype=float), rows.shape)
+        rows, t = self._rows_times(self.n, t, rows)
         j = self.piece_index(t, rows)
         tau = np.minimum(np.maximum(t - self.t0[j], 0.0), self.dt[j])
         p0, v0, par = self.p0[j], self.v0[j], self.par[j]
