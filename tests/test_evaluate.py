@@ -371,7 +371,7 @@ def test_study_cli_rescore_compare_determinism(tmp_path):
         a2 = run_study(DEMO, oracle, runs=2, out=tmp_path / "a2", seed=3, duration_s=5.0,
                        client=client, report=False)
     assert a["scored"] == 2 and not a["failed"] and b["scored"] == a2["scored"] == 2
-    for name in ("index.html", "gospa.png", "coverage.png", "ppi.png", "per_scan.parquet",
+    for name in ("index.html", "gospa.svg", "coverage.svg", "ppi.svg", "per_scan.parquet",
                  "per_run.csv", "per_target.parquet", "summary.csv"):
         assert (tmp_path / "a" / name).stat().st_size > 0, name
     # determinism: same seeds and a deterministic tracker, identical scores

@@ -14,6 +14,6 @@ One module per role:
   differences for a comparison;
 - :mod:`~shipradar.sim.studies.evaluate.study`: the runs of a study on Dask, rescoring,
   comparison;
-- :mod:`~shipradar.sim.studies.evaluate.report`: ``index.html``, PNGs, CSV and Parquet;
+- :mod:`~shipradar.sim.studies.evaluate.report`: ``index.html`` and its SVG figures;
 - :mod:`~shipradar.sim.studies.evaluate.cli`: the ``shipradar evaluate`` sub-command.
 """

@@ -7,7 +7,7 @@ Layout of a study directory ``DIR``:
 - ``per_scan``, ``per_run``, ``per_target``: every run's rows, ``.csv`` and ``.parquet``;
 - ``summary.csv`` (per-run figures over runs: mean and 95 % interval),
   ``summary_scan.csv``, ``summary_target.csv``;
-- ``index.html`` and its PNGs (:mod:`shipradar.sim.studies.evaluate.report`).
+- ``index.html`` and its SVG figures (:mod:`shipradar.sim.studies.evaluate.report`).
 
 Runs go to Dask: a ``LocalCluster`` (one single-threaded worker process per core, or
 ``workers``) by default, or an existing cluster (``scheduler``). Each run's simulator and

@@ -1,0 +1,110 @@
+"""The ``shipradar evaluate`` report's numbers: fixed notation at each quantity's precision,
+a unit for every figure, intervals cut at a quantity's bounds (the page itself is checked in
+Chromium by tests/test_evaluate_report_browser.py)."""
+
+from __future__ import annotations
+
+import math
+import re
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from shipradar.sim.studies.evaluate import stats
+from shipradar.sim.studies.evaluate.report import (
+    QUANTITIES,
+    Quantity,
+    bounded,
+    format_value,
+    quantity,
+)
+
+FIXED = re.compile(r"^-?\d{1,3}(,\d{3})*(\.\d+)?$")
+
+
+@pytest.mark.parametrize(("value", "name", "text"), [
+    (20_650.4, "gospa", "20,650"),          # the issue's 2.065e+04
+    (142_900.0, "first_track_range_m", "142.9"),  # shown in km
+    (0.002425, "siap_track_number_change_rate", "8.73"),  # 1/s shown per hour
+    (0.91875, "held_fraction", "0.919"),
+    (1.0e-7, "latency_median_s", "0.000"),
+    (-1.0e-7, "latency_median_s", "0.000"),  # no "-0.000"
+    (-241.0, "false_tracks_per_hour", "-241"),
+    (2, "runs", "2"),
+    (float("nan"), "gospa", "–"),
+    (None, "gospa", "–"),
+    (float("inf"), "gospa", "∞"),
+])
+def test_format_value_examples(value, name, text):
+    assert format_value(value, quantity(name)) == text
+
+
+def test_format_value_without_quantity():
+    assert format_value(1.0) == "1"
+    assert format_value(1.5) == "1.5"
+    assert format_value(1.0e-9) == "0"
+    assert format_value(12_345) == "12,345"
+    assert format_value("a<b") == "a&lt;b"
+
+
+@given(v=st.floats(min_value=-1e12, max_value=1e12, allow_nan=False),
+       name=st.sampled_from(sorted(QUANTITIES)))
+def test_format_value_is_fixed_notation_and_round_trips(v, name):
+    """Any value of any quantity: digits with comma groups and the quantity's decimals,
+    never an exponent, and the shown number is the value to within half its last digit."""
+    q = QUANTITIES[name]
+    s = format_value(v, q)
+    assert FIXED.match(s), s
+    assert len(s.partition(".")[2]) == q.decimals
+    shown = float(s.replace(",", ""))
+    assert shown == pytest.approx(v * q.scale, abs=0.5 * 10.0 ** -q.decimals * (1 + 1e-9),
+                                  rel=1e-12)
+
+
+def test_every_summarised_metric_has_a_declared_unit():
+    """A figure the report shows per run, per target or per scan is declared in QUANTITIES
+    (a unit and a precision chosen, not guessed from its name)."""
+    names = set(stats.RUN_METRICS) | set(stats.TARGET_METRICS) | set(stats.SCAN_METRICS)
+    assert names - set(QUANTITIES) == set()
+    assert all(QUANTITIES[n].unit for n in names)
+
+
+def test_gospa_parts_in_metres_to_the_p():
+    assert quantity("gospa", 2.0).unit == "m"
+    assert quantity("missed", 1.0).unit == "m"
+    assert quantity("missed", 2.0).unit == "m^2"
+    assert quantity("localisation", 1.5).unit == "m^1.5"
+
+
+def test_unknown_name_by_its_suffix():
+    assert quantity("longest_unbroken_m").unit == "m"
+    assert quantity("some_speed_mps").unit == "m/s"
+    assert quantity("a_ratio").unit == "1"
+
+
+def test_bounded_cuts_at_the_quantity_bounds():
+    frac = quantity("held_fraction")
+    assert bounded(-0.2316, 1.357, frac) == (0.0, 1.0)
+    assert bounded(0.2, 0.8, frac) == (0.2, 0.8)
+    assert bounded(-975.5, 1142.0, quantity("false")) == (0.0, 1142.0)
+    assert bounded(0.83, 1.199, quantity("siap_ambiguity")) == (1.0, 1.199)
+    lo, hi = bounded(math.nan, math.nan, frac)
+    assert math.isnan(lo) and math.isnan(hi)
+    free = Quantity("x", "1", 2, lower=None)
+    assert bounded(-5.0, 5.0, free) == (-5.0, 5.0)
+
+
+def test_compare_page_has_units(tmp_path):
+    from shipradar.sim.studies.evaluate.report import write_compare
+
+    rows = [{"study": "a", "kind": "mean", "metric": "gospa", "mean": 20_650.4,
+             "low": -3.0e4, "high": 7.1e4, "runs": 2},
+            {"study": "b", "kind": "minus a", "metric": "false_tracks_per_hour",
+             "mean": -241.0, "low": -1.2e3, "high": 700.0, "runs": 2}]
+    page = write_compare(tmp_path, ["a", "b"], [{"tracker": "x", "metrics": {"p": 1.0}}] * 2,
+                         rows).read_text()
+    assert "<th class='l'>unit</th>" in page and "<td class='l'>1/h</td>" in page
+    assert "20,650" in page and not re.search(r"\de[+-]?\d", page)
+    assert "<td>0</td><td>71,000</td>" in page  # a mean's interval cut at 0
+    assert "<td>-1,200</td>" in page  # a difference is not bounded
