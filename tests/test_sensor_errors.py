@@ -388,3 +388,106 @@ def test_asterix_carries_the_errors():
     np.testing.assert_allclose((m1[:, 0] - m0[:, 0]) * 111_132.0, -300.0, atol=3.0)
     np.testing.assert_allclose((m1[:, 1] - m0[:, 1]) * 111_412.0 * math.cos(lat0), 500.0,
                                atol=3.0)
+
+
+# --------------------------------------------------------------------- latency
+def _latency_scene():
+    """r1 reports 1 s late plus an exponential delay of mean 20 ms per sector message (its
+    sectors 125 ms apart: a message almost never waits for the one ahead); r2 on time."""
+    r1 = quiet_radar(id="r1", errors={"latency": {"fixed_s": 1.0, "random_mean_s": 0.02}})
+    r2 = quiet_radar(id="r2", rotation_rpm=40, sic=2)
+    return _scene(radars=[r1, r2], targets=30, duration_s=30.0)
+
+
+def _by_sensor(bus):
+    """Each radar's messages (``t``, frames), but ``truth[sensors]``, which only the run with
+    errors has."""
+    out = {}
+    for (topic, t, p), frames in zip(bus.messages, bus.frames, strict=True):
+        if topic != protocol.TOPIC_END and p.get("kind") != "sensors":
+            out.setdefault(p["sensor"], []).append((t, frames))
+    return out
+
+
+def test_latency_orders_the_stream_by_publication():
+    """With latency, each radar's messages are those of the run without (the same bytes but
+    the envelope's `t`: nothing lost, duplicated or reordered within a radar), published
+    late: `t` − the on-time `t` is at least the fixed delay, a sector message's extra delay
+    is exponential with the stated mean (Kolmogorov-Smirnov, and the mean within 4 standard
+    errors), and the whole stream is in publication order, so r1's messages come after r2's
+    later ones. ``end`` comes last, at the last publication."""
+    from scipy import stats
+
+    late = _run(_latency_scene())
+    zero = _latency_scene()
+    zero["platforms"][0]["radars"][0].pop("errors")
+    on_time = _by_sensor(_run(zero))
+    got = _by_sensor(late)
+    times = [t for _, t, _ in late.messages]
+    assert times == sorted(times)
+    assert late.messages[-1][0] == protocol.TOPIC_END and times[-1] == max(times[:-1])
+    assert got["r2"] == on_time["r2"]
+    assert len(got["r1"]) == len(on_time["r1"])
+    extra, overtaken = [], 0
+    for (t, frames), (t0, frames0) in zip(got["r1"], on_time["r1"], strict=True):
+        assert frames[0] == frames0[0]
+        assert protocol.retime(frames[1], t0) == frames0[1]
+        assert t - t0 >= 1.0 - 1e-12
+        if frames[0] == protocol.TOPIC_PLOTS:
+            extra.append(t - t0 - 1.0)
+    extra = np.array(extra)
+    assert extra.size > 100
+    assert abs(extra.mean() - 0.02) < 4 * 0.02 / math.sqrt(extra.size)
+    assert stats.kstest(extra, "expon", args=(0, 0.02)).pvalue > 1e-3
+    # across radars, out of their on-time order
+    pos = {id(f): i for i, f in enumerate(late.frames)}
+    on_time_r2 = dict(zip([id(f) for _, f in got["r2"]], [t for t, _ in on_time["r2"]],
+                          strict=True))
+    for (_, frames), (t0, _) in zip(got["r1"], on_time["r1"], strict=True):
+        overtaken += sum(1 for f_id, t2 in on_time_r2.items() if t0 < t2 and pos[f_id] < pos[
+            id(frames)])
+    assert overtaken > 100
+
+
+def test_truth_sensors_reports_the_latency():
+    """truth[sensors].latency_s is the delay of the scan's last ``plots`` message."""
+    late = _run(_latency_scene())
+    zero = _latency_scene()
+    zero["platforms"][0]["radars"][0].pop("errors")
+    on_time = _run(zero)
+    t0 = {(p["sensor"], p["scan"], int(p["plot_id"][0])): t
+          for t, p in on_time.of(protocol.TOPIC_PLOTS)}
+    last = {}
+    for t, p in late.of(protocol.TOPIC_PLOTS):
+        key = (p["sensor"], p["scan"], int(p["plot_id"][0]))
+        last[(p["sensor"], p["scan"])] = t - t0[key]
+    sensors = [p for _, p in late.of(protocol.TOPIC_TRUTH) if p["kind"] == "sensors"]
+    assert sensors
+    for s in sensors:
+        want = last.get((s["sensor"], s["scan"]), math.nan)
+        if math.isnan(want):
+            assert math.isnan(s["latency_s"])
+        else:
+            assert s["latency_s"] == pytest.approx(want, abs=1e-9)
+
+
+def test_latency_recording_is_the_simpy_order_and_reproducible(tmp_path):
+    """A recording (the batched fast path) holds the messages SimPy's loop gives, in its
+    order, and the same seed gives the same bytes."""
+    from shipradar.sim.stream.bus import Bus
+    from shipradar.sim.stream.recording import Recorder, read_recording
+
+    data = _latency_scene()
+    data["duration_s"] = 8.0
+    bodies = []
+    for k in range(2):
+        path = tmp_path / f"{k}.srrec"
+        with Bus(None, Recorder(path)) as bus:
+            sim = Simulation(parse_scenario(data), bus=bus, tables=SceneTables())
+            assert sim.batched
+            sim.run()
+        with read_recording(path, strict=True) as reader:
+            bodies.append([(bytes(topic), bytes(body)) for _, (topic, body) in reader])
+        assert path.read_bytes() == (tmp_path / "0.srrec").read_bytes()
+    simpy_run = _run(data)
+    assert bodies[0] == [(bytes(f[0]), bytes(f[1])) for f in simpy_run.frames]

@@ -210,6 +210,12 @@ class Simulation:
                     platform_id=platform.id, sector_s=process.sector_s)
             process.index = k
             self.radars.append(process)
+        #: some radar's messages leave late (issue 33): each process waits for its messages'
+        #: publication times, the run lasts until the last has left (SimPy or the batched
+        #: path; one process)
+        self.latency = any(r.errors is not None and r.errors.has_latency for r in self.radars)
+        #: the latest publication time of any message [s] (the run's end without latency)
+        self.last_publication = 0.0
 
     # ------------------------------------------------------------------ running
     def _environment(self) -> simpy.Environment:
@@ -218,8 +224,7 @@ class Simulation:
             env = simpy.rt.RealtimeEnvironment(factor=1.0 / self.realtime, strict=False)
         else:
             env = simpy.Environment()
-        for r in self.radars:
-            env.process(r.run(env))
+        self._processes = [env.process(r.run(env)) for r in self.radars]
         if self.live_source is not None and hasattr(self.live_source, "wait_while_frozen"):
             env.process(self._simulation_management(env))
         return env
@@ -239,7 +244,7 @@ class Simulation:
 
     def run(self) -> dict[str, Any]:
         """Run to the end; returns the summary (the JSON line ``shipradar run`` prints)."""
-        if self.processes > 1 and len(self.radars) > 1:
+        if self.processes > 1 and len(self.radars) > 1 and not self.latency:
             from shipradar.sim.engine.parallel import run_parallel
 
             out = run_parallel(self)
@@ -261,7 +266,7 @@ class Simulation:
         if env is None:
             self._run_batched(bar)
         else:
-            env.run(until=self.duration + 1e-9)
+            env.run(until=self._until(env))
         wall = time.perf_counter() - wall0
         for r in self.radars:
             r.release()
@@ -270,13 +275,21 @@ class Simulation:
         self._emit_end()
         return self.summary(wall)
 
+    def _until(self, env: simpy.Environment) -> Any:
+        """Where a SimPy run stops: the run's duration, or with latency (issue 33) when every
+        radar's last message has left."""
+        if self.latency:
+            return env.all_of(self._processes)
+        return self.duration + 1e-9
+
     def _emit_end(self) -> None:
         """The run's last message, ``end`` (after every radar's last ``eos`` and
         ``truth``), and the bus flushed; not from a worker that runs some radars only."""
         if self.bus is None:
             return
         if self.only_radars is None:
-            self.bus.emit(protocol.TOPIC_END, self.duration, self._end_payload())
+            self.bus.emit(protocol.TOPIC_END, max(self.duration, self.last_publication),
+                          self._end_payload())
         self.bus.flush()
 
     def _end_payload(self) -> dict[str, Any]:
@@ -315,13 +328,16 @@ class Simulation:
         batch = _BatchingBus(real) if real is not None else None
         clock = _FastClock()
         # alone, a radar's resumptions order nothing but its own messages: one per revolution
-        procs = [r.run(clock, per_sector=len(self.radars) > 1) for r in self.radars]
+        procs = [r.run(clock, per_sector=len(self.radars) > 1 or self.latency)
+                 for r in self.radars]
         order = EventOrder(len(procs))
+        # with latency the processes end after their last message has left (issue 33)
+        until = math.inf if self.latency else self.duration + 1e-9
         step = max(self.duration / 200.0, 0.5)
         next_bar = step
         self.bus = batch
         try:
-            for i, t in order.resumptions(self.duration + 1e-9):
+            for i, t in order.resumptions(until):
                 clock.now = t
                 try:
                     delay = next(procs[i])
@@ -373,7 +389,12 @@ class Simulation:
             env.run(until=t + 1e-9 if t >= self.duration else t)
             while pending:
                 yield pending.popleft()
-        yield protocol.TOPIC_END.decode(), self.duration, self._end_payload()
+        if self.latency:  # the messages still on their way (issue 33)
+            env.run(until=self._until(env))
+            while pending:
+                yield pending.popleft()
+        yield (protocol.TOPIC_END.decode(), max(self.duration, self.last_publication),
+               self._end_payload())
 
     def _progress(self, env, bar):
         step = max(self.duration / 200.0, 0.5)
@@ -564,6 +585,9 @@ class RadarProcess:
         # the latency of the current scan's last sector message [s] (truth[sensors]), NaN
         # before any
         self._scan_latency = math.nan
+        # when this radar's link is free [s]: its last message's publication (issue 33's
+        # latency; a message never overtakes the one before it)
+        self._link_free = 0.0
         self._meta_items: tuple[int, bytes, bytes] | None = None
         # what the bus takes (_bus_caps), found once per bus: a runtime-checkable protocol's
         # isinstance costs ~20 us, once per sector it was half of a sparse recorded run
@@ -812,13 +836,17 @@ class RadarProcess:
         if self.resume_times is not None:
             self.resume_times.append(env.now)
         self._live_update(0.0)
-        self._emit_meta(0.0, scan=0)
+        t_at = self._leaves(0.0, False)
+        if t_at > env.now:  # latency (issue 33)
+            yield env.timeout(t_at - env.now)
+        self._emit_meta(0.0, scan=0, t_at=t_at)
         # alone under SimPy (a publisher, a wall clock), a resumption orders nothing but
         # this radar's own messages: the end of a sector that sends none is not waited for
         # (a worker of a parallel run keeps every one: its resumption times order the
         # radars' messages in the parent)
         alone = len(sim.radars) == 1 and self.resume_times is None
-        if per_sector and alone and not sim.realtime and _is_plain_bus(sim.bus):
+        if per_sector and alone and not sim.realtime and _is_plain_bus(sim.bus) \
+                and not sim.latency:
             # alone in fast mode, with the stream's own bus (a publisher): nothing reads the
             # clock between its messages (no wall clock, no in-process sink, no other
             # process's messages to interleave), and each message carries its own time, so
@@ -831,7 +859,10 @@ class RadarProcess:
                 return
             if scan > 0:
                 self._live_update(k * self.sector_s)
-                self._emit_meta(k * self.sector_s, scan)
+                t_at = self._leaves(k * self.sector_s, False)
+                if t_at > env.now:  # latency: after the eos it follows (issue 33)
+                    yield env.timeout(t_at - env.now)
+                self._emit_meta(k * self.sector_s, scan, t_at=t_at)
             rev = self._next_revolution(scan)
             if per_sector:
                 k = yield from self._revolution_by_sector(env, scan, k, rev, alone)
@@ -896,35 +927,61 @@ class RadarProcess:
             emit = frames.emit_frames if frames is not None else None
         plots_topic, truth_topic = protocol.TOPIC_PLOTS, protocol.TOPIC_TRUTH
         self._scan_latency = math.nan
+        # with latency (issue 33) a sector without a message is not waited for either: each
+        # resumption is a message's publication (the end of scan's, at the last sector)
+        skip = alone or sim.latency
         for sector in range(n):
             if k * sector_s >= duration:
                 break
             t_b = (k + 1) * sector_s
             if t_b > duration:
                 t_b = duration
-            if alone and t_b < duration and sector < n - 1 and (
-                    rev is None or i >= len(rev.sectors) or rev.sectors[i] != sector):
+            has_msg = rev is not None and i < len(rev.sectors) and rev.sectors[i] == sector
+            if skip and t_b < duration and sector < n - 1 and not has_msg:
                 stats.sectors += 1  # nothing to send: its end is not waited for
                 k += 1
                 continue
-            yield env.timeout(t_b - env.now)
+            t_at = t_b if not sim.latency else self._leaves(t_b, has_msg)
+            yield env.timeout(t_at - env.now)
             sim.active_radar = self.index
             if resumes is not None:
                 resumes.append(env.now)
-            if rev is not None and i < len(rev.sectors) and rev.sectors[i] == sector:
+            if has_msg:
+                assert rev is not None
+                plots, truth = rev.plots[i], rev.truth[i]
+                if t_at != t_b:
+                    self._scan_latency = t_at - t_b
+                    if isinstance(plots, bytes) and isinstance(truth, bytes):
+                        plots, truth = protocol.retime(plots, t_at), protocol.retime(truth, t_at)
+                else:
+                    self._scan_latency = 0.0
                 if emit is not None:
                     self.plot_counter += rev.rows[i]
-                    emit(t_b, [plots_topic, rev.plots[i]])
-                    emit(t_b, [truth_topic, rev.truth[i]])
+                    emit(t_at, [plots_topic, plots])
+                    emit(t_at, [truth_topic, truth])
                 else:
-                    self._send_sector(t_b, rev.rows[i], rev.plots[i], rev.truth[i])
+                    self._send_sector(t_at, rev.rows[i], plots, truth)
                 i += 1
-                self._scan_latency = 0.0
             stats.sectors += 1
             k += 1
             if sector == n - 1 or t_b >= duration:
-                self._end_of_scan(t_b, scan)
+                self._end_of_scan(t_b, scan, t_at=self._leaves(t_b, False))
         return k
+
+    def _leaves(self, t: float, sector: bool) -> float:
+        """When a message made at ``t`` [s] leaves this radar (issue 33's latency): a sector's
+        ``plots`` (``sector``) after the fixed delay plus a random one, the others (``meta``,
+        ``eos`` and their truth) after the fixed one, never before the message ahead of it on
+        the link; ``t`` without latency."""
+        errors = self.errors
+        if errors is None or not errors.has_latency:
+            return t
+        delay = errors.latency_s() if sector else errors.latency_fixed_s
+        t_at = max(self._link_free, t + delay)
+        self._link_free = t_at
+        if t_at > self.sim.last_publication:
+            self.sim.last_publication = t_at
+        return t_at
 
     def _live_update(self, t: float) -> None:
         """At a revolution's start ``t`` [s] with a live source: the entity states that
@@ -986,7 +1043,7 @@ class RadarProcess:
                 "range_edges_m": r_edges, "azimuth_edges_rad": az_edges, "per_scan": cells}
         return out
 
-    def _emit_meta(self, t: float, scan: int) -> None:
+    def _emit_meta(self, t: float, scan: int, t_at: float | None = None) -> None:
         """The sensor metadata of revolution ``scan``, starting at time ``t``, with the
         antenna's state at ``t`` (:meth:`antenna_state`).  To a bus that takes frames
         (:func:`shipradar.sim.stream.sink.takes_frames`) it goes packed from the items
@@ -997,13 +1054,14 @@ class RadarProcess:
         bus = sim.bus
         if bus is None:
             return
+        at = t if t_at is None else t_at  # it leaves late with latency (issue 33)
         frames = self._bus_caps()[0]
         packed = self._next_meta
         if frames is not None and self._meta_items is not None and packed is not None \
                 and packed[0] == t:  # packed with the previous scan's end (_frame_ends)
             n, before, after = self._meta_items
-            frames.emit_frames(t, protocol.encode_items(protocol.TOPIC_META, t, n,
-                                                        (before, packed[1], after)))
+            frames.emit_frames(at, protocol.encode_items(protocol.TOPIC_META, at, n,
+                                                         (before, packed[1], after)))
             return
         last = self._last_eos
         if last is not None and last[0] == t:  # the previous scan's end: its state
@@ -1011,9 +1069,9 @@ class RadarProcess:
         else:
             state = {"scan": scan, **self.antenna_state(t)}
         if frames is not None:
-            self._emit_meta_frames(frames, t, state)
+            self._emit_meta_frames(frames, at, state)
         else:
-            bus.emit(protocol.TOPIC_META, t, self._meta_payload(state))
+            bus.emit(protocol.TOPIC_META, at, self._meta_payload(state))
 
     def _emit_meta_frames(self, bus: FrameSink, t: float, state: dict[str, Any]) -> None:
         """The metadata from its items packed once (:meth:`_emit_meta`): the keys before
@@ -1465,7 +1523,7 @@ class RadarProcess:
                      else [None] * len(eos))
             ends.frames = list(zip(eos, truth, meta, strict=True))
 
-    def _end_of_scan(self, t: float, scan: int) -> None:
+    def _end_of_scan(self, t: float, scan: int, t_at: float | None = None) -> None:
         """The end of revolution ``scan`` at time ``t`` (its ``eos`` and ``truth[targets]``,
         :meth:`_frame_ends`), and the bus flushed: each scan's records are written at its
         end."""
@@ -1479,20 +1537,24 @@ class RadarProcess:
         if bus is None:
             return
         self._next_meta = None
+        at = t if t_at is None else t_at  # it leaves late with latency (issue 33)
         if ends.frames is not None:
             eos, truth, meta = ends.frames[j]
             self._next_meta = (t, meta)
             frames = self._bus_caps()[0]
             assert frames is not None  # framed for it (_frame_ends)
-            frames.emit_frames(t, [protocol.TOPIC_EOS, eos])
+            if at != t:
+                eos = protocol.retime(eos, at)
+                truth = None if truth is None else protocol.retime(truth, at)
+            frames.emit_frames(at, [protocol.TOPIC_EOS, eos])
             if truth is not None:
-                frames.emit_frames(t, [protocol.TOPIC_TRUTH, truth])
+                frames.emit_frames(at, [protocol.TOPIC_TRUTH, truth])
         else:
-            bus.emit(protocol.TOPIC_EOS, t, self._eos_payload(j))
+            bus.emit(protocol.TOPIC_EOS, at, self._eos_payload(j))
             if ends.targets is not None:
-                bus.emit(protocol.TOPIC_TRUTH, t, ends.targets.message(j))
+                bus.emit(protocol.TOPIC_TRUTH, at, ends.targets.message(j))
         if self.errors is not None:
-            bus.emit(protocol.TOPIC_TRUTH, t, self._truth_sensors(t, scan, j))
+            bus.emit(protocol.TOPIC_TRUTH, at, self._truth_sensors(t, scan, j))
         bus.flush()
 
     def _truth_sensors(self, t: float, scan: int, j: int) -> dict[str, Any]:

@@ -829,3 +829,18 @@ def to_jsonable(value: Any) -> Any:
     if isinstance(value, (bytes, bytearray, memoryview)):
         return _json_bytes(bytes(value))
     return value
+
+
+def retime(body: bytes, t_sim: float) -> bytes:
+    """An encoded message's body (:func:`encode`, :func:`encode_items`, a sector frame) with
+    the envelope's ``t`` set to ``t_sim`` (a message that leaves late, issue 33's reporting
+    latency): the same bytes as encoding the payload at ``t_sim``."""
+    t = float(t_sim)
+    if not math.isfinite(t):
+        raise ProtocolError(f"t_sim must be finite, got {t_sim!r}")
+    head = body[0]
+    n = 1 if 0x80 <= head <= 0x8F else 3 if head == 0xDE else 5 if head == 0xDF else 0
+    at = n + len(_ENVELOPE_V) + len(_ENVELOPE_T_KEY)
+    if not n or body[n:at] != _ENVELOPE_V + _ENVELOPE_T_KEY or body[at] != 0xCB:
+        raise ProtocolError("not a message body of this protocol (v, t first)")
+    return b"".join((body[:at], _FLOAT64.pack(0xCB, t), body[at + 9:]))

@@ -337,7 +337,8 @@ EOS = Payload(b"eos", None, (
 
 #: ``end``: the end of the run, once, after every radar's last messages.
 END = Payload(b"end", None, (
-    _f("time_s", "float", "s", "end of the run, the scenario's duration (equal to `t`)"),
+    _f("time_s", "float", "s", "end of the run, the scenario's duration (equal to `t`; with a "
+       "radar's reporting latency, `t` is the last message's publication, section 4.5)"),
     _f("sensors", "list[str]", "", "the radars of the run, whose messages all came before"),
     _f("scans", "list[int]", "", "scans each of them sent (its last `eos` `scan` + 1), in "
        "the order of `sensors`"),
