@@ -108,3 +108,18 @@ def test_compare_page_has_units(tmp_path):
     assert "20,650" in page and not re.search(r"\de[+-]?\d", page)
     assert "<td>0</td><td>71,000</td>" in page  # a mean's interval cut at 0
     assert "<td>-1,200</td>" in page  # a difference is not bounded
+
+
+def test_coverage_legend_lists_ids_in_natural_order_and_counts_the_rest(tmp_path):
+    from shipradar.sim.studies.evaluate import report
+
+    ids = [f"T{k}" for k in range(1, 51)]
+    holding = [{"seed": 1, "scan": i, "t_s": float(i), "target": f"tgt{i % 2}",
+                "track_id": ids[i] if i < 50 else None} for i in range(60)]
+    svg = report._coverage_svg(tmp_path / "c.svg", holding, 1, report._track_colours(ids),
+                               "c = 2,000 m")
+    legend = svg[svg.index('id="legend-coverage"'):]
+    shown = re.findall(r">track (T\d+)<", legend)
+    assert shown == ids[:report.LEGEND_IDS]
+    assert f"… {50 - report.LEGEND_IDS} more track ids" in legend
+    assert "no track held it" in legend

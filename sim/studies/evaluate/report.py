@@ -22,7 +22,7 @@ from __future__ import annotations
 import html
 import math
 import re
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -320,7 +320,7 @@ LEGEND_IDS = 30
 
 
 def _id_handles(colours: dict[str, Any], ids: Sequence[str], style: str,
-                false_ids: set[str] = frozenset()) -> list[Any]:  # type: ignore[assignment]
+                false_ids: Collection[str] = ()) -> list[Any]:
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
@@ -502,6 +502,9 @@ def write_report(out: Path, settings: dict[str, Any], per_run, holding, summary_
         missing += ["coverage.svg: no scored run", "ppi.svg: no scored run"]
     threshold = (f"SIAP association within {format_value(siap_m, metre)} m (from the first "
                  "of 2 scans in a row)")
+    if m.get("switch_scans") is not None:  # a temporally consistent identity association
+        threshold += (f"; a target's track is kept unless another is better for "
+                      f"{format_value(m['switch_scans'])} scans")
     parts = [_head("shipradar evaluate"),
              "<h1>Tracker evaluation</h1>",
              f"<p>Scenario <b>{html.escape(str(settings.get('scenario_name')))}</b>, tracker "
