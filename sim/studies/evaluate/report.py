@@ -177,7 +177,8 @@ _STYLE = (
     "body{font-family:sans-serif;max-width:1340px;margin:1em auto;padding:0 1em}"
     "table{border-collapse:collapse;max-width:100%;margin:0.5em 0}"
     "td,th{border:1px solid #ccc;padding:2px 6px;text-align:right;vertical-align:top}"
-    "th{background:#eee}.l{text-align:left}tr.unit th{font-weight:normal;font-style:italic}"
+    "th{background:#eee}.l{text-align:left}td.name{overflow-wrap:anywhere;min-width:9em}"
+    "tr.unit th{font-weight:normal;font-style:italic}"
     ".ci{display:block;color:#555;font-size:85%;white-space:nowrap}"
     "code{overflow-wrap:anywhere}th code{overflow-wrap:normal}"
     "pre{background:#f6f6f6;padding:6px;white-space:pre-wrap;overflow-wrap:anywhere}"
@@ -228,7 +229,7 @@ def _target_tables(rows: Sequence[dict[str, Any]], metrics: Sequence[str]) -> st
                 + "".join(f"<th>{html.escape(q.unit)}</th>" for q in qs) + "</tr>")
         body = []
         for r in rows:
-            cells = [_cell(html.escape(str(r["target"])), "l"),
+            cells = [_cell(html.escape(str(r["target"])), "l name"),
                      _cell(format_value(r.get("runs"), QUANTITIES["runs"]))]
             for m, q in zip(chunk, qs, strict=True):
                 lo, hi = _interval(r.get(f"{m}_low"), r.get(f"{m}_high"), q)
