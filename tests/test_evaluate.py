@@ -30,7 +30,6 @@ from shipradar.sim.studies.evaluate.data import (
     check_tracks,
 )
 from shipradar.sim.studies.evaluate.metrics import (
-    EPOCH,
     MetricConfig,
     counted_targets,
     detectable,
@@ -41,6 +40,8 @@ ROOT = Path(__file__).resolve().parents[1]
 DEMO = str(ROOT / "scenarios" / "single_missile.yaml")
 TRACKERS = ROOT / "tests" / "evaluate_trackers.py"
 PY = shlex.quote(sys.executable)
+#: Timestamps handed to Stone Soup: simulated t [s] after this (any fixed epoch would do).
+EPOCH = dt.datetime(2000, 1, 1)
 
 
 # ------------------------------------------------------------------------ synthetic runs
@@ -122,10 +123,12 @@ def test_breaks_first_track_and_false_tracks():
     tracks = _tracks_from_truth(data)
     held = [i for i in range(12) if i >= 2 and i not in (6, 7)]
     data.tracks = [tracks[i] for i in held]
-    # plus a false track far away for the whole run
-    data.tracks = [TracksMessage(m.time_s, "r", m.scan, (*m.track_id, "F"),
-                                 np.append(m.east_m, -40_000.0), np.append(m.north_m, 0.0),
-                                 np.append(m.v_east_mps, 0.0), np.append(m.v_north_mps, 0.0))
+    # plus a false track far away for the whole run, listed first
+    data.tracks = [TracksMessage(m.time_s, "r", m.scan, ("F", *m.track_id),
+                                 np.insert(m.east_m, 0, -40_000.0),
+                                 np.insert(m.north_m, 0, 0.0),
+                                 np.insert(m.v_east_mps, 0, 0.0),
+                                 np.insert(m.v_north_mps, 0, 0.0))
                    for m in data.tracks]
     s = score_run(data, MetricConfig(max_track_age_s=0.5))
     row = s.per_target[0]
@@ -202,6 +205,198 @@ def test_gospa_and_siap_equal_stonesoup_called_directly():
     assert 0 < s.run["siap_spuriousness"] < 1
 
 
+def test_longest_segment_is_the_longest_unbroken_stretch():
+    """A track held 7-67 s, lost for the scan at 68 s (5 km off), held again 69-100 s: its
+    longest unbroken association is 60 s (Stone Soup's SIAP adds the two pieces of the same
+    track-truth pair: 91 s); the other SIAP figures equal Stone Soup's on the same sets."""
+    data = _run(n_targets=1, n_scans=100)  # scans at 1..100 s
+    tracks = _tracks_from_truth(data)
+    data.tracks = [m for m in tracks if m.time_s >= 7.0]
+    for m in data.tracks:
+        if m.time_s == 68.0:
+            m.north_m[:] += 5000.0
+    s = score_run(data, MetricConfig(max_track_age_s=0.5))
+    life = 100.0 - 1.0  # counted from the first scan
+    assert s.run["siap_longest_segment"] == pytest.approx(60.0 / life, rel=1e-12)
+    assert s.run["siap_completeness"] == pytest.approx((61 + 32) / 100, rel=1e-12)
+    assert s.run["siap_track_number_change_rate"] == pytest.approx(1 / (60.0 + 31.0),
+                                                                  rel=1e-12)
+    ref = _stonesoup_siap(data, threshold=2000.0)
+    assert ref["SIAP Longest Track Segment"] == pytest.approx(91.0 / life, rel=1e-12)
+    for key, name in (("completeness", "SIAP Completeness"),
+                      ("spuriousness", "SIAP Spuriousness"),
+                      ("position_accuracy_m", "SIAP Position Accuracy"),
+                      ("track_number_change_rate", "SIAP Rate of Track Number Change")):
+        assert s.run[f"siap_{key}"] == pytest.approx(ref[name], rel=1e-12, abs=1e-12)
+
+
+def _stonesoup_siap(data, threshold):
+    """Stone Soup's SIAP values (by name) on the run's tracks and truths, both sampled at the
+    scans, a track absent at a scan split there (as the harness scores)."""
+    from stonesoup.dataassociator.tracktotrack import TrackToTruth
+    from stonesoup.measures import Euclidean
+    from stonesoup.metricgenerator.manager import MultiManager
+    from stonesoup.metricgenerator.tracktotruthmetrics import SIAPMetrics
+    from stonesoup.types.groundtruth import GroundTruthPath, GroundTruthState
+    from stonesoup.types.state import State
+    from stonesoup.types.track import Track
+
+    def when(t):
+        return EPOCH + dt.timedelta(seconds=float(t))
+
+    period = data.radars["r"]["scan_period_s"]
+    pieces: dict[str, list] = {}
+    last: dict[str, float] = {}
+    count: dict[str, int] = {}
+    for m in data.tracks:
+        for k, tid in enumerate(m.track_id):
+            if tid not in last or m.time_s - last[tid] > 1.01 * period:
+                count[tid] = count.get(tid, -1) + 1
+            last[tid] = m.time_s
+            pieces.setdefault(f"{tid}#{count[tid]}", []).append(State(
+                [m.east_m[k], m.v_east_mps[k], m.north_m[k], m.v_north_mps[k]],
+                timestamp=when(m.time_s)))
+    truths = {GroundTruthPath([GroundTruthState(
+        [data.truth_pos[i, j, 0], data.truth_vel[i, j, 0], data.truth_pos[i, j, 1],
+         data.truth_vel[i, j, 1]], timestamp=when(t)) for i, t in enumerate(data.scan_t)],
+        id=str(j)) for j in range(len(data.target_ids))}
+    manager = MultiManager(
+        [SIAPMetrics(position_measure=Euclidean(mapping=(0, 2)),
+                     velocity_measure=Euclidean(mapping=(1, 3)), generator_name="s",
+                     tracks_key="tracks", truths_key="truths")],
+        associator=TrackToTruth(association_threshold=threshold, consec_pairs_confirm=2,
+                                consec_misses_end=1, measure=Euclidean(mapping=(0, 2))))
+    manager.add_data({"tracks": {Track(v, id=k) for k, v in pieces.items()},
+                      "truths": truths})
+    return {k: float(v.value) for k, v in manager.generate_metrics()["s"].items()
+            if not k.endswith("at times")}
+
+
+def _crossing(period=1.0, lag_m=0.0, heights=False):
+    """Two targets passing head-on at 200 m/s, 200 m apart horizontally at closest approach
+    (t = 50 s) and 500 m apart in height (1000 m, 1500 m); the tracker's ids never change,
+    its tracks lag ``lag_m`` behind along the velocity, with heights when ``heights``."""
+    t = period * np.arange(1, int(100 / period) + 1)
+    pos = np.zeros((t.size, 2, 3))
+    vel = np.zeros((t.size, 2, 3))
+    pos[:, 0] = np.stack([200.0 * t - 10_000.0, np.full(t.size, 100.0),
+                          np.full(t.size, 1000.0)], axis=-1)
+    pos[:, 1] = np.stack([10_000.0 - 200.0 * t, np.full(t.size, -100.0),
+                          np.full(t.size, 1500.0)], axis=-1)
+    vel[:, 0, 0], vel[:, 1, 0] = 200.0, -200.0
+    radar = {"instrumented_range_m": 60_000.0, "scan_period_s": period, "eos_t": t,
+             "eos_pos": np.tile([0.0, -30_000.0, 20.0], (t.size, 1))}
+    data = RunData(info={"seed": 1, "status": "ok", "duration_s": float(t[-1])},
+                   target_ids=["a", "b"], ref_sensor="r", scan_t=t, truth_pos=pos,
+                   truth_vel=vel, truth_active=np.ones((t.size, 2), bool),
+                   radars={"r": radar}, inputs={})
+    data.tracks = [TracksMessage(float(ti), "r", i, ("A", "B"),
+                                 pos[i, :, 0] - lag_m * np.sign(vel[i, :, 0]),
+                                 pos[i, :, 1].copy(), vel[i, :, 0].copy(), vel[i, :, 1].copy(),
+                                 up_m=pos[i, :, 2].copy() if heights else None)
+                   for i, ti in enumerate(t)]
+    return data
+
+
+def test_clean_crossing_gives_no_swap_and_no_track_number_change():
+    """A perfect tracker (right positions and heights) through a crossing 200 m apart
+    horizontally and 500 m in height: no identity swap, no track-number change."""
+    s = score_run(_crossing(heights=True))
+    assert s.run["identity_swaps"] == 0 and s.run["siap_track_number_change_rate"] == 0.0
+    assert [r["track_ids"] for r in s.per_target] == [1, 1]
+    assert s.run["gospa"] == 0.0
+
+
+def test_crossing_with_lagging_tracks_one_scan_flip_is_no_swap():
+    """Tracks lagging 300 m (the template tracker's accuracy) through the same crossing,
+    horizontal only: for the scan at 51 s the crossed pairing is nearer (2 x 224 m against
+    2 x 300 m), so a per-scan assignment swaps twice and SIAP's nearest-truth association
+    moves both tracks; the kept assignment (3 scans) and heights (538 m crossed against
+    300 m) see none."""
+    lagging = _crossing(lag_m=300.0)
+    per_scan = score_run(lagging, MetricConfig(switch_scans=1))
+    assert per_scan.run["identity_swaps"] == 2
+    assert per_scan.run["siap_track_number_change_rate"] > 0
+    kept = score_run(lagging)
+    assert kept.run["identity_swaps"] == 0
+    assert kept.run["siap_track_number_change_rate"] == 0.0
+    assert [r["track_ids"] for r in kept.per_target] == [1, 1]
+    with_heights = score_run(_crossing(lag_m=300.0, heights=True), MetricConfig(switch_scans=1))
+    assert with_heights.run["identity_swaps"] == 0
+    assert with_heights.run["siap_track_number_change_rate"] == 0.0
+    # GOSPA is a per-scan distance: the same with or without the kept identities
+    assert kept.run["gospa"] == per_scan.run["gospa"]
+
+
+def test_a_real_exchange_within_c_is_one_swap_after_switch_scans():
+    """Two tracks exchange ids at scan 5 while their targets are 500 m apart (within c): the
+    kept assignment follows after 3 scans, one swap; a one-scan exchange is none."""
+    data = _run(n_targets=2, n_scans=12)
+    data.truth_pos[:, 1, 0] -= 4500.0  # 500 m apart
+    data.tracks = _tracks_from_truth(data, ids=lambda i: ["A", "B"] if i < 5 else ["B", "A"])
+    s = score_run(data)
+    assert s.run["identity_swaps"] == 1
+    held = [h["track_id"] for h in s.holding if h["target"] == "tgt0"]
+    assert held == ["A"] * 7 + ["B"] * 5  # moved at the third scan of the exchange
+    data.tracks = _tracks_from_truth(data, ids=lambda i: ["B", "A"] if i == 5 else ["A", "B"])
+    assert score_run(data).run["identity_swaps"] == 0
+
+
+def test_counted_by_pd_reads_the_looks():
+    """``truth = "pd"``: a target counts while some radar's look within the window reached
+    the threshold, whatever in_coverage says."""
+    data = _run(n_scans=6, n_targets=3)
+    t = data.scan_t  # 1..6 s, period 1 s: window 3 s
+    cover = np.zeros((6, 3), bool)  # no target in geometric coverage
+    look_t = np.tile([1.0, 1.0, np.nan], (6, 1))
+    look_t[:, 0] = t - 0.5  # target 0 looked at every scan
+    pd = np.tile([0.9, 0.9, np.nan], (6, 1))
+    pd[3:, 0] = 0.2  # ...with a P_d below the threshold from the 4th scan
+    _with_coverage(data, {"r": (t, cover)})
+    data.looks = {"r": (t, look_t, pd)}
+    assert not counted_targets(data, 0).any()  # the default rule: geometry
+    got = [counted_targets(data, i, MetricConfig(truth="pd")).tolist() for i in range(6)]
+    # target 0: its good looks (0.5..2.5 s) stay in the 3 s window until the 6th scan;
+    # target 1: one look at 1 s with P_d 0.9, counted until the window passes it (t >= 4)
+    assert got == [[True, True, False], [True, True, False], [True, True, False],
+                   [True, False, False], [True, False, False], [False, False, False]]
+    got = [counted_targets(data, i, MetricConfig(truth="pd", pd_threshold=0.95,
+                                                 pd_window_s=10.0)).any() for i in range(6)]
+    assert not any(got)
+
+
+def test_metric_config_refuses_bad_values():
+    for kw in ({"switch_scans": 0}, {"truth": "radar"}, {"pd_threshold": 0.0},
+               {"pd_window_s": -1.0}, {"siap_threshold_m": 0.0}):
+        with pytest.raises(ValueError, match=next(iter(kw))):
+            MetricConfig(**kw)
+
+
+def test_intervals_stay_within_the_bounds():
+    """Student-t by hand (t_{0.975, 3} = 3.1824, tables) where nothing binds; clipped at a
+    proportion's 1 and a count's 0 (the issue's completeness 1.03 and -241 false tracks per
+    hour over 2 runs); a paired difference of proportions within [-1, 1]."""
+    from shipradar.sim.studies.evaluate import stats
+
+    m, lo, hi, n = stats.mean_interval([1.0, 2.0, 3.0, 4.0])
+    half = 3.182446 * math.sqrt(5.0 / 3.0) / 2.0
+    assert (m, n) == (2.5, 4)
+    assert lo == pytest.approx(2.5 - half, rel=1e-6) and hi == pytest.approx(2.5 + half,
+                                                                            rel=1e-6)
+    rows = [{"siap_completeness": 1.0, "false_tracks_per_hour": 0.0, "gospa": 10.0},
+            {"siap_completeness": 0.94, "false_tracks_per_hour": 120.0, "gospa": 12.0}]
+    got = {r["metric"]: r for r in stats.summarise(rows)}
+    c, f = got["siap_completeness"], got["false_tracks_per_hour"]
+    assert c["mean"] == pytest.approx(0.97, rel=1e-12) and c["high"] == 1.0 and c["low"] < 0.97
+    assert f["mean"] == 60.0 and f["low"] == 0.0 and f["high"] > 60.0
+    assert got["gospa"]["low"] == 0.0  # 11 +- 12.7: a distance is not negative
+    d = stats.paired_differences(
+        [{"seed": s, "siap_completeness": 0.0} for s in range(3)],
+        [{"seed": 0, "siap_completeness": 1.0}, {"seed": 1, "siap_completeness": 0.0},
+         {"seed": 2, "siap_completeness": 1.0}], ["siap_completeness"])[0]
+    assert -1.0 <= d["low"] <= d["high"] == 1.0
+
+
 def test_detectable_horizon_and_range():
     ant = [(np.array([0.0, 0.0, 25.0]), 60_000.0)]
     a_e = 4.0 / 3.0 * 6_371_008.8
@@ -260,6 +455,9 @@ def test_counted_targets_falls_back_to_geometry_without_in_coverage():
      "duplicate track_id"),
     ({"sensor": "r", "scan": 0, "time_s": 1.0, "track_id": [1], "east_m": [0.0],
       "north_m": [0.0], "v_east_mps": [0.0], "v_north_mps": [0.0]}, "bad track_id"),
+    ({"sensor": "r", "scan": 0, "time_s": 1.0, "track_id": ["a"], "east_m": [0.0],
+      "north_m": [0.0], "v_east_mps": [0.0], "v_north_mps": [0.0], "up_m": [1.0, 2.0]},
+     "length mismatch"),
 ])
 def test_malformed_tracks_named(payload, reason):
     with pytest.raises(MalformedTracks) as info:

@@ -452,6 +452,12 @@ TRACKS = Payload(TOPIC_TRACKS, None, (
     _f("v_north_mps", "float64[n]", "m/s", "estimated north velocities"),
     _f("sigma_east_m", "float64[n]", "m", "1σ east position error (covariance diagonal)"),
     _f("sigma_north_m", "float64[n]", "m", "1σ north position error (covariance diagonal)"),
+    _f("up_m", "float64[n]", "m", "estimated height above the sea, local frame (optional: "
+       "when given, `shipradar evaluate` associates tracks with truths in three dimensions, "
+       "so targets crossing at different heights keep their tracks; docs/studies.md)",
+       required=False),
+    _f("sigma_up_m", "float64[n]", "m", "1σ height error (optional, not scored)",
+       required=False),
 ))
 
 #: Topic of the entity states a program feeds in (``shipradar run --entities ENDPOINT``).

@@ -4,6 +4,7 @@
 
     shipradar evaluate SCENARIO --tracker "CMD {plots} {tracks}" --runs N [--seed S]
         [--duration S] [--out DIR] [--scheduler ADDRESS | --workers K] [--c 2000] [--p 1]
+        [--switch-scans 3] [--truth coverage|pd [--pd-threshold 0.5] [--pd-window S]]
     shipradar evaluate --rescore DIR [--c ...]      # score the recorded runs again
     shipradar evaluate --compare DIR_A DIR_B ...    # side by side, paired by seed
 
@@ -57,6 +58,19 @@ def _arguments(p: argparse.ArgumentParser) -> None:
                    help="SIAP track-to-truth association distance [m] (default: c)")
     p.add_argument("--max-track-age", type=float, default=None,
                    help="oldest tracks message scored at a scan [s] (default: 1.5 scans)")
+    p.add_argument("--switch-scans", type=int, default=3,
+                   help="scans in a row another assignment must be better before a track's "
+                        "association (identity, SIAP) moves to it (default 3; 1: each scan "
+                        "on its own)")
+    p.add_argument("--truth", choices=("coverage", "pd"), default="coverage",
+                   help="which targets count: 'coverage' (in_coverage: instrumented range "
+                        "and 4/3-earth horizon, default) or 'pd' (some radar's recent look "
+                        "reached --pd-threshold)")
+    p.add_argument("--pd-threshold", type=float, default=0.5,
+                   help="--truth pd: P_d a look must reach (default 0.5)")
+    p.add_argument("--pd-window", type=float, default=None, metavar="S",
+                   help="--truth pd: how far back looks are read [s] (default: 3 scan "
+                        "periods of each radar)")
     p.add_argument("--rescore", default=None, metavar="DIR",
                    help="score the recorded runs of DIR again, with these metric settings")
     p.add_argument("--compare", nargs="+", default=None, metavar="DIR",
@@ -85,7 +99,9 @@ def _config(args):
     from shipradar.sim.studies.evaluate.metrics import MetricConfig
 
     return MetricConfig(c_m=args.c, p=args.p, siap_threshold_m=args.siap_threshold,
-                        max_track_age_s=args.max_track_age)
+                        max_track_age_s=args.max_track_age, switch_scans=args.switch_scans,
+                        truth=args.truth, pd_threshold=args.pd_threshold,
+                        pd_window_s=args.pd_window)
 
 
 def _print_summary(summary: dict) -> None:

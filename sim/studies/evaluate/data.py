@@ -42,6 +42,9 @@ TRACKS_REQUIRED: tuple[str, ...] = TRACKS.keys_of("sensor", "scan", "time_s", "t
 #: The per-track numeric columns that are scored.
 TRACKS_COLUMNS: tuple[str, ...] = TRACKS.keys_of("east_m", "north_m", "v_east_mps",
                                                  "v_north_mps")
+#: The optional altitude column: when a message carries it, the track-to-truth association
+#: measures in three dimensions (:mod:`shipradar.sim.studies.evaluate.metrics`).
+TRACKS_ALTITUDE: str = TRACKS.keys_of("up_m")[0]
 
 
 class MalformedTracks(ValueError):
@@ -67,6 +70,7 @@ class TracksMessage:
     v_east_mps: np.ndarray
     v_north_mps: np.ndarray
     recv_s: float = math.nan  #: wall time received [s], NaN in process
+    up_m: np.ndarray | None = None  #: estimated heights [m], None when not given
 
 
 def check_tracks(frames, recv_s: float = math.nan) -> TracksMessage:
@@ -105,20 +109,10 @@ def tracks_from_payload(p: dict, recv_s: float = math.nan) -> TracksMessage:
         raise MalformedTracks("bad track_id", "track_id must be a list of strings")
     if len(set(ids)) != len(ids):
         raise MalformedTracks("duplicate track_id", f"{len(ids) - len(set(ids))} repeated")
-    cols = {}
-    for k in TRACKS_COLUMNS:
-        try:
-            a = np.asarray(p[k], dtype=np.float64)
-        except (TypeError, ValueError):
-            raise MalformedTracks("bad column", f"{k} is not numeric") from None
-        if a.ndim != 1:
-            raise MalformedTracks("bad column", f"{k} has {a.ndim} dimensions")
-        if a.size != len(ids):
-            raise MalformedTracks("length mismatch", f"{k} has {a.size} values for "
-                                                     f"{len(ids)} track_id")
-        if not np.all(np.isfinite(a)):
-            raise MalformedTracks("non-finite", f"{k} holds NaN or inf")
-        cols[k] = a
+    cols = {k: _column(p, k, len(ids)) for k in TRACKS_COLUMNS}
+    up = None
+    if p.get(TRACKS_ALTITUDE) is not None:
+        up = _column(p, TRACKS_ALTITUDE, len(ids))
     t = p["time_s"]
     if isinstance(t, bool) or not isinstance(t, (int, float)) or not math.isfinite(t):
         raise MalformedTracks("bad time", f"time_s = {t!r}")
@@ -126,7 +120,24 @@ def tracks_from_payload(p: dict, recv_s: float = math.nan) -> TracksMessage:
     if isinstance(scan, bool) or not isinstance(scan, (int, np.integer)):
         raise MalformedTracks("bad type", f"scan = {scan!r}")
     return TracksMessage(float(t), str(p["sensor"]), int(scan), tuple(ids), cols["east_m"],
-                         cols["north_m"], cols["v_east_mps"], cols["v_north_mps"], recv_s)
+                         cols["north_m"], cols["v_east_mps"], cols["v_north_mps"], recv_s,
+                         up)
+
+
+def _column(p: dict, k: str, n: int) -> np.ndarray:
+    """Column ``k`` of a ``tracks`` payload as n finite float64 values."""
+    try:
+        a = np.asarray(p[k], dtype=np.float64)
+    except (TypeError, ValueError):
+        raise MalformedTracks("bad column", f"{k} is not numeric") from None
+    if a.ndim != 1:
+        raise MalformedTracks("bad column", f"{k} has {a.ndim} dimensions")
+    if a.size != n:
+        raise MalformedTracks("length mismatch", f"{k} has {a.size} values for "
+                                                 f"{n} track_id")
+    if not np.all(np.isfinite(a)):
+        raise MalformedTracks("non-finite", f"{k} holds NaN or inf")
+    return a
 
 
 @dataclass
@@ -138,8 +149,10 @@ class RunData:
     states then; ``radars``: per sensor ``instrumented_range_m``, ``scan_period_s``, and its
     antenna positions ``eos_t`` (M,) / ``eos_pos`` (M, 3); ``coverage``: per sensor the times
     (M,) of its ``truth[targets]`` copies and their ``in_coverage`` (M, k) (schema 2; empty
-    for a version-1 stream, which has no such key); ``inputs``: per sensor the (simulated t,
-    wall sent) of its ``plots`` and ``eos`` messages, for the latency.
+    for a version-1 stream, which has no such key); ``looks``: per sensor the times (M,) of
+    those copies and their ``look_time_s`` and ``pd`` (M, k) (schema 2); ``inputs``: per
+    sensor the (simulated t, wall sent) of its ``plots`` and ``eos`` messages, for the
+    latency.
     """
 
     info: dict[str, Any]
@@ -153,6 +166,7 @@ class RunData:
     inputs: dict[str, tuple[np.ndarray, np.ndarray]]
     tracks: list[TracksMessage] = field(default_factory=list)
     coverage: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+    looks: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]] = field(default_factory=dict)
     malformed: Counter = field(default_factory=Counter)
     malformed_examples: dict[str, str] = field(default_factory=dict)
 
@@ -176,6 +190,7 @@ class Collect:
         self.active: list[np.ndarray] = []
         self.eos: dict[str, list[tuple[float, tuple[float, float, float]]]] = {}
         self.coverage: dict[str, list[tuple[float, np.ndarray]]] = {}
+        self.looks: dict[str, list[tuple[float, np.ndarray, np.ndarray]]] = {}
         self.inputs: dict[str, list[tuple[float, float]]] = {}
 
     def add(self, topic: bytes, t: float, p: Mapping[str, Any], sent_s: float = math.nan
@@ -204,6 +219,10 @@ class Collect:
             if "in_coverage" in p:
                 self.coverage.setdefault(p["sensor"], []).append(
                     (float(p["time_s"]), np.asarray(p["in_coverage"], bool)))
+            if "look_time_s" in p and "pd" in p:
+                self.looks.setdefault(p["sensor"], []).append(
+                    (float(p["time_s"]), np.asarray(p["look_time_s"], float),
+                     np.asarray(p["pd"], float)))
             if p["sensor"] == self.ref:
                 self.scan_t.append(float(p["time_s"]))
                 self.pos.append(np.stack([p["east_m"], p["north_m"], p["up_m"]], axis=-1))
@@ -230,6 +249,12 @@ class Collect:
         self.coverage = {s: list(zip([a for a, _ in v], pad([c for _, c in v], False),
                                      strict=True))
                          for s, v in self.coverage.items()}
+        looks = {}
+        for s, v in self.looks.items():
+            lt = pad([a for _, a, _ in v], np.nan)
+            pd = pad([b for _, _, b in v], np.nan)
+            looks[s] = (np.array([a for a, _, _ in v]), np.array(lt, float).reshape(-1, k),
+                        np.array(pd, float).reshape(-1, k))
         radars = {}
         for s, r in self.radars.items():
             eos = self.eos.get(s, [])
@@ -245,7 +270,7 @@ class Collect:
             truth_pos=np.array(self.pos).reshape(-1, k, 3),
             truth_vel=np.array(self.vel).reshape(-1, k, 3),
             truth_active=np.array(self.active, bool).reshape(-1, k),
-            radars=radars, inputs=inputs, coverage=coverage)
+            radars=radars, inputs=inputs, coverage=coverage, looks=looks)
 
 
 def add_tracks(data: RunData, frames_or_payload, recv_s: float, *, decoded: bool) -> None:
