@@ -523,7 +523,7 @@ def cmd_replay(args) -> int:
 
 
 def cmd_export(args) -> int:
-    from shipradar.sim.stream.export import ExportError, export
+    from shipradar.sim.adapters.export import ExportError, export
 
     if not Path(args.recording).exists():
         raise BadInput(f"export: recording {args.recording} does not exist")

@@ -29,8 +29,8 @@ from shipradar.sim.adapters.asterix.encode import (
 )
 from shipradar.sim.adapters.asterix.stream import datagrams
 from shipradar.sim.adapters.asterix.udp import parse_udp_url
+from shipradar.sim.adapters.export import _write_pcap
 from shipradar.sim.engine.simulation import Simulation
-from shipradar.sim.stream.export import _write_pcap
 from shipradar.sim.world.scenario import ScenarioError, parse_scenario
 
 from .asterix_helpers import scene, scene_dict, tshark_asterix

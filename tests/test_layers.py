@@ -149,3 +149,11 @@ def test_no_import_circles():
         if v not in index:
             visit(v)
     assert circles == []
+
+
+def test_the_stream_imports_no_adapter():
+    """The adapters (ASTERIX, DIS, viewer, export) read the stream; the stream never reads
+    an adapter (issue 31: the export that needs ASTERIX lives in sim/adapters/)."""
+    stream, adapters = "shipradar.sim.stream", "shipradar.sim.adapters"
+    assert [f"{a} imports {b}" for a, deps in sorted(GRAPH.items()) if a.startswith(stream)
+            for b in sorted(deps) if b.startswith(adapters)] == []

@@ -1,1 +1,1 @@
-"""The stream (layer 4): message protocol, bus and publisher, recordings, CurveZMQ, export."""
+"""The stream (layer 4): message protocol, bus and publisher, recordings, CurveZMQ."""
