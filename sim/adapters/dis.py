@@ -2,19 +2,24 @@
 
 ``shipradar run SCENARIO --dis udp://ADDRESS:PORT`` binds a UDP socket (loopback by default;
 another address needs ``--allow-insecure-remote``: DIS has no security of its own) and
-decodes the PDUs with ``opendis`` (PyPI; DIS 6 and 7 share the layouts used here) on its own
-thread:
+decodes the PDUs on its own thread, in batches (the datagrams that arrive within 10 ms).  The
+Entity State PDUs of the standard's fixed layout (DIS 6 and 7 share it) are decoded at once
+by :func:`decode_entity_states` (``np.frombuffer`` over the batch with the big-endian
+:data:`ESPDU_DTYPE`; tested field by field against opendis); every other PDU, and an Entity
+State PDU that does not have that layout, by ``opendis`` (PyPI), one at a time:
 
 * **Entity State PDU** (type 1): one state of entity ``site:application:entity`` (its id in
   the truth topic; the marking text its name; its entity type as the text
   ``kind:domain:country:category:subcategory:specific:extra`` matched against the scenario's
   ``entity_types:`` patterns). World coordinates (geocentric ECEF) are carried into the
   scenario's local frame by the frame's own projection (position through WGS-84 geodetic
-  coordinates, velocity and acceleration through the projection's Jacobian, a central
-  difference). Dead reckoning by the PDU's algorithm: static (1): no motion; FPW (2) and
-  RPW (3): constant velocity; RVW (4) and FVW (5): constant velocity and acceleration (the
-  rotating variants differ only in orientation, which the radar does not use); the body-axis
-  algorithms (6-9) as FPW (their body-frame acceleration is not used: counted). The
+  coordinates, velocity and acceleration through the projection's exact derivative,
+  :func:`ecef_state_to_local`). Dead reckoning by the PDU's algorithm: static (1): no
+  motion; FPW (2) and RPW (3): constant velocity; RVW (4) and FVW (5): constant velocity and
+  acceleration; the body-axis algorithms (6-9) as FPW (their body-frame acceleration is not
+  used: counted).  The rotating ones (RPW, RVW, RPB, RVB) turn the orientation with the
+  angular velocity (IEEE 1278.1 annex E): the heading of a ridden platform follows it
+  (:func:`ecef_heading_rate_dps`). The
   extrapolation is straight in the local frame, not in ECEF: over the 12 s timeout at
   300 m/s the two differ by ~1 m of height (the earth's curvature over 3.6 km).
   Appearance bit 23 ("deactivated", the standard's final PDU of an entity) makes it leave.
@@ -29,19 +34,22 @@ thread:
 
 PDU time stamps are not used: the time of an update is its arrival (DIS applications'
 clocks are rarely synchronised); late or out-of-order arrivals are handled by
-:mod:`shipradar.sim.world.live`.  Datagrams wait in a queue of ``queue_size`` rows (the
-scenario's ``external.queue_size``), taken at each revolution start; beyond it they are
-dropped and counted.
+:mod:`shipradar.sim.world.live`.  Decoded states wait, already in the local frame, in a
+queue of ``queue_size`` rows (the scenario's ``external.queue_size``), taken at each
+revolution start; beyond it they are dropped and counted.
 """
 
 from __future__ import annotations
 
 import ipaddress
-import math
+import itertools
+import operator
+import select
 import socket
 import struct
 import threading
 import time
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -50,7 +58,8 @@ from shipradar.sim.world import geodesy
 from shipradar.sim.world.errors import BadInputError
 from shipradar.sim.world.kinematics import LocalFrame
 
-__all__ = ["DEFAULT_PORT", "MAX_PDU_BYTES", "DisError", "DisReceiver", "parse_dis_url"]
+__all__ = ["DEFAULT_PORT", "ESPDU_DTYPE", "MAX_PDU_BYTES", "DisError", "DisReceiver",
+           "decode_entity_states", "parse_dis_url"]
 
 #: DIS's customary UDP port.
 DEFAULT_PORT = 3000
@@ -64,9 +73,102 @@ ALL = 0xFFFF
 #: Entity State PDU appearance: bit 23 is the state, 1 = deactivated (IEEE 1278.1 / SISO-REF-010).
 DEACTIVATED_BIT = 1 << 23
 _PDU_ESPDU, _PDU_REMOVE, _PDU_START, _PDU_STOP = 1, 12, 13, 14
-_ZERO3 = (0.0, 0.0, 0.0)
-#: Step of the central difference that carries an ECEF vector into the local frame [s].
-_JACOBIAN_STEP = 0.5
+#: A distance from the earth's centre below which a location is not a place on it [m].
+_INSIDE_EARTH_M = 6.0e6
+
+#: The Entity State PDU's fixed part, big-endian (IEEE 1278.1-1995 5.3.3.1 and 1278.1-2012
+#: 7.2.2 share it: DIS 6 and 7; 7 names the header's byte 10 the PDU status), 144 bytes,
+#: followed by ``n_articulation`` 16-byte articulation (variable) parameters.
+ESPDU_DTYPE = np.dtype([
+    ("version", "u1"), ("exercise", "u1"), ("pdu_type", "u1"), ("family", "u1"),
+    ("timestamp", ">u4"), ("length", ">u2"), ("status", "u1"), ("padding", "u1"),
+    ("site", ">u2"), ("application", ">u2"), ("entity", ">u2"),
+    ("force", "u1"), ("n_articulation", "u1"),
+    ("type", "u1", (8,)), ("alternative_type", "u1", (8,)),
+    ("velocity", ">f4", (3,)), ("location", ">f8", (3,)), ("orientation", ">f4", (3,)),
+    ("appearance", ">u4"), ("dr_algorithm", "u1"), ("dr_parameters", "u1", (15,)),
+    ("acceleration", ">f4", (3,)), ("angular_velocity", ">f4", (3,)),
+    ("character_set", "u1"), ("marking", "u1", (11,)), ("capabilities", ">u4")])
+#: Bytes of the Entity State PDU's fixed part, and of one articulation parameter.
+ESPDU_BYTES, ARTICULATION_BYTES = 144, 16
+assert ESPDU_DTYPE.itemsize == ESPDU_BYTES
+#: Dead-reckoning algorithms whose orientation rotates with the angular velocity (RPW, RVW,
+#: RPB, RVB; IEEE 1278.1 annex E); the others hold it.
+ROTATING = (3, 4, 7, 8)
+#: Algorithms whose position uses the linear acceleration (RVW, FVW).
+ACCELERATED = (4, 5)
+#: Datagrams taken at once by the receiving thread: up to this many, or those that arrive
+#: within :data:`BATCH_S` of the first [s] (the run takes them at a revolution's start).
+BATCH_MAX, BATCH_S = 1024, 0.01
+
+
+def decode_entity_states(datagrams: Sequence[bytes]) -> tuple[np.ndarray, np.ndarray]:
+    """The Entity State PDUs among ``datagrams`` that have the fixed layout, decoded at once.
+
+    A datagram is taken when its header says protocol version 5-7 and PDU type 1, its
+    length field equals its size and its size is 144 bytes plus 16 per articulation
+    parameter; its fixed part is read through :data:`ESPDU_DTYPE` (``np.frombuffer`` over
+    the batch).  The articulation parameters are not read (the radar does not use them).
+
+    Returns
+    -------
+    records : the decoded fixed parts (:data:`ESPDU_DTYPE`, big-endian fields)
+    index : the position of each in ``datagrams``; the others are for opendis
+    """
+    n = len(datagrams)
+    sizes = np.fromiter(map(len, datagrams), np.int64, n)
+    cand = np.flatnonzero(sizes >= ESPDU_BYTES)
+    if not cand.size:
+        return np.zeros(0, ESPDU_DTYPE), cand
+    heads = b"".join([datagrams[i][:ESPDU_BYTES] for i in cand.tolist()])
+    rec = np.frombuffer(heads, ESPDU_DTYPE)
+    size = sizes[cand]
+    ok = ((rec["pdu_type"] == _PDU_ESPDU) & (rec["version"] >= 5) & (rec["version"] <= 7)
+          & (rec["length"] == size)
+          & (size == ESPDU_BYTES + ARTICULATION_BYTES * rec["n_articulation"].astype(np.int64)))
+    return rec[ok], cand[ok]
+
+
+def espdu_record(pdu: Any) -> np.ndarray:
+    """One :data:`ESPDU_DTYPE` record of an Entity State PDU decoded by opendis (the path of
+    the PDUs that do not have the fixed layout)."""
+    r = np.zeros(1, ESPDU_DTYPE)
+    r["version"], r["exercise"] = pdu.protocolVersion, pdu.exerciseID
+    r["pdu_type"], r["family"] = pdu.pduType, pdu.protocolFamily
+    r["timestamp"], r["length"] = pdu.timestamp, pdu.length
+    e, t, a = pdu.entityID, pdu.entityType, pdu.alternativeEntityType
+    r["site"], r["application"], r["entity"] = e.siteID, e.applicationID, e.entityID
+    r["force"], r["n_articulation"] = pdu.forceId, len(pdu.variableParameters)
+    for key, y in (("type", t), ("alternative_type", a)):
+        r[key] = [y.entityKind, y.domain, (y.country >> 8) & 0xFF, y.country & 0xFF,
+                  y.category, y.subcategory, y.specific, y.extra]
+    v, loc, o = pdu.entityLinearVelocity, pdu.entityLocation, pdu.entityOrientation
+    r["velocity"], r["location"] = (v.x, v.y, v.z), (loc.x, loc.y, loc.z)
+    r["orientation"] = (o.psi, o.theta, o.phi)
+    r["appearance"] = int(pdu.entityAppearance) & 0xFFFFFFFF
+    drp = pdu.deadReckoningParameters
+    r["dr_algorithm"], r["dr_parameters"] = drp.deadReckoningAlgorithm, drp.parameters
+    la, w = drp.entityLinearAcceleration, drp.entityAngularVelocity
+    r["acceleration"], r["angular_velocity"] = (la.x, la.y, la.z), (w.x, w.y, w.z)
+    r["character_set"] = pdu.marking.characterSet
+    r["marking"] = [c & 0xFF for c in pdu.marking.characters]
+    r["capabilities"] = int(pdu.capabilities) & 0xFFFFFFFF
+    return r
+
+
+def marking_text(raw: np.ndarray) -> str:
+    """The marking's text: its non-zero characters (as opendis's ``charactersString``),
+    stripped; empty when one is not ASCII (opendis reads them as signed bytes and fails)."""
+    chars = bytes(int(c) for c in raw if c)
+    if any(c >= 0x80 for c in chars):
+        return ""
+    return chars.decode("ascii").strip()
+
+
+def type_text(raw: np.ndarray) -> str:
+    """``kind:domain:country:category:subcategory:specific:extra`` of the 8 type bytes."""
+    b = [int(c) for c in raw]
+    return f"{b[0]}:{b[1]}:{(b[2] << 8) | b[3]}:{b[4]}:{b[5]}:{b[6]}:{b[7]}"
 
 
 class DisError(ValueError, BadInputError):
@@ -110,28 +212,68 @@ def parse_dis_url(url: str, *, allow_remote: bool = False) -> tuple[str, int, bo
     return host, port, not loopback
 
 
-def _ecef_to_local(frame: LocalFrame, xyz: np.ndarray) -> np.ndarray:
-    """Local (east, north, up) [m] of ECEF points (N, 3) [m]: geodetic on WGS-84, then the
-    frame's projection (up = height above the ellipsoid)."""
-    from shipradar.sim.world.traffic import local_positions
-
-    lat, lon, h = geodesy.ecef2geodetic(xyz[:, 0], xyz[:, 1], xyz[:, 2])
-    lat, lon, h = (np.atleast_1d(np.asarray(a, float)) for a in (lat, lon, h))
-    return np.column_stack([local_positions(frame, lat, lon), h])
-
-
 def ecef_state_to_local(frame: LocalFrame, xyz: np.ndarray, vel: np.ndarray,
                         acc: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Position [m], velocity [m/s] and acceleration [m/s²] in the local frame of ECEF ones
-    (N, 3) each: the position mapped, the vectors by the map's Jacobian (central difference
-    of ±0.5 s along each)."""
-    pos = _ecef_to_local(frame, xyz)
-    h = _JACOBIAN_STEP
+    """Position [m], velocity [m/s] and acceleration [m/s²] in the scenario's local frame of
+    ECEF ones (N, 3) each.
+
+    The position: geodetic (WGS-84) latitude, longitude and height h, the foot point on the
+    ellipsoid (x − h n̂) projected by the frame's own projection
+    (:class:`shipradar.sim.world.kinematics.LocalFrame`: from the centre of its sphere onto
+    its tangent plane, t = R y / (y · up₀), y the foot point from that centre); up = h.  A
+    vector w is carried by the exact derivative of that map: the foot point moves by
+    ê (w·ê) N/(N + h) + n̂_N (w·n̂_N) M/(M + h) (M, N the meridian and prime-vertical radii
+    of curvature), the plane point by R (dy/(y·up₀) − y (dy·up₀)/(y·up₀)²), and up by w·n̂.
+    """
+    lat, lon, h = geodesy.ecef2geodetic(xyz[:, 0], xyz[:, 1], xyz[:, 2])
+    phi = np.radians(np.atleast_1d(np.asarray(lat, float)))
+    lam = np.radians(np.atleast_1d(np.asarray(lon, float)))
+    h = np.atleast_1d(np.asarray(h, float))
+    sp, cp, sl, cl = np.sin(phi), np.cos(phi), np.sin(lam), np.cos(lam)
+    up = np.column_stack([cp * cl, cp * sl, sp])
+    east = np.column_stack([-sl, cl, np.zeros_like(sl)])
+    north = np.column_stack([-sp * cl, -sp * sl, cp])
+    y = xyz - h[:, None] * up - frame.centre
+    d = y @ frame.up0
+    t = (frame.radius / d)[:, None] * y
+    pos = np.column_stack([t @ frame.east0, t @ frame.north0, h])
+    e2 = 1.0 - (geodesy.WGS84_B_M / geodesy.WGS84_A_M) ** 2
+    w2 = 1.0 - e2 * sp**2
+    n_r = geodesy.WGS84_A_M / np.sqrt(w2)
+    m_r = n_r * (1.0 - e2) / w2
+    k_e, k_n = n_r / (n_r + h), m_r / (m_r + h)
 
     def carry(w: np.ndarray) -> np.ndarray:
-        return (_ecef_to_local(frame, xyz + w * h) - _ecef_to_local(frame, xyz - w * h)) / (2 * h)
+        dy = (east * (np.sum(w * east, axis=1) * k_e)[:, None]
+              + north * (np.sum(w * north, axis=1) * k_n)[:, None])
+        dt = (frame.radius / d)[:, None] * (dy - y * ((dy @ frame.up0) / d)[:, None])
+        return np.column_stack([dt @ frame.east0, dt @ frame.north0, np.sum(w * up, axis=1)])
 
     return pos, carry(vel), carry(acc)
+
+
+def _body_axes(euler: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A body's x, y, z axes in ECEF (N, 3) each of its DIS Euler angles (psi, theta, phi)
+    (N, 3) [rad] (IEEE 1278.1: yaw psi about z, pitch theta about the new y, roll phi about
+    the new x, from the ECEF axes)."""
+    cy, sy = np.cos(euler[:, 0]), np.sin(euler[:, 0])
+    cp, sp = np.cos(euler[:, 1]), np.sin(euler[:, 1])
+    cr, sr = np.cos(euler[:, 2]), np.sin(euler[:, 2])
+    x = np.column_stack([cp * cy, cp * sy, -sp])
+    y = np.column_stack([sr * sp * cy - cr * sy, sr * sp * sy + cr * cy, sr * cp])
+    z = np.column_stack([cr * sp * cy + sr * sy, cr * sp * sy - sr * cy, cr * cp])
+    return x, y, z
+
+
+def _geocentric_east_north(xyz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unit east and north (ECEF, (N, 3) each) at ECEF points, north at the geocentric
+    latitude."""
+    lon = np.arctan2(xyz[:, 1], xyz[:, 0])
+    lat = np.arctan2(xyz[:, 2], np.hypot(xyz[:, 0], xyz[:, 1]))
+    east = np.column_stack([-np.sin(lon), np.cos(lon), np.zeros(len(xyz))])
+    north = np.column_stack([-np.sin(lat) * np.cos(lon), -np.sin(lat) * np.sin(lon),
+                             np.cos(lat)])
+    return east, north
 
 
 def ecef_heading_deg(xyz: np.ndarray, psi_theta: np.ndarray) -> np.ndarray:
@@ -142,15 +284,32 @@ def ecef_heading_deg(xyz: np.ndarray, psi_theta: np.ndarray) -> np.ndarray:
     geocentric latitude: for a level body the heading differs from the geodetic one by a
     factor cos δ (δ ≤ 0.19°) on one component, at most (1 − cos δ)/2 rad = 1.6e-4 deg.
     NaN where ψ or θ is."""
-    psi, theta = psi_theta[:, 0], psi_theta[:, 1]
-    x = np.column_stack([np.cos(theta) * np.cos(psi), np.cos(theta) * np.sin(psi),
-                         -np.sin(theta)])
-    lon = np.arctan2(xyz[:, 1], xyz[:, 0])
-    lat = np.arctan2(xyz[:, 2], np.hypot(xyz[:, 0], xyz[:, 1]))
-    east = x[:, 1] * np.cos(lon) - x[:, 0] * np.sin(lon)
-    north = (-np.sin(lat) * (np.cos(lon) * x[:, 0] + np.sin(lon) * x[:, 1])
-             + np.cos(lat) * x[:, 2])
-    return np.degrees(np.arctan2(east, north)) % 360.0
+    euler = np.column_stack([psi_theta[:, 0], psi_theta[:, 1], np.zeros(len(psi_theta))])
+    x = _body_axes(euler)[0]
+    east, north = _geocentric_east_north(xyz)
+    return np.degrees(np.arctan2(np.sum(x * east, axis=1), np.sum(x * north, axis=1))) % 360.0
+
+
+def ecef_heading_rate_dps(xyz: np.ndarray, euler: np.ndarray, omega: np.ndarray
+                          ) -> np.ndarray:
+    """Rate of the heading (:func:`ecef_heading_deg`) [deg/s] of bodies at ECEF points
+    (N, 3) [m] with DIS orientation ``euler`` (psi, theta, phi) (N, 3) [rad] turning at the
+    angular velocity ``omega`` (N, 3) [rad/s], in body axes as the Entity State PDU gives it.
+
+    IEEE 1278.1 annex E dead-reckons a rotating entity's orientation by the rotation of
+    angle |ω| Δt about ω: the body x axis moves at ẋ = ω_w × x (ω_w = ω in ECEF axes), and
+    the heading h = atan2(x·ê, x·n̂) at ḣ = ((ẋ·ê)(x·n̂) − (ẋ·n̂)(x·ê)) / ((x·ê)² + (x·n̂)²).
+    For a body turning about the local vertical (a ship's or a level aircraft's turn, any
+    bank) the rotation keeps ḣ constant, so h0 + ḣ Δt is the annex's orientation exactly;
+    a tilted ω (pitch or roll rates) adds a term of second order in Δt."""
+    bx, by, bz = _body_axes(euler)
+    w = omega[:, 0:1] * bx + omega[:, 1:2] * by + omega[:, 2:3] * bz
+    dx = np.cross(w, bx)
+    east, north = _geocentric_east_north(xyz)
+    xe, xn = np.sum(bx * east, axis=1), np.sum(bx * north, axis=1)
+    de, dn = np.sum(dx * east, axis=1), np.sum(dx * north, axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.degrees((de * xn - dn * xe) / (xe**2 + xn**2))
 
 
 class DisReceiver:
@@ -194,12 +353,24 @@ class DisReceiver:
             self._sock.close()
             raise DisError(f"--dis: cannot listen on {host}:{port} ({exc.strerror})") from None
         self.port = self._sock.getsockname()[1]
-        self._sock.settimeout(0.05)
+        self._sock.setblocking(False)  # the thread waits in select(), then drains the socket
         self._lock = threading.Lock()
-        self._rows: list[dict[str, Any]] = []
+        #: decoded batches (column dicts, local frame) until the run takes them
+        self._chunks: list[dict[str, Any]] = []
         self._queued = 0
-        self._last: dict[str, tuple[float, tuple[float, ...], tuple[float, ...],
-                                    tuple[float, ...]]] = {}
+        # one slot per entity seen: its key (site, application, entity in one integer), id,
+        # type and marking (their texts made once, again only when they change), and its
+        # last state in ECEF (a Remove Entity PDU dead-reckons it to the removal)
+        self._slot: dict[int, int] = {}
+        self._slot_id: list[str] = []
+        self._slot_type: list[str] = []
+        self._slot_name: list[str] = []
+        self._slot_raw = np.zeros((0, 2), np.uint64)  # type bytes, marking bytes (low 8)
+        self._slot_mark_hi = np.zeros(0, np.uint32)   # marking bytes 9-12
+        self._slot_key = np.zeros(0, np.uint64)
+        self._last_t = np.zeros(0)
+        self._last_state = np.zeros((0, 9))
+        self._alive = np.zeros(0, bool)
         self.datagrams = 0
         self.entity_states = 0
         self.dropped = 0
@@ -231,22 +402,66 @@ class DisReceiver:
         table[reason] = table.get(reason, 0) + 1
 
     def _receive(self) -> None:
+        """The receiving thread: datagrams taken in batches (:data:`BATCH_MAX` or
+        :data:`BATCH_S`), each stamped with its arrival, then checked and decoded at once."""
         cpu0 = time.thread_time()
+        sock, mono = self._sock, time.monotonic
+        recv = sock.recv
         while not self._stop.is_set():
             try:
-                data = self._sock.recv(65536)
-            except TimeoutError:
-                continue
-            except OSError:
+                if not select.select([sock], [], [], 0.05)[0]:
+                    continue
+            except (OSError, ValueError):
                 return
-            received = time.monotonic()
+            batch: list[bytes] = []
+            times: list[float] = []
+            t_end = mono() + BATCH_S
+            while len(batch) < BATCH_MAX:
+                try:
+                    batch.append(recv(65536))
+                except BlockingIOError:
+                    left = t_end - mono()
+                    if left <= 0 or not select.select([sock], [], [], left)[0]:
+                        break
+                    continue
+                except OSError:
+                    return
+                times.append(mono())
             with self._lock:
-                self.datagrams += 1
-                self._datagram(data, received)
+                self._batch(batch, times)
                 self.cpu_s = time.thread_time() - cpu0
 
+    def _batch(self, batch: list[bytes], times: list[float]) -> None:
+        """One batch of datagrams (under the lock), in order: runs of Entity State PDUs of
+        the fixed layout decoded at once (:func:`decode_entity_states`), every other datagram
+        on its own (:meth:`_datagram`, opendis)."""
+        self.datagrams += len(batch)
+        rec, index = decode_entity_states(batch)
+        if self.exercise_id is not None and index.size:
+            mine = rec["exercise"] == self.exercise_id
+            if not mine.all():
+                rec, index = rec[mine], index[mine]  # the others counted by _datagram
+        received = np.asarray(times)
+        if index.size == len(batch):
+            self._entity_states(rec, received)
+            return
+        fast = np.zeros(len(batch), bool)
+        fast[index] = True
+        # where the batch switches between the two paths
+        cuts = np.flatnonzero(fast[1:] != fast[:-1]) + 1
+        done = 0
+        for lo, hi in zip(np.r_[0, cuts].tolist(), np.r_[cuts, len(batch)].tolist(),
+                          strict=True):
+            if fast[lo]:
+                self._entity_states(rec[done:done + hi - lo], received[lo:hi])
+                done += hi - lo
+            else:
+                for i in range(lo, hi):
+                    self._datagram(batch[i], times[i])
+
     def _datagram(self, data: bytes, received: float) -> None:
-        """One datagram (under the lock): checked, decoded, queued or counted."""
+        """One datagram off the fast path (under the lock): checked, decoded by opendis,
+        applied or counted."""
         if len(data) < HEADER_BYTES:
             self._count(self.bad, "truncated")
             return
@@ -269,14 +484,15 @@ class DisReceiver:
             return
         try:
             pdu = self._create(bytes(data))
+            rec = espdu_record(pdu) if pdu_type == _PDU_ESPDU and pdu is not None else None
         except Exception:  # noqa: BLE001 - any decoding failure is a bad datagram
             self._count(self.bad, "undecodable")
             return
         if pdu is None:
             self._count(self.bad, "undecodable")
             return
-        if pdu_type == _PDU_ESPDU:
-            self._entity_state(pdu, received)
+        if rec is not None:
+            self._entity_states(rec, np.array([received]))
         elif pdu_type == _PDU_REMOVE:
             self._remove(pdu, received)
         elif self._for_me(pdu.receivingEntityID):
@@ -298,77 +514,154 @@ class DisReceiver:
         site, app = self.site_app
         return eid.siteID in (site, ALL) and eid.applicationID in (app, ALL)
 
-    def _entity_state(self, pdu: Any, received: float) -> None:
-        e, t = pdu.entityID, pdu.entityType
-        eid = f"{e.siteID}:{e.applicationID}:{e.entityID}"
-        loc, v = pdu.entityLocation, pdu.entityLinearVelocity
-        drp = pdu.deadReckoningParameters
-        algo = int(drp.deadReckoningAlgorithm)
-        a = drp.entityLinearAcceleration
-        # one PDU's numbers as Python floats: numpy's per-call overhead on 3-vectors was a
-        # quarter of the receive path (benchmarks/dis_load.py); arrays are made per batch
-        xyz = (float(loc.x), float(loc.y), float(loc.z))
-        vel = (float(v.x), float(v.y), float(v.z))
-        acc = (float(a.x), float(a.y), float(a.z))
-        if not all(map(math.isfinite, (*xyz, *vel, *acc))):
-            self._count(self.bad, "not finite")
+    def _slots_of(self, rec: np.ndarray) -> np.ndarray:
+        """Each record's entity slot (int64); a new entity gets one, and the texts of its id,
+        type and marking are made when it is new or its type or marking bytes changed."""
+        keys = ((rec["site"].astype(np.uint64) << np.uint64(32))
+                | (rec["application"].astype(np.uint64) << np.uint64(16))
+                | rec["entity"].astype(np.uint64))
+        m = keys.size
+        slots = np.fromiter(map(self._slot.get, keys.tolist(), itertools.repeat(-1, m)),
+                            np.int64, m)
+        raw = np.column_stack([rec["type"].copy().view(">u8")[:, 0],
+                               rec["marking"][:, :8].copy().view(">u8")[:, 0]]
+                              ).astype(np.uint64)
+        hi = np.zeros((m, 4), np.uint8)
+        hi[:, :3] = rec["marking"][:, 8:]
+        mark_hi = hi.view(">u4")[:, 0].astype(np.uint32)
+        new = np.flatnonzero(slots < 0)
+        if new.size:
+            for i in new.tolist():  # new entities only
+                key = int(keys[i])
+                k = self._slot.get(key)
+                if k is None:
+                    k = self._slot[key] = len(self._slot_id)
+                    e = (key >> 32, (key >> 16) & 0xFFFF, key & 0xFFFF)
+                    self._slot_id.append(f"{e[0]}:{e[1]}:{e[2]}")
+                    self._slot_type.append("")
+                    self._slot_name.append("")
+                slots[i] = k
+            grow = len(self._slot_id) - self._slot_key.size
+            self._slot_key = np.concatenate([self._slot_key, np.zeros(grow, np.uint64)])
+            self._slot_raw = np.concatenate([self._slot_raw, np.zeros((grow, 2), np.uint64)])
+            self._slot_mark_hi = np.concatenate([self._slot_mark_hi,
+                                                 np.zeros(grow, np.uint32)])
+            self._last_t = np.concatenate([self._last_t, np.zeros(grow)])
+            self._last_state = np.concatenate([self._last_state, np.zeros((grow, 9))])
+            self._alive = np.concatenate([self._alive, np.zeros(grow, bool)])
+            self._slot_key[slots] = keys
+        fresh = np.zeros(m, bool)
+        fresh[new] = True
+        changed = np.flatnonzero((self._slot_raw[slots] != raw).any(axis=1)
+                                 | (self._slot_mark_hi[slots] != mark_hi) | fresh)
+        for i in changed.tolist():  # new entities, or a new type or marking
+            k = int(slots[i])
+            self._slot_type[k] = type_text(rec["type"][i])
+            self._slot_name[k] = marking_text(rec["marking"][i]) or self._slot_id[k]
+            self._slot_raw[k] = raw[i]
+            self._slot_mark_hi[k] = mark_hi[i]
+        return slots
+
+    def _entity_states(self, rec: np.ndarray, received: np.ndarray) -> None:
+        """Entity State PDUs (:data:`ESPDU_DTYPE` records, in arrival order, under the lock):
+        checked, dead-reckoning algorithm applied, carried into the local frame and queued
+        (vectorized: a loop only over entities not seen before)."""
+        xyz = rec["location"].astype(float)
+        vel = rec["velocity"].astype(float)
+        acc = rec["acceleration"].astype(float)
+        finite = np.isfinite(xyz).all(axis=1) & np.isfinite(vel).all(axis=1) & np.isfinite(
+            acc).all(axis=1)
+        inside = finite & (np.linalg.norm(np.where(finite[:, None], xyz, 0.0), axis=1)
+                           < _INSIDE_EARTH_M)  # the earth's centre, not a place on it
+        for mask, reason in ((~finite, "not finite"), (inside, "inside the earth")):
+            if mask.any():
+                self.bad[reason] = self.bad.get(reason, 0) + int(np.count_nonzero(mask))
+        ok = finite & ~inside
+        if not ok.all():
+            rec, received, xyz, vel, acc = rec[ok], received[ok], xyz[ok], vel[ok], acc[ok]
+        m = rec.size
+        if not m:
             return
-        if math.hypot(*xyz) < 6.0e6:  # the earth's centre, not a place on it
-            self._count(self.bad, "inside the earth")
-            return
-        o = pdu.entityOrientation
-        orient = (float(o.psi), float(o.theta))
-        if algo == 1:
-            vel = _ZERO3
-        if algo not in (4, 5):
-            if algo in (6, 7, 8, 9):
-                self._count(self.ignored, "body-axis dead reckoning taken as FPW")
-            elif algo not in (1, 2, 3):
-                self._count(self.ignored, f"dead reckoning algorithm {algo} taken as FPW")
-            acc = _ZERO3
-        try:
-            name = pdu.marking.charactersString().strip()
-        except (UnicodeDecodeError, ValueError):
-            name = ""
-        appearance = int(pdu.entityAppearance) if isinstance(pdu.entityAppearance, int) else 0
-        active = not appearance & DEACTIVATED_BIT
-        type_text = (f"{t.entityKind}:{t.domain}:{t.country}:{t.category}:{t.subcategory}:"
-                     f"{t.specific}:{t.extra}")
-        self.entity_states += 1
-        # kept in ECEF: the frame's conversion is done for a whole batch at once (drain)
-        self._last[eid] = (received, xyz, vel, acc)
-        self._queue_row(eid, received, xyz, vel, acc, type_text, name or eid, active, orient)
+        algo = rec["dr_algorithm"]
+        vel[algo == 1] = 0.0  # static
+        acc[~np.isin(algo, ACCELERATED)] = 0.0
+        if not np.isin(algo, (1, 2, 3, 4, 5)).all():
+            body = int(np.count_nonzero((algo >= 6) & (algo <= 9)))
+            if body:
+                self._count_n(self.ignored, "body-axis dead reckoning taken as FPW", body)
+            for a, k in zip(*np.unique(algo[(algo < 1) | (algo > 9)], return_counts=True),
+                            strict=True):
+                self._count_n(self.ignored, f"dead reckoning algorithm {a} taken as FPW",
+                              int(k))
+        slots = self._slots_of(rec)
+        self.entity_states += m
+        # each entity's last state (in ECEF), for a Remove Entity PDU
+        last = m - 1 - np.unique(slots[::-1], return_index=True)[1]
+        ls = slots[last]
+        self._last_t[ls] = received[last]
+        self._last_state[ls] = np.column_stack([xyz, vel, acc])[last]
+        self._alive[ls] = True
+        euler = rec["orientation"].astype(float)
+        omega = np.where(np.isin(algo, ROTATING)[:, None],
+                         rec["angular_velocity"].astype(float), 0.0)
+        active = (rec["appearance"] & DEACTIVATED_BIT) == 0
+        self._queue(slots, received, xyz, vel, acc, active, euler, omega, named=True)
         if not self.first_entity.is_set():
             self.first_entity.set()
 
-    def _remove(self, pdu: Any, received: float) -> None:
-        r = pdu.receivingEntityID
-        prefix = f"{r.siteID}:{r.applicationID}:"
-        ids = ([k for k in self._last if k.startswith(prefix)] if r.entityID == ALL
-               else [f"{prefix}{r.entityID}"])
-        gone = 0
-        for eid in ids:
-            last = self._last.pop(eid, None)
-            if last is None:
-                continue
-            t0, p3, v3, a3 = last  # dead-reckoned in ECEF, as DIS does, to the removal
-            p, v, a = np.asarray(p3), np.asarray(v3), np.asarray(a3)
-            dt = received - t0
-            self._queue_row(eid, received, p + v * dt + 0.5 * a * dt * dt, v + a * dt, a,
-                            None, None, False)
-            gone += 1
-        if not gone:
-            self._count(self.ignored, "remove of an unknown entity")
+    def _count_n(self, table: dict[str, int], reason: str, k: int) -> None:
+        table[reason] = table.get(reason, 0) + k
 
-    def _queue_row(self, eid, received, pos, vel, acc, type_text, name, active,
-                   orient=(math.nan, math.nan)) -> None:
-        if self._queued >= self.queue_size:
-            self.dropped += 1
+    def _remove(self, pdu: Any, received: float) -> None:
+        """A Remove Entity PDU: its entity (entity 65535: every entity of that site and
+        application) leaves at its last state dead-reckoned in ECEF, as DIS does, to now."""
+        r = pdu.receivingEntityID
+        prefix = (r.siteID << 16) | r.applicationID
+        if r.entityID == ALL:
+            slots = np.flatnonzero(self._alive & ((self._slot_key >> np.uint64(16))
+                                                  == np.uint64(prefix)))
+        else:
+            k = self._slot.get((prefix << 16) | r.entityID)
+            slots = np.array([] if k is None or not self._alive[k] else [k], np.int64)
+        if not slots.size:
+            self._count(self.ignored, "remove of an unknown entity")
             return
-        self._rows.append({"id": eid, "received": received, "pos": pos, "vel": vel,
-                           "acc": acc, "type": type_text, "name": name, "active": active,
-                           "orient": orient})
-        self._queued += 1
+        self._alive[slots] = False
+        st = self._last_state[slots]
+        p, v, a = st[:, :3], st[:, 3:6], st[:, 6:]
+        dt = (received - self._last_t[slots])[:, None]
+        nan3 = np.full((slots.size, 3), np.nan)
+        self._queue(slots, np.full(slots.size, received), p + v * dt + 0.5 * a * dt * dt,
+                    v + a * dt, a, np.zeros(slots.size, bool), nan3, nan3, named=False)
+
+    def _queue(self, slots: np.ndarray, received: np.ndarray, xyz: np.ndarray,
+               vel: np.ndarray, acc: np.ndarray, active: np.ndarray, euler: np.ndarray,
+               omega: np.ndarray, *, named: bool) -> None:
+        """Queue rows (ECEF states) carried into the local frame, as far as the queue has
+        room (:attr:`queue_size` rows; the rest dropped and counted)."""
+        room = self.queue_size - self._queued
+        if slots.size > room:
+            self.dropped += slots.size - room
+            if room <= 0:
+                return
+            slots, received, xyz, vel, acc = (slots[:room], received[:room], xyz[:room],
+                                              vel[:room], acc[:room])
+            active, euler, omega = active[:room], euler[:room], omega[:room]
+        n = slots.size
+        pos, v, a = ecef_state_to_local(self.frame, xyz, vel, acc)
+        pick = operator.itemgetter(*slots.tolist())
+        ids = [pick(self._slot_id)] if n == 1 else list(pick(self._slot_id))
+        if named:
+            types = [pick(self._slot_type)] if n == 1 else list(pick(self._slot_type))
+            names = [pick(self._slot_name)] if n == 1 else list(pick(self._slot_name))
+        else:
+            types = names = [None] * n
+        self._chunks.append({
+            "id": ids, "received": received, "pos": pos, "vel": v, "acc": a,
+            "type": types, "name": names, "active": active,
+            "heading_deg": ecef_heading_deg(xyz, euler[:, :2]),
+            "heading_rate_dps": ecef_heading_rate_dps(xyz, euler, omega)})
+        self._queued += n
 
     # ------------------------------------------------------------------ the run's side
     def drain(self, now_s: float) -> list[dict[str, Any]]:
@@ -376,25 +669,28 @@ class DisReceiver:
         simulated time of arrival, ``now_s`` less the wall time since; negative before the run's
         start)."""
         with self._lock:
-            rows, self._rows, self._queued = self._rows, [], 0
-        if not rows:
+            chunks, self._chunks, self._queued = self._chunks, [], 0
+        if not chunks:
             return []
         wall = time.monotonic()
-        # the ECEF states of the batch into the local frame at once (vectorized)
-        xyz = np.array([r["pos"] for r in rows])
-        pos, vel, acc = ecef_state_to_local(self.frame, xyz, np.array([r["vel"] for r in rows]),
-                                            np.array([r["acc"] for r in rows]))
-        heading = ecef_heading_deg(xyz, np.array([r["orient"] for r in rows]))
+
+        def cat(key: str) -> np.ndarray:
+            return np.concatenate([c[key] for c in chunks])
+
+        def join(key: str) -> list:
+            return [x for c in chunks for x in c[key]] if len(chunks) > 1 else chunks[0][key]
+
+        pos, vel, acc = cat("pos"), cat("vel"), cat("acc")
         return [{
-            "source": "dis", "id": [r["id"] for r in rows],
+            "source": "dis", "id": join("id"),
             # received before the run started (--dis-wait-start, or before the first
             # revolution): a negative time, so the latest of them stands (not all at 0)
-            "time_s": np.array([now_s - (wall - r["received"]) for r in rows]),
+            "time_s": now_s - (wall - cat("received")),
             "east_m": pos[:, 0], "north_m": pos[:, 1], "up_m": pos[:, 2],
             "v_east_mps": vel[:, 0], "v_north_mps": vel[:, 1], "v_up_mps": vel[:, 2],
             "a_east_mps2": acc[:, 0], "a_north_mps2": acc[:, 1], "a_up_mps2": acc[:, 2],
-            "type": [r["type"] for r in rows], "name": [r["name"] for r in rows],
-            "active": np.array([r["active"] for r in rows], bool), "heading_deg": heading}]
+            "type": join("type"), "name": join("name"), "active": cat("active"),
+            "heading_deg": cat("heading_deg"), "heading_rate_dps": cat("heading_rate_dps")}]
 
     def wait_for_start(self) -> float:
         """Block until a Start/Resume PDU addressed to this radar (or to all) when the
