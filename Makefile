@@ -20,7 +20,7 @@ TAIL_ARGS ?=
 # on; pyproject.toml keeps lower bounds for library users. A changed lock reinstalls.
 LOCK := requirements/lock.txt
 
-$(STAMP): pyproject.toml shipradar/_frames.c $(LOCK) requirements/dis.txt
+$(STAMP): pyproject.toml setup.py shipradar/_frames.c $(LOCK) requirements/dis.txt
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --require-hashes --no-deps -r $(LOCK)
 	$(PY) -m pip install -qq --no-deps --no-build-isolation -e .

@@ -23,7 +23,7 @@ from typing import Any
 import msgpack
 import numpy as np
 
-from shipradar import _frames
+from shipradar._framing import frames as _frames
 from shipradar.sim.stream import schema as _schema
 
 __all__ = [
@@ -519,7 +519,8 @@ def encode_slices(
     the engine's sector frames, whose columns are the slices of a block of revolutions'
     arrays.  The fixed part is packed once, each column's elements are converted to bytes
     once, and the bodies are assembled in compiled code (``shipradar/_frames.c``: no
-    per-message dict, array or msgpack call).
+    per-message dict, array or msgpack call; without the extension its pure-Python twin
+    ``shipradar/_frames_py.py``, the same bytes).
 
     Parameters
     ----------

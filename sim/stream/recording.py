@@ -37,7 +37,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any, BinaryIO
 
-from shipradar import _frames
+from shipradar._framing import frames as _frames
 from shipradar.sim.stream.protocol import MAX_BODY_BYTES, SCHEMA_VERSION
 from shipradar.sim.stream.sink import Closing
 from shipradar.sim.world.errors import BadInputError
