@@ -1,5 +1,7 @@
 """The build and the optional extension as a user's machine meets them.
 
+- the build backend (setuptools, as ``make install`` and ``pip install .`` run it) builds the
+  wheel and the editable install of the tree without a single setuptools warning;
 - a run with the compiled extension switched off (``SHIPRADAR_PURE_PYTHON=1``: the
   pure-Python encoder, what an install without a C compiler runs) records the very bytes of
   a run with it. The install without a compiler itself: tests/test_wheel.py.
@@ -11,6 +13,7 @@ import os
 import shutil
 import subprocess
 import sys
+import zipfile
 from pathlib import Path
 
 import pytest
@@ -26,6 +29,39 @@ def _copy_tree(dst: Path) -> Path:
         ".git", ".venv", "build", "out", "*.egg-info", "__pycache__", ".*_cache",
         ".hypothesis", "node_modules", "*.rec", "*.so", ".tables"))
     return dst
+
+
+@pytest.mark.slow
+def test_the_build_emits_no_setuptools_warning(tmp_path):
+    src = _copy_tree(tmp_path / "src")
+    dist = tmp_path / "dist"
+    dist.mkdir()
+    # the backend's own two entry points, as pip calls them (no isolation: this venv's
+    # setuptools, the locked one make install uses); every warning shown
+    code = ("import sys, setuptools.build_meta as b; "
+            f"print(b.build_wheel({str(dist)!r})); print(b.build_editable({str(dist)!r}))")
+    env = dict(os.environ, PYTHONWARNINGS="always")
+    # distutils' own "byte-compiling is disabled" note when the environment says so
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
+    proc = subprocess.run([sys.executable, "-c", code], cwd=src, env=env, capture_output=True,
+                          text=True, timeout=600)
+    out = proc.stdout + proc.stderr
+    assert proc.returncode == 0, out[-3000:]
+    lines = [line for line in out.splitlines() if "warning" in line.lower()]
+    assert not lines, "\n".join(lines)
+    assert sorted(p.suffix for p in dist.iterdir()) == [".whl", ".whl"]
+    # the package data the config lists is in the wheel, and no source beside it
+    wheel = next(p for p in dist.iterdir() if "editable" not in p.name)
+    names = set(zipfile.ZipFile(wheel).namelist())
+    for folder, pattern in (("sim/stream/contract", "*.json"), ("sim/stream/contract", "*.yaml"),
+                            ("scenarios", "*.yaml"), ("scenarios/traffic", "*.csv"),
+                            ("sim/adapters/viewer/static", "*.js"), ("shipradar", "py.typed")):
+        files = sorted((ROOT / folder).glob(pattern))
+        assert files
+        for f in files:  # the design card's folders sit under shipradar/ in the wheel
+            rel = f.relative_to(ROOT).as_posix()
+            assert (rel if rel.startswith("shipradar/") else f"shipradar/{rel}") in names, f
+    assert not any(n.endswith(".c") for n in names)
 
 
 def _record(tmp_path: Path, name: str, env: dict[str, str]) -> bytes:
