@@ -358,92 +358,47 @@ def _stopped_summary(sim, core_bus, wall0: float, signum) -> dict:
     return summary
 
 
-def cmd_run(args) -> int:
-    from shipradar.sim.engine.simulation import Simulation
-    from shipradar.sim.stream.bus import Bus, Publisher, RunInterrupted
-    from shipradar.sim.stream.recording import Recorder, RecordingWriteError
-    from shipradar.tables.budget import build_seconds
-    from shipradar.tables.scene import load_scene_tables
+class _Outputs:
+    """Where a run's stream goes: the ZeroMQ publisher and the recording (one bus), and
+    ASTERIX over it; closed as a whole whatever was opened before a failure."""
 
-    s = _load(_scenario_path(args))
-    curve = _check_run(args, s)
-    # the tables the scene reads: from the cache, built now if missing (announced with their
-    # estimated time, shown on stderr)
-    _announce(args.build_estimates)
-    if any(not e.cached for e in args.build_estimates):
-        gc.enable()  # tables to build (seconds to minutes of work): the collector on for it
-    tables = load_scene_tables(s, progress=sys.stderr.isatty() and not args.quiet,
-                               log=sys.stderr, estimated_s=build_seconds(args.build_estimates))
-    if args.record and hasattr(signal, "SIGXFSZ"):
-        # past a file-size limit write() then fails with EFBIG, which the recorder reports
-        # and recovers from, instead of the signal killing the process mid-record
-        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
-    publisher = recorder = None
-    entities: Any = None  # a live source: DIS, a ZeroMQ feed or a recording's entities
-    core_bus: Bus | None = None  # ZeroMQ and the recording
-    asterix_bus: AsterixBus | None = None
-    bus: Bus | AsterixBus | None = None  # what the simulation emits to
-    summary = None
-    try:
+    def __init__(self) -> None:
+        self.publisher: Any = None
+        self.recorder: Any = None
+        self.core_bus: Bus | None = None  # ZeroMQ and the recording
+        self.asterix_bus: AsterixBus | None = None
+        self.bus: Bus | AsterixBus | None = None  # what the simulation emits to
+
+    def open(self, args, curve) -> None:
+        from shipradar.sim.stream.bus import Bus, Publisher
+        from shipradar.sim.stream.recording import Recorder
+
         if args.publish:
-            publisher = Publisher(args.publish, wait_subscribers=args.wait_subscribers,
-                                  wait_timeout_s=args.wait_timeout, on_slow=args.on_slow,
-                                  allow_remote=args.allow_remote, curve=curve)
+            self.publisher = Publisher(args.publish, wait_subscribers=args.wait_subscribers,
+                                       wait_timeout_s=args.wait_timeout, on_slow=args.on_slow,
+                                       allow_remote=args.allow_remote, curve=curve)
         if args.record:
-            recorder = Recorder(args.record, overwrite=args.overwrite, compress=args.compress)
-        if publisher or recorder:
-            bus = core_bus = Bus(publisher, recorder)
+            self.recorder = Recorder(args.record, overwrite=args.overwrite,
+                                     compress=args.compress)
+        if self.publisher or self.recorder:
+            self.bus = self.core_bus = Bus(self.publisher, self.recorder)
         if args.asterix:
             from shipradar.sim.adapters.asterix.udp import AsterixBus, UdpSender
 
-            bus = asterix_bus = AsterixBus(
-                bus, UdpSender(args.asterix, allow_remote=args.allow_remote),
+            self.bus = self.asterix_bus = AsterixBus(
+                self.bus, UdpSender(args.asterix, allow_remote=args.allow_remote),
                 args.asterix_max_datagram)
-        if args.dis is not None:
-            from shipradar.sim.adapters.dis import DisReceiver
-            from shipradar.sim.world.kinematics import LocalFrame
-            from shipradar.sim.world.scenario import External
 
-            entities = DisReceiver(args.dis, LocalFrame(s.origin), exercise_id=args.dis_exercise,
-                                   site_app=args.dis_address,
-                                   queue_size=(s.external or External()).queue_size,
-                                   allow_remote=args.allow_remote,
-                                   wait_start=args.dis_wait_start)
-        elif args.entities is not None:
-            from shipradar.sim.stream.entities import entity_source
-            from shipradar.sim.world.scenario import External
+    def close(self, summary: dict | None) -> None:
+        """Close what was opened; a recording that cannot take its last records is an
+        error in ``summary`` (raised when there is no summary yet)."""
+        from shipradar.sim.stream.recording import RecordingWriteError
 
-            entities = entity_source(args.entities,
-                                     (s.external or External()).queue_size)
-        sim = Simulation(s, bus=bus, seed=args.seed, duration_s=args.duration,
-                         realtime=args.realtime, tables=tables,
-                         progress=sys.stderr.isatty() and not args.quiet,
-                         processes=args.processes, entities=entities)
-        for line in sim.tables.missing_lines():
-            print(f"note: {line}", file=sys.stderr)
-        if publisher is not None and args.wait_subscribers:
-            publisher.wait_for_subscribers()
-        if getattr(args, "gc_off_until_run", False):
-            _objects_so_far_kept()
-        wall0 = time.perf_counter()
-        with _StopOnSignal(core_bus) as stop:
-            try:
-                summary = sim.run()
-            except (RunInterrupted, KeyboardInterrupt):
-                summary = _stopped_summary(sim, core_bus, wall0, stop.signum)
-            except RecordingWriteError as exc:
-                print(f"error: {exc}", file=sys.stderr)
-                summary = sim.summary(time.perf_counter() - wall0)
-                summary["error"] = str(exc)
-                summary["simulated_s"] = getattr(core_bus, "t_last", None)
-    finally:
-        if entities is not None:
-            entities.close()
         try:
-            if bus is not None:
-                bus.close()
+            if self.bus is not None:
+                self.bus.close()
             else:
-                for part in (publisher, recorder):
+                for part in (self.publisher, self.recorder):
                     if part is not None:
                         part.close()
         except RecordingWriteError as exc:  # the last buffered records did not fit
@@ -451,6 +406,98 @@ def cmd_run(args) -> int:
                 raise
             print(f"error: {exc}", file=sys.stderr)
             summary["error"] = str(exc)
+
+
+def _entity_source(args, s) -> Any:
+    """The live source of target states ``run`` was given (DIS, a ZeroMQ feed or a
+    recording's entities), or None."""
+    from shipradar.sim.world.scenario import External
+
+    queue_size = (s.external or External()).queue_size
+    if args.dis is not None:
+        from shipradar.sim.adapters.dis import DisReceiver
+        from shipradar.sim.world.kinematics import LocalFrame
+
+        return DisReceiver(args.dis, LocalFrame(s.origin), exercise_id=args.dis_exercise,
+                           site_app=args.dis_address, queue_size=queue_size,
+                           allow_remote=args.allow_remote, wait_start=args.dis_wait_start)
+    if args.entities is not None:
+        from shipradar.sim.stream.entities import entity_source
+
+        return entity_source(args.entities, queue_size)
+    return None
+
+
+def _run_tables(args, s):
+    """The tables the scene reads: from the cache, built now if missing (announced with their
+    estimated time, shown on stderr)."""
+    from shipradar.tables.budget import build_seconds
+    from shipradar.tables.scene import load_scene_tables
+
+    _announce(args.build_estimates)
+    if any(not e.cached for e in args.build_estimates):
+        gc.enable()  # tables to build (seconds to minutes of work): the collector on for it
+    return load_scene_tables(s, progress=sys.stderr.isatty() and not args.quiet,
+                             log=sys.stderr, estimated_s=build_seconds(args.build_estimates))
+
+
+def _run_loop(args, sim, core_bus) -> tuple[dict, int | None]:
+    """Run to the end, or to a stop (a signal, a recording that cannot be written); the
+    summary and the signal that stopped it, if one did."""
+    from shipradar.sim.stream.bus import RunInterrupted
+    from shipradar.sim.stream.recording import RecordingWriteError
+
+    if getattr(args, "gc_off_until_run", False):
+        _objects_so_far_kept()
+    wall0 = time.perf_counter()
+    with _StopOnSignal(core_bus) as stop:
+        try:
+            summary = sim.run()
+        except (RunInterrupted, KeyboardInterrupt):
+            summary = _stopped_summary(sim, core_bus, wall0, stop.signum)
+        except RecordingWriteError as exc:
+            print(f"error: {exc}", file=sys.stderr)
+            summary = sim.summary(time.perf_counter() - wall0)
+            summary["error"] = str(exc)
+            summary["simulated_s"] = getattr(core_bus, "t_last", None)
+    return summary, stop.signum
+
+
+def cmd_run(args) -> int:
+    from shipradar.sim.engine.simulation import Simulation
+
+    s = _load(_scenario_path(args))
+    curve = _check_run(args, s)
+    tables = _run_tables(args, s)
+    if args.record and hasattr(signal, "SIGXFSZ"):
+        # past a file-size limit write() then fails with EFBIG, which the recorder reports
+        # and recovers from, instead of the signal killing the process mid-record
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+    out = _Outputs()
+    entities: Any = None  # a live source: DIS, a ZeroMQ feed or a recording's entities
+    summary = None
+    try:
+        out.open(args, curve)
+        entities = _entity_source(args, s)
+        sim = Simulation(s, bus=out.bus, seed=args.seed, duration_s=args.duration,
+                         realtime=args.realtime, tables=tables,
+                         progress=sys.stderr.isatty() and not args.quiet,
+                         processes=args.processes, entities=entities)
+        for line in sim.tables.missing_lines():
+            print(f"note: {line}", file=sys.stderr)
+        if out.publisher is not None and args.wait_subscribers:
+            out.publisher.wait_for_subscribers()
+        summary, signum = _run_loop(args, sim, out.core_bus)
+    finally:
+        if entities is not None:
+            entities.close()
+        out.close(summary)
+    return _report_run(args, summary, out.asterix_bus, signum)
+
+
+def _report_run(args, summary: dict, asterix_bus, signum: int | None) -> int:
+    """Complete the summary (the whole command's time), print it as one JSON line on stdout
+    and, on a terminal, as a few lines for a person on stderr; the exit code."""
     summary["insecure_remote"] = args.insecure_remote
     # the whole command as a user times it (imports, scenario, tables, set-up, run, close),
     # beside the loop's own wall_s and realtime_factor
@@ -459,20 +506,71 @@ def cmd_run(args) -> int:
     simulated = summary.get("simulated_s")
     summary["process_realtime_factor"] = (round(simulated / process_wall, 2)
                                           if simulated and process_wall > 0 else None)
-    if "error" in summary:
-        print(json.dumps(summary))
-        return EXIT_FAILURE
-    if asterix_bus is not None:
-        summary["asterix"] = asterix_bus.stats["asterix"]  # datagrams sent, records, markers
-    pub = (summary.get("bus") or {}).get("publisher") or {}
-    if pub.get("dropped"):
-        print(f"warning: {pub['dropped']} message(s) dropped for slow subscribers "
-              f"({pub['dropped_by_topic']}); the recording, if any, holds them all",
-              file=sys.stderr)
+    if "error" not in summary:
+        if asterix_bus is not None:
+            summary["asterix"] = asterix_bus.stats["asterix"]  # datagrams, records, markers
+        pub = (summary.get("bus") or {}).get("publisher") or {}
+        if pub.get("dropped"):
+            print(f"warning: {pub['dropped']} message(s) dropped for slow subscribers "
+                  f"({pub['dropped_by_topic']}); the recording, if any, holds them all",
+                  file=sys.stderr)
     print(json.dumps(summary))
+    if sys.stderr.isatty() and not args.quiet:
+        sys.stdout.flush()  # the JSON line first where both go to the terminal
+        print("\n".join(run_summary_lines(summary)), file=sys.stderr)
+    if "error" in summary:
+        return EXIT_FAILURE
     if summary.get("interrupted"):
-        return 128 + int(stop.signum or signal.SIGINT)  # the shell's convention: 130, 143
+        return 128 + int(signum or signal.SIGINT)  # the shell's convention: 130, 143
     return EXIT_OK
+
+
+def _mb(n: float) -> str:
+    return f"{n / 1e6:,.1f} MB"
+
+
+def run_summary_lines(summary: dict) -> list[str]:
+    """The run's summary for a person (what ``shipradar run`` prints on a terminal's stderr
+    after the JSON line): what was simulated and how fast (the loop's real-time factor and
+    the whole command's), the counts, and where the stream went."""
+    sim_s, wall, factor = summary.get("simulated_s"), summary["wall_s"], summary.get(
+        "realtime_factor")
+    whole, whole_factor = summary.get("process_wall_s"), summary.get("process_realtime_factor")
+    how = ("interrupted: " if summary.get("interrupted") else "error: "
+           if "error" in summary else "")
+    lines = [
+        f"{how}{summary['scenario']} (seed {summary['seed']}): {sim_s or 0:g} s simulated; "
+        f"run loop {wall:.2f} s ({_x(factor)} real time), whole command {whole or 0:.2f} s "
+        f"({_x(whole_factor)})",
+        f"  {summary['scans']:,} scans, {summary['dwells']:,} dwells: "
+        f"{summary['target_plots']:,} target plots, {summary['missed_detections']:,} missed, "
+        f"{summary['merged_targets']:,} merged; false alarms {summary['noise_false_alarms']:,} "
+        f"noise, {summary['clutter_false_alarms']:,} clutter",
+    ]
+    bus = summary.get("bus") or {}
+    rec, pub = bus.get("recorder"), bus.get("publisher")
+    if rec:
+        lines.append(f"  recording: {rec['path']} ({rec['records']:,} messages, "
+                     f"{_mb(rec['bytes'])})")
+    if pub:
+        lines.append(f"  published on {pub['endpoint']}: {pub['sent']:,} messages sent, "
+                     f"{pub['dropped']:,} dropped")
+    if not rec and not pub and "asterix" not in summary:
+        lines.append("  nothing recorded or published (--record FILE, --publish ENDPOINT)")
+    if "asterix" in summary:
+        ast = summary["asterix"]
+        lines.append(f"  ASTERIX to {ast['destination']}: {ast['datagrams']:,} datagrams, "
+                     f"{_mb(ast['bytes'])}")
+    if "error" in summary:
+        lines.append(f"  error: {summary['error']}")
+    return lines
+
+
+def _x(factor: float | None) -> str:
+    """A real-time factor as a person reads it: 143x, 0.98x, or n/a."""
+    if factor is None:
+        return "n/a"
+    return f"{factor:,.0f}x" if factor >= 10 else f"{factor:.2g}x"
 
 
 def cmd_replay(args) -> int:
