@@ -1,7 +1,8 @@
 """shipradar: a shipborne surveillance radar simulator (DREV-R-9429) for data fusion studies.
 
 The command line: ``shipradar examples | validate | tables build | run | replay | export |
-tail | recording | keys | view | plot | montecarlo | report | fidelity`` (``-h`` on each).
+tail | recording | keys | view | plot | montecarlo | report | fidelity | evaluate`` (``-h`` on
+each). A sub-command is registered in one place: an entry of :data:`SUBCOMMANDS`.
 
 Exit codes: 0 success, 2 bad input (scenario, arguments, files), 1 runtime failure.
 Every bad-input message names the field or option, the value and what is allowed.
@@ -16,6 +17,8 @@ import os
 import signal
 import sys
 import time
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -27,7 +30,6 @@ from shipradar.sim.world.errors import BadInputError, PeerError
 PROCESS_T0 = time.perf_counter()
 
 if TYPE_CHECKING:
-    from collections.abc import Callable
     from types import FrameType
 
     from shipradar.sim.adapters.asterix.udp import AsterixBus
@@ -855,29 +857,15 @@ def _budget_argument(p: argparse.ArgumentParser) -> None:
                    "$SHIPRADAR_MAX_BUILD_S or 600)")
 
 
-def _add_examples(sub: _Subcommands) -> None:
-    """The ``examples`` sub-command's parser."""
-    ex = sub.add_parser("examples", help="list the shipped example scenarios")
-    ex.set_defaults(func=cmd_examples)
-
-
-def _add_validate(sub: _Subcommands) -> None:
-    """The ``validate`` sub-command's parser."""
-    v = sub.add_parser("validate", help="check a scenario file")
+def _validate_arguments(v: argparse.ArgumentParser) -> None:
     _scenario_arguments(v)
     v.add_argument("--explain", action="store_true",
                    help="list the parts of the model the scene exercises and those it skips")
-    v.set_defaults(func=cmd_validate)
 
 
-def _add_tables(sub: _Subcommands) -> None:
-    """The ``tables`` sub-command's parser."""
-    t = sub.add_parser("tables", help="off-line level: precompute a scenario's tables")
-    tsub = t.add_subparsers(dest="tables_command", required=True)
-    tb = tsub.add_parser("build", help="build the tables a scenario needs (cached)")
+def _tables_build_arguments(tb: argparse.ArgumentParser) -> None:
     _scenario_arguments(tb)
     _budget_argument(tb)
-    tb.set_defaults(func=cmd_tables_build)
 
 
 #: ``--compress``'s choices: :data:`shipradar.sim.stream.recording.COMPRESSIONS`, spelled out so
@@ -886,11 +874,9 @@ def _add_tables(sub: _Subcommands) -> None:
 _COMPRESSIONS: tuple[str, ...] = ("none", "zstd")
 
 
-def _add_run(sub: _Subcommands) -> None:
-    """The ``run`` sub-command's parser."""
+def _run_arguments(r: argparse.ArgumentParser) -> None:
     from shipradar.sim.stream.security import add_curve_arguments
 
-    r = sub.add_parser("run", help="run a scenario headless")
     _scenario_arguments(r)
     r.add_argument("--seed", type=_count("--seed"), default=None, help="override the seed")
     r.add_argument("--duration", type=_positive("--duration"), default=None,
@@ -938,14 +924,11 @@ def _add_run(sub: _Subcommands) -> None:
                    help="targets from a live ZeroMQ feed (topic entities; the run is paced "
                         "to the wall clock) or the entities of a recording (fast mode, any "
                         "seed); docs/external.md")
-    r.set_defaults(func=cmd_run)
 
 
-def _add_replay(sub: _Subcommands) -> None:
-    """The ``replay`` sub-command's parser."""
+def _replay_arguments(rp: argparse.ArgumentParser) -> None:
     from shipradar.sim.stream.security import add_curve_arguments
 
-    rp = sub.add_parser("replay", help="republish a recording")
     rp.add_argument("recording")
     rp.add_argument("--publish", default=None, help="ZeroMQ endpoint")
     g = rp.add_mutually_exclusive_group()
@@ -966,12 +949,9 @@ def _add_replay(sub: _Subcommands) -> None:
                     help="stop at the first damaged record (default: skip it and go on)")
     add_curve_arguments(rp, "server")
     _asterix_arguments(rp)
-    rp.set_defaults(func=cmd_replay)
 
 
-def _add_export(sub: _Subcommands) -> None:
-    """The ``export`` sub-command's parser."""
-    xp = sub.add_parser("export", help="convert a recording: raw ASTERIX, pcap, CSV, Parquet")
+def _export_arguments(xp: argparse.ArgumentParser) -> None:
     xp.add_argument("recording")
     xp.add_argument("--format", required=True, choices=("asterix", "pcap", "csv", "parquet"),
                     help="asterix: concatenated data blocks (.ast); pcap: the UDP datagrams "
@@ -983,68 +963,49 @@ def _add_export(sub: _Subcommands) -> None:
                     help="UDP destination port written in the pcap (default 8600)")
     xp.add_argument("--asterix-max-datagram", type=_datagram_size, default=1400,
                     metavar="BYTES", help="largest ASTERIX data block [bytes] (default 1400)")
-    xp.set_defaults(func=cmd_export)
 
 
-def _add_tail(sub: _Subcommands) -> None:
-    """The ``tail`` sub-command's parser."""
+def _tail_arguments(tl: argparse.ArgumentParser) -> None:
     from shipradar.sim.stream.security import add_curve_arguments
 
-    tl = sub.add_parser("tail", help="print a stream as JSON lines")
     tl.add_argument("endpoint")
     tl.add_argument("--topic", action="append", help="topic to keep (repeatable)")
     tl.add_argument("--count", type=_count("--count"), default=None, help="stop after N messages")
     tl.add_argument("--timeout", type=_positive("--timeout"), default=None,
                     help="stop after S seconds without a message")
     add_curve_arguments(tl, "client")
-    tl.set_defaults(func=cmd_tail)
 
 
-def _add_recording(sub: _Subcommands) -> None:
-    """The ``recording`` sub-command's parser."""
-    rc = sub.add_parser("recording", help="check or salvage a recording (verify, repair)")
-    rcsub = rc.add_subparsers(dest="recording_command", required=True)
-    rv = rcsub.add_parser("verify", help="report records, time span, sensors, damage, "
-                                         "truncation (exit 0 clean, 1 damaged, 2 unreadable)")
+def _recording_verify_arguments(rv: argparse.ArgumentParser) -> None:
     rv.add_argument("recording")
-    rv.set_defaults(func=cmd_recording_verify)
-    rr = rcsub.add_parser("repair", help="write every valid record to a new file (the input "
-                                         "is never modified)")
+
+
+def _recording_repair_arguments(rr: argparse.ArgumentParser) -> None:
     rr.add_argument("recording")
     rr.add_argument("out", metavar="OUT")
     rr.add_argument("--overwrite", action="store_true", help="replace an existing OUT")
     rr.add_argument("--compress", choices=_COMPRESSIONS, default="none",
                     help="compression of OUT")
-    rr.set_defaults(func=cmd_recording_repair)
-    rp = rcsub.add_parser("compare", help="compare two recordings by value: the same messages, "
-                                          "plot ids and integers, floats within --rtol (exit 0 "
-                                          "equal, 1 different; docs/stability.md section 6)")
+
+
+def _recording_compare_arguments(rp: argparse.ArgumentParser) -> None:
     rp.add_argument("expected")
     rp.add_argument("actual")
     rp.add_argument("--rtol", type=float, default=1e-5,
                     help="largest relative difference of a float (a dB level's as a power); "
                          "default 1e-5, above what installs and CPUs move (README, "
                          "'Reproducibility')")
-    rp.set_defaults(func=cmd_recording_compare)
 
 
-def _add_keys(sub: _Subcommands) -> None:
-    """The ``keys`` sub-command's parser."""
-    ky = sub.add_parser("keys", help="CurveZMQ keys for authenticated, encrypted streams")
-    kysub = ky.add_subparsers(dest="keys_command", required=True)
-    kg = kysub.add_parser("generate", help="a publisher key pair, subscriber key pairs and "
-                                           "DIR/authorized/ (docs/protocol.md, Security)")
+def _keys_generate_arguments(kg: argparse.ArgumentParser) -> None:
     kg.add_argument("directory", metavar="DIR")
     kg.add_argument("--name", action="append", metavar="NAME",
                     help="subscriber key pair to create (repeatable; default 'client')")
-    kg.set_defaults(func=cmd_keys_generate)
 
 
-def _add_view(sub: _Subcommands) -> None:
-    """The ``view`` sub-command's parser."""
+def _view_arguments(vw: argparse.ArgumentParser) -> None:
     from shipradar.sim.stream.security import add_curve_arguments
 
-    vw = sub.add_parser("view", help="live PPI in the browser, of a stream or a recording")
     vw.add_argument("source", help="ZeroMQ endpoint of a run/replay (tcp://HOST:PORT) or a "
                                    "recording file (replayed by the viewer)")
     vw.add_argument("--port", type=_int_range("--port", 0, 65535), default=8765,
@@ -1062,12 +1023,9 @@ def _add_view(sub: _Subcommands) -> None:
                     default=4096, help="messages queued per page before the oldest are "
                                        "dropped [default 4096]")
     add_curve_arguments(vw, "client")
-    vw.set_defaults(func=cmd_view)
 
 
-def _add_plot(sub: _Subcommands) -> None:
-    """The ``plot`` sub-command's parser."""
-    pl = sub.add_parser("plot", help="render figures of a scenario's tables as PNG")
+def _plot_arguments(pl: argparse.ArgumentParser) -> None:
     pl.add_argument("scenario")
     pl.add_argument("what", choices=("propagation", "coverage", "clutter", "improvement", "all",
                                      "geometry"),
@@ -1076,58 +1034,120 @@ def _add_plot(sub: _Subcommands) -> None:
     pl.add_argument("--out", default="out/figures")
     pl.add_argument("--radar", default=None, help="radar id (default: every radar)")
     pl.add_argument("--height", type=float, default=10.0, help="target height for F vs range [m]")
-    pl.set_defaults(func=cmd_plot)
 
 
-def _add_montecarlo(sub: _Subcommands) -> None:
-    """The ``montecarlo`` sub-command's parser."""
-    mc = sub.add_parser("montecarlo", add_help=False,
-                        help="replications on a Dask cluster (see: shipradar montecarlo -h)")
-    mc.add_argument("rest", nargs=argparse.REMAINDER)
-    mc.set_defaults(func=cmd_montecarlo)
+def _evaluate_arguments(p: argparse.ArgumentParser) -> None:
+    """``evaluate``'s options live with the harness (:mod:`shipradar.sim.studies.evaluate.cli`)."""
+    from shipradar.sim.studies.evaluate.cli import add_arguments
+
+    add_arguments(p)
 
 
-def _add_report(sub: _Subcommands) -> None:
-    """The ``report`` sub-command's parser."""
-    rep = sub.add_parser("report", add_help=False,
-                         help="study report: PNG figures and an index page (shipradar report -h)")
-    rep.add_argument("rest", nargs=argparse.REMAINDER)
-    rep.set_defaults(func=cmd_report)
+def cmd_evaluate(args) -> int:
+    from shipradar.sim.studies.evaluate.cli import main as evaluate_main
+
+    return evaluate_main(args)
 
 
-def _add_fidelity(sub: _Subcommands) -> None:
-    """The ``fidelity`` sub-command's parser."""
-    fi = sub.add_parser("fidelity", add_help=False,
-                        help="measure the speed/accuracy trade on a scene and recommend a "
-                             "fidelity block (shipradar fidelity -h)")
-    fi.add_argument("rest", nargs=argparse.REMAINDER)
-    fi.set_defaults(func=cmd_fidelity)
+# --------------------------------------------------------------------------- the registry
+@dataclass(frozen=True)
+class Subcommand:
+    """One ``shipradar`` sub-command, as :func:`build_parser` and :func:`main` read it: the
+    one place a command is registered (an entry of :data:`SUBCOMMANDS`)."""
+
+    #: its words after ``shipradar``: ``("run",)``, or a group and a command
+    #: (``("recording", "verify")``, the group's help in :data:`GROUPS`)
+    path: tuple[str, ...]
+    #: the line ``shipradar -h`` shows
+    help: str
+    #: what runs it, from the parsed arguments; the exit code
+    run: Callable[[argparse.Namespace], int]
+    #: declares its options on its sub-parser (None: none)
+    arguments: Callable[[argparse.ArgumentParser], None] | None = None
+    #: it parses what follows its name itself (``run`` gets ``rest``, that argument list):
+    #: the studies' commands, whose parsers live with them
+    own_parser: bool = False
 
 
-def _add_evaluate(sub: Any) -> None:
-    """``shipradar evaluate``: its parser lives with the harness
-    (:mod:`shipradar.sim.studies.evaluate.cli`)."""
-    from shipradar.sim.studies.evaluate.cli import add_parser
+#: The help of each group of sub-commands.
+GROUPS: dict[str, str] = {
+    "tables": "off-line level: precompute a scenario's tables",
+    "recording": "check or salvage a recording (verify, repair, compare)",
+    "keys": "CurveZMQ keys for authenticated, encrypted streams",
+}
 
-    add_parser(sub)
-
-
-#: The sub-commands, in the order ``shipradar -h`` lists them.
-_SUBCOMMANDS = (_add_examples, _add_validate, _add_tables, _add_run, _add_replay, _add_export,
-                _add_tail, _add_recording, _add_keys, _add_view, _add_plot, _add_montecarlo,
-                _add_report, _add_fidelity, _add_evaluate)
+#: Every sub-command, in the order ``shipradar -h`` lists them.
+SUBCOMMANDS: tuple[Subcommand, ...] = (
+    Subcommand(("examples",), "list the shipped example scenarios", cmd_examples),
+    Subcommand(("validate",), "check a scenario file", cmd_validate, _validate_arguments),
+    Subcommand(("tables", "build"), "build the tables a scenario needs (cached)",
+               cmd_tables_build, _tables_build_arguments),
+    Subcommand(("run",), "run a scenario headless", cmd_run, _run_arguments),
+    Subcommand(("replay",), "republish a recording", cmd_replay, _replay_arguments),
+    Subcommand(("export",), "convert a recording: raw ASTERIX, pcap, CSV, Parquet", cmd_export,
+               _export_arguments),
+    Subcommand(("tail",), "print a stream as JSON lines", cmd_tail, _tail_arguments),
+    Subcommand(("recording", "verify"), "report records, time span, sensors, damage, "
+               "truncation (exit 0 clean, 1 damaged, 2 unreadable)", cmd_recording_verify,
+               _recording_verify_arguments),
+    Subcommand(("recording", "repair"), "write every valid record to a new file (the input "
+               "is never modified)", cmd_recording_repair, _recording_repair_arguments),
+    Subcommand(("recording", "compare"), "compare two recordings by value: the same messages, "
+               "plot ids and integers, floats within --rtol (exit 0 equal, 1 different; "
+               "docs/stability.md section 6)", cmd_recording_compare,
+               _recording_compare_arguments),
+    Subcommand(("keys", "generate"), "a publisher key pair, subscriber key pairs and "
+               "DIR/authorized/ (docs/protocol.md, Security)", cmd_keys_generate,
+               _keys_generate_arguments),
+    Subcommand(("view",), "live PPI in the browser, of a stream or a recording", cmd_view,
+               _view_arguments),
+    Subcommand(("plot",), "render figures of a scenario's tables as PNG", cmd_plot,
+               _plot_arguments),
+    Subcommand(("montecarlo",), "replications on a Dask cluster (see: shipradar montecarlo -h)",
+               cmd_montecarlo, own_parser=True),
+    Subcommand(("report",), "study report: PNG figures and an index page (shipradar report -h)",
+               cmd_report, own_parser=True),
+    Subcommand(("fidelity",), "measure the speed/accuracy trade on a scene and recommend a "
+               "fidelity block (shipradar fidelity -h)", cmd_fidelity, own_parser=True),
+    Subcommand(("evaluate",), "score a tracker under test on seeded runs (GOSPA, SIAP, "
+               "per-target, latency)", cmd_evaluate, _evaluate_arguments),
+)
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """The ``shipradar`` parser: one sub-parser per command (``_add_<command>``)."""
+    """The ``shipradar`` parser: a sub-parser per entry of :data:`SUBCOMMANDS` (and per group
+    of :data:`GROUPS`), each calling its ``run``."""
     from shipradar import __version__
 
     p = argparse.ArgumentParser(prog="shipradar", description=__doc__.splitlines()[0])
     p.add_argument("--version", action="version", version=f"shipradar {__version__}")
-    sub = p.add_subparsers(dest="command", required=True)
-    for add in _SUBCOMMANDS:
-        add(sub)
+    top = p.add_subparsers(dest="command", required=True)
+    groups: dict[str, _Subcommands] = {}
+    for cmd in SUBCOMMANDS:
+        sub = top
+        if len(cmd.path) == 2:
+            group = cmd.path[0]
+            if group not in groups:
+                groups[group] = top.add_parser(group, help=GROUPS[group]).add_subparsers(
+                    dest=f"{group}_command", required=True)
+            sub = groups[group]
+        leaf = sub.add_parser(cmd.path[-1], help=cmd.help, add_help=not cmd.own_parser)
+        if cmd.own_parser:
+            leaf.add_argument("rest", nargs=argparse.REMAINDER)
+        elif cmd.arguments is not None:
+            cmd.arguments(leaf)
+        leaf.set_defaults(func=cmd.run)
     return p
+
+
+def _parse(argv: list[str]) -> argparse.Namespace:
+    """The parsed arguments of ``shipradar ARGV``; a command with its own parser gets the
+    words after its name as they are (argparse would take an option among them for the top
+    parser's)."""
+    for cmd in SUBCOMMANDS:
+        if cmd.own_parser and argv[:len(cmd.path)] == list(cmd.path):
+            return argparse.Namespace(rest=argv[len(cmd.path):], func=cmd.run)
+    return build_parser().parse_args(argv)  # argparse exits with 2 on bad options
 
 
 def _objects_so_far_kept() -> None:
@@ -1177,14 +1197,7 @@ def main(argv: list[str] | None = None) -> int:
     """
     command_line = argv is None
     argv = sys.argv[1:] if argv is None else list(argv)
-    if argv and argv[0] in ("montecarlo", "report", "fidelity"):
-        # these commands own their argument parsing (shipradar.sim.studies.montecarlo,
-        # shipradar.sim.studies.report, shipradar.sim.studies.fidelity)
-        args = argparse.Namespace(rest=argv[1:], func={"montecarlo": cmd_montecarlo,
-                                                       "report": cmd_report,
-                                                       "fidelity": cmd_fidelity}[argv[0]])
-    else:
-        args = build_parser().parse_args(argv)  # argparse exits with 2 on bad options
+    args = _parse(argv)
     if command_line and args.func is cmd_run:
         gc.disable()
         args.gc_off_until_run = True

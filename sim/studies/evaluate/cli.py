@@ -19,12 +19,14 @@ import json
 import sys
 from pathlib import Path
 
-__all__ = ["add_parser", "build_parser", "cli_main", "main"]
+__all__ = ["add_arguments", "build_parser", "cli_main", "main"]
 
 EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
 
 
-def _arguments(p: argparse.ArgumentParser) -> None:
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    """``evaluate``'s options on ``p`` (``shipradar``'s sub-parser, registered in
+    :data:`shipradar.sim.cli.SUBCOMMANDS` with :func:`main`, or :func:`build_parser`'s)."""
     p.add_argument("scenario", nargs="?", default=None, help="scenario file")
     p.add_argument("--example", default=None, metavar="NAME",
                    help="a shipped example scenario instead of a path")
@@ -80,18 +82,9 @@ def _arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
-def add_parser(subparsers) -> argparse.ArgumentParser:
-    """Add ``evaluate`` to ``shipradar``'s sub-commands (its function: :func:`main`)."""
-    p = subparsers.add_parser("evaluate", help="score a tracker under test on seeded runs "
-                                               "(GOSPA, SIAP, per-target, latency)")
-    _arguments(p)
-    p.set_defaults(func=main)
-    return p
-
-
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="shipradar evaluate", description=__doc__.split("\n")[0])
-    _arguments(p)
+    add_arguments(p)
     return p
 
 
