@@ -5,6 +5,8 @@
     shipradar evaluate SCENARIO --tracker "CMD {plots} {tracks}" --runs N [--seed S]
         [--duration S] [--out DIR] [--scheduler ADDRESS | --workers K] [--c 2000] [--p 1]
         [--switch-scans 3] [--truth coverage|pd [--pd-threshold 0.5] [--pd-window S]]
+        [--reg-tol-range 20] [--reg-tol-scale 100] [--reg-tol-azimuth 0.05]
+        [--reg-tol-time 0.010] [--reg-warmup 0]
     shipradar evaluate --rescore DIR [--c ...]      # score the recorded runs again
     shipradar evaluate --compare DIR_A DIR_B ...    # side by side, paired by seed
 
@@ -73,6 +75,18 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--pd-window", type=float, default=None, metavar="S",
                    help="--truth pd: how far back looks are read [s] (default: 3 scan "
                         "periods of each radar)")
+    p.add_argument("--reg-tol-range", type=float, default=None, metavar="M",
+                   help="registration: convergence tolerance of range_bias_m [m] (default "
+                        "20)")
+    p.add_argument("--reg-tol-scale", type=float, default=None, metavar="PPM",
+                   help="registration: of range_scale_ppm [ppm] (default 100)")
+    p.add_argument("--reg-tol-azimuth", type=float, default=None, metavar="DEG",
+                   help="registration: of azimuth_bias_rad, in degrees (default 0.05)")
+    p.add_argument("--reg-tol-time", type=float, default=None, metavar="S",
+                   help="registration: of time_offset_s [s] (default 0.010)")
+    p.add_argument("--reg-warmup", type=float, default=0.0, metavar="S",
+                   help="registration: RMSE over the estimates from this simulated time on "
+                        "[s] (default 0: all)")
     p.add_argument("--rescore", default=None, metavar="DIR",
                    help="score the recorded runs of DIR again, with these metric settings")
     p.add_argument("--compare", nargs="+", default=None, metavar="DIR",
@@ -90,11 +104,18 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _config(args):
     from shipradar.sim.studies.evaluate.metrics import MetricConfig
+    from shipradar.sim.studies.evaluate.registration import RegistrationConfig
 
+    given = {"tolerance_range_bias_m": args.reg_tol_range,
+             "tolerance_range_scale_ppm": args.reg_tol_scale,
+             "tolerance_azimuth_bias_deg": args.reg_tol_azimuth,
+             "tolerance_time_offset_s": args.reg_tol_time}
+    reg = RegistrationConfig(warmup_s=args.reg_warmup,
+                             **{k: v for k, v in given.items() if v is not None})
     return MetricConfig(c_m=args.c, p=args.p, siap_threshold_m=args.siap_threshold,
                         max_track_age_s=args.max_track_age, switch_scans=args.switch_scans,
                         truth=args.truth, pd_threshold=args.pd_threshold,
-                        pd_window_s=args.pd_window)
+                        pd_window_s=args.pd_window, registration=reg)
 
 
 def _print_summary(summary: dict) -> None:

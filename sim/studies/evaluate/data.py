@@ -3,8 +3,9 @@
 A run directory (written by :mod:`shipradar.sim.studies.evaluate.runner`) holds:
 
 - ``stream.rec``: the simulator's stream, every topic (docs/protocol.md section 6 format);
-- ``tracks.rec``: every message the tracker published on ``{tracks}``, as received, even the
-  malformed ones; a record's time is the message's ``t`` (NaN when it could not be read);
+- ``tracks.rec``: every message the tracker published on ``{tracks}`` (topics ``tracks`` and
+  ``registration``), as received, even the malformed ones; a record's time is the message's
+  ``t`` (NaN when it could not be read);
 - ``timing.npz``: ``stream_sent_s`` (wall time at which each ``stream.rec`` record was sent,
   same order) and ``tracks_recv_s`` (wall time at which each ``tracks.rec`` record was
   received), both [s] from the same origin (the start of the run);
@@ -12,7 +13,9 @@ A run directory (written by :mod:`shipradar.sim.studies.evaluate.runner`) holds:
   endpoints, wall times.
 
 Nothing here trusts the tracker: each ``tracks`` message is checked by
-:func:`check_tracks` and a malformed one is counted under its reason, never scored.
+:func:`check_tracks`, each ``registration`` message by
+:func:`~shipradar.sim.studies.evaluate.registration.check_registration`, and a malformed one
+is counted under its reason, never scored.
 """
 
 from __future__ import annotations
@@ -29,9 +32,25 @@ import numpy as np
 
 from shipradar.sim.stream.protocol import ProtocolError, decode
 from shipradar.sim.stream.recording import read_recording
-from shipradar.sim.stream.schema import EOS, META, PLOTS, TOPIC_TRACKS, TRACKS, TRUTH_TARGETS
+from shipradar.sim.stream.schema import (
+    EOS,
+    META,
+    PLOTS,
+    TOPIC_REGISTRATION,
+    TOPIC_TRACKS,
+    TRACKS,
+    TRUTH_TARGETS,
+)
+from shipradar.sim.studies.evaluate.registration import (
+    TRUTH_KEYS,
+    TRUTH_SENSORS_KIND,
+    MalformedRegistration,
+    RegistrationMessage,
+    check_registration,
+)
 
-__all__ = ["MalformedTracks", "RunData", "TracksMessage", "check_tracks", "load_run",
+__all__ = ["MalformedTracks", "RunData", "TracksMessage", "add_registration", "check_tracks",
+           "load_run",
            "TRACKS_REQUIRED", "TRACKS_COLUMNS"]
 
 #: Keys a ``tracks`` message must carry to be scored (the 1σ columns are not scored, so
@@ -169,6 +188,11 @@ class RunData:
     looks: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]] = field(default_factory=dict)
     malformed: Counter = field(default_factory=Counter)
     malformed_examples: dict[str, str] = field(default_factory=dict)
+    #: the tracker's valid ``registration`` messages; per radar its ``truth[sensors]``
+    #: columns (:data:`~shipradar.sim.studies.evaluate.registration.TRUTH_KEYS`, arrays over
+    #: its ends of scan; empty for a scene without errors)
+    registration: list[RegistrationMessage] = field(default_factory=list)
+    sensor_truth: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)
 
     @property
     def duration_s(self) -> float:
@@ -192,6 +216,7 @@ class Collect:
         self.coverage: dict[str, list[tuple[float, np.ndarray]]] = {}
         self.looks: dict[str, list[tuple[float, np.ndarray, np.ndarray]]] = {}
         self.inputs: dict[str, list[tuple[float, float]]] = {}
+        self.sensor_truth: dict[str, list[tuple[float, ...]]] = {}
 
     def add(self, topic: bytes, t: float, p: Mapping[str, Any], sent_s: float = math.nan
             ) -> None:
@@ -215,6 +240,9 @@ class Collect:
             self.eos.setdefault(p["sensor"], []).append(
                 (float(p["time_s"]), (float(q["east_m"]), float(q["north_m"]),
                                       float(q["up_m"]))))
+        elif topic == TRUTH_TARGETS.topic and p.get("kind") == TRUTH_SENSORS_KIND:
+            self.sensor_truth.setdefault(p["sensor"], []).append(
+                tuple(float(p[k]) for k in TRUTH_KEYS))
         elif topic == TRUTH_TARGETS.topic and p.get("kind") == TRUTH_TARGETS.kind:
             if "in_coverage" in p:
                 self.coverage.setdefault(p["sensor"], []).append(
@@ -264,18 +292,27 @@ class Collect:
                   for s, v in self.inputs.items()}
         coverage = {s: (np.array([a for a, _ in v]), np.array([c for _, c in v], bool)
                         .reshape(-1, k)) for s, v in self.coverage.items()}
+        sensor_truth = {s: dict(zip(TRUTH_KEYS, np.array(v, float).reshape(-1, len(TRUTH_KEYS)).T,
+                                    strict=True))
+                        for s, v in self.sensor_truth.items()}
         return RunData(
             info=info, target_ids=self.target_ids, ref_sensor=self.ref or "",
             scan_t=np.array(self.scan_t),
             truth_pos=np.array(self.pos).reshape(-1, k, 3),
             truth_vel=np.array(self.vel).reshape(-1, k, 3),
             truth_active=np.array(self.active, bool).reshape(-1, k),
-            radars=radars, inputs=inputs, coverage=coverage, looks=looks)
+            radars=radars, inputs=inputs, coverage=coverage, looks=looks,
+            sensor_truth=sensor_truth)
 
 
 def add_tracks(data: RunData, frames_or_payload, recv_s: float, *, decoded: bool) -> None:
     """Append one tracker message (its frames, or its payload when ``decoded``) received at
-    ``recv_s`` [s] to ``data``."""
+    ``recv_s`` [s] to ``data``: a ``tracks`` message, or (frames only) a ``registration``
+    one."""
+    if not decoded and len(frames_or_payload) >= 1 \
+            and bytes(frames_or_payload[0]) == TOPIC_REGISTRATION:
+        add_registration(data, frames_or_payload, recv_s)
+        return
     try:
         msg = (tracks_from_payload(frames_or_payload, recv_s) if decoded
                else check_tracks(frames_or_payload, recv_s))
@@ -284,6 +321,23 @@ def add_tracks(data: RunData, frames_or_payload, recv_s: float, *, decoded: bool
         data.malformed_examples.setdefault(exc.reason, str(exc))
         return
     data.tracks.append(msg)
+
+
+def add_registration(data: RunData, frames, recv_s: float) -> None:
+    """Append one ``registration`` message (its frames) received at ``recv_s`` [s] to
+    ``data``; a malformed one, or one about a radar the stream does not have, is counted
+    under its reason."""
+    try:
+        msg = check_registration(frames, recv_s)
+        if data.radars and msg.sensor not in data.radars:
+            raise MalformedRegistration("registration: unknown sensor",
+                                        f"{msg.sensor!r} is not a radar of the stream "
+                                        f"({', '.join(data.radars)})")
+    except MalformedRegistration as exc:
+        data.malformed[exc.reason] += 1
+        data.malformed_examples.setdefault(exc.reason, str(exc))
+        return
+    data.registration.append(msg)
 
 
 def load_run(run_dir: str | Path) -> RunData:

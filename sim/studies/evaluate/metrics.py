@@ -74,13 +74,14 @@ velocity to the scan time (heights held); none: the tracker holds no track at th
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
 
 from shipradar.sensors.propagation import horizon_range
 from shipradar.sim.studies.evaluate.data import RunData, TracksMessage
+from shipradar.sim.studies.evaluate.registration import RegistrationConfig, score_registration
 
 __all__ = ["DEFAULT_METRICS", "MetricConfig", "RunScores", "TRUTH_RULES",
            "counted_matrix", "counted_targets", "detectable", "gospa_scan",
@@ -121,6 +122,9 @@ class MetricConfig:
     pd_window_s : float or None
         ``truth = "pd"``: how far back the looks are read [s]; None: three scan periods of
         each radar.
+    registration : RegistrationConfig
+        Tolerances and warm-up of the registration scores
+        (:mod:`shipradar.sim.studies.evaluate.registration`).
     """
 
     c_m: float = 2000.0
@@ -131,6 +135,7 @@ class MetricConfig:
     truth: str = "coverage"
     pd_threshold: float = 0.5
     pd_window_s: float | None = None
+    registration: RegistrationConfig = RegistrationConfig()
 
     def __post_init__(self) -> None:
         if not self.c_m > 0:
@@ -640,6 +645,8 @@ class RunScores:
     per_target: list[dict[str, Any]]
     run: dict[str, Any]
     holding: list[dict[str, Any]]
+    registration: list[dict[str, Any]] = field(default_factory=list)  #: per radar, component
+    registration_series: list[dict[str, Any]] = field(default_factory=list)  #: per estimate
 
 
 def _max_age(data: RunData, config: MetricConfig) -> float:
@@ -767,7 +774,9 @@ def score_run(data: RunData, config: MetricConfig = DEFAULT_METRICS) -> RunScore
                 "track_id": held[i][j]}
                for i in range(len(held)) for j, name in enumerate(data.target_ids)
                if counted_all[i][j]]
-    return RunScores(per_scan, per_target, run, holding)
+    reg = score_registration(data.registration, data.sensor_truth, config.registration, seed)
+    run.update(reg.run)
+    return RunScores(per_scan, per_target, run, holding, reg.rows, reg.series)
 
 
 def _per_target(data: RunData, held, counted_all, err_sum, ref_range, seed):

@@ -110,7 +110,7 @@ QUANTITIES: dict[str, Quantity] = {
 }
 
 _UNIT_BY_SUFFIX = (("_mps", "m/s", 1), ("_per_hour", "1/h", 1), ("_m", "m", 0),
-                   ("_s", "s", 3))
+                   ("_s", "s", 3), ("_deg", "deg", 4), ("_ppm", "ppm", 1))
 
 
 def quantity(name: str, p: float = 1.0) -> Quantity:
@@ -444,9 +444,10 @@ def _mean_of(rows: Sequence[dict[str, Any]], metric: str) -> float:
 
 
 def write_report(out: Path, settings: dict[str, Any], per_run, holding, summary_rows,
-                 scan_rows, target_rows, failed) -> Path:
+                 scan_rows, target_rows, failed, extra_html: str = "") -> Path:
     """Write ``index.html`` and its SVG figures into ``out``; a figure that cannot be drawn
-    (no scored run) is listed with the reason.
+    (no scored run) is listed with the reason. ``extra_html``: a section placed after the
+    figures (the registration scores).
 
     Parameters
     ----------
@@ -528,6 +529,8 @@ def write_report(out: Path, settings: dict[str, Any], per_run, holding, summary_
     for name, svg, caption in figures:
         parts.append(f"<h2>{_FIGURE_TITLES[name]}</h2><figure id='figure-{name}'>{svg}"
                      f"<figcaption>{caption}</figcaption></figure>")
+    if extra_html:
+        parts.append(extra_html)
     if missing:
         parts.append("<h2>Not drawn</h2><ul>" + "".join(
             f"<li>{html.escape(x)}</li>" for x in missing) + "</ul>")

@@ -7,7 +7,8 @@
    timeout (a tracker that stops reading fails the run instead of hanging it), and records
    the stream to ``stream.rec``;
 2. a SUB socket of the harness connects to ``{tracks}`` (a free loopback port the tracker
-   binds, topic ``tracks``, docs/protocol.md section 4.6) before the tracker starts;
+   binds, topics ``tracks`` and ``registration``, docs/protocol.md sections 4.6 and 4.8)
+   before the tracker starts;
 3. the tracker starts with its placeholders filled in (``{plots}``, ``{tracks}``,
    ``{asterix}``: a free UDP port on 127.0.0.1 where ASTERIX CAT048/034 goes, docs/asterix.md;
    ``{seed}``; ``{run_dir}``), its stdout and stderr to files of the run directory;
@@ -47,6 +48,7 @@ import zmq
 from shipradar.sim.stream.bus import Bus, Publisher, PublisherStalledError, RunInterrupted
 from shipradar.sim.stream.protocol import ProtocolError, decode, encode
 from shipradar.sim.stream.recording import Recorder
+from shipradar.sim.stream.schema import TOPIC_REGISTRATION
 from shipradar.sim.studies.evaluate.data import TOPIC_TRACKS, Collect, RunData, add_tracks
 
 __all__ = ["RunSpec", "fill_placeholders", "free_port", "run_tracker_command",
@@ -148,8 +150,8 @@ class _TimedPublisher(Publisher):
 
 
 class _Collector(threading.Thread):
-    """Receives the tracker's ``tracks`` messages with their wall times; ``connected`` is set
-    once the connection to the tracker is made."""
+    """Receives the tracker's ``tracks`` (and ``registration``) messages with their wall
+    times; ``connected`` is set once the connection to the tracker is made."""
 
     def __init__(self, endpoint: str, t0: float):
         super().__init__(daemon=True, name="evaluate-tracks")
@@ -160,6 +162,7 @@ class _Collector(threading.Thread):
         self.monitor = self.sock.get_monitor_socket(
             zmq.EVENT_HANDSHAKE_SUCCEEDED | zmq.EVENT_CONNECTED)
         self.sock.setsockopt(zmq.SUBSCRIBE, TOPIC_TRACKS)
+        self.sock.setsockopt(zmq.SUBSCRIBE, TOPIC_REGISTRATION)  # its bias estimates, if any
         self.sock.connect(endpoint)
         self.t0 = t0
         self.records: list[tuple[float, float, list[bytes]]] = []  # (t, recv, frames)
@@ -182,9 +185,10 @@ class _Collector(threading.Thread):
                     frames = self.sock.recv_multipart()
                     now = time.perf_counter()
                     try:
-                        _, t, p = decode(frames)
+                        topic, t, p = decode(frames)
                         ts = p.get("time_s", t) if isinstance(p, dict) else t
-                        if isinstance(ts, (int, float)) and math.isfinite(ts):
+                        if (topic == TOPIC_TRACKS and isinstance(ts, (int, float))
+                                and math.isfinite(ts)):
                             self.last_time_s = max(self.last_time_s, float(ts))
                     except ProtocolError:
                         t = math.nan

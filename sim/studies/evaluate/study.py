@@ -7,6 +7,10 @@ Layout of a study directory ``DIR``:
 - ``per_scan``, ``per_run``, ``per_target``: every run's rows, ``.csv`` and ``.parquet``;
 - ``summary.csv`` (per-run figures over runs: mean and 95 % interval),
   ``summary_scan.csv``, ``summary_target.csv``;
+- with a tracker that publishes ``registration``: ``registration`` (per run, radar and
+  component: RMSE, time to converge), ``registration_series`` (per estimate) and
+  ``summary_registration.csv``
+  (:mod:`shipradar.sim.studies.evaluate.registration`);
 - ``index.html`` and its SVG figures (:mod:`shipradar.sim.studies.evaluate.report`).
 
 Runs go to Dask: a ``LocalCluster`` (one single-threaded worker process per core, or
@@ -32,7 +36,7 @@ from typing import Any
 
 import numpy as np
 
-from shipradar.sim.studies.evaluate import stats
+from shipradar.sim.studies.evaluate import registration, stats
 from shipradar.sim.studies.evaluate.data import load_run
 from shipradar.sim.studies.evaluate.metrics import (
     DEFAULT_METRICS,
@@ -232,6 +236,7 @@ def write_results(out: str | Path, results: Sequence[tuple[dict, RunScores | Non
     """
     out = Path(out)
     per_scan, per_target, per_run, failed, holding = [], [], [], [], []
+    reg_rows, reg_series = [], []
     for info, scores in results:
         if scores is None:
             failed.append(_failed_row(info))
@@ -239,13 +244,22 @@ def write_results(out: str | Path, results: Sequence[tuple[dict, RunScores | Non
         per_scan += scores.per_scan
         per_target += scores.per_target
         holding += scores.holding
+        reg_rows += scores.registration
+        reg_series += scores.registration_series
         per_run.append(dict(scores.run, wall_s=info.get("wall_s"),
                             harness_s=info.get("harness_s"), score_s=info.get("score_s")))
     _write_table(out, "per_scan", per_scan)
     _write_table(out, "per_target", per_target)
     _write_table(out, "per_run", per_run + failed)
     _write_table(out, "holding", holding)
-    summary_rows = stats.summarise(per_run)
+    summary_rows = stats.summarise(per_run, stats.RUN_METRICS
+                                   + registration.run_metric_names(per_run))
+    reg_summary = registration.summarise_rows(reg_rows)
+    if reg_rows:
+        _write_table(out, "registration", reg_rows)
+        _write_table(out, "registration_series", reg_series)
+        _frame(reg_summary).to_csv(out / "summary_registration.csv", index=False,
+                                   float_format="%.12g")
     _frame(summary_rows).to_csv(out / "summary.csv", index=False, float_format="%.12g")
     scan_rows = stats.by_key(per_scan, "scan", stats.SCAN_METRICS)
     target_rows = stats.by_key(per_target, "target", stats.TARGET_METRICS)
@@ -253,11 +267,14 @@ def write_results(out: str | Path, results: Sequence[tuple[dict, RunScores | Non
     _frame(target_rows).to_csv(out / "summary_target.csv", index=False, float_format="%.12g")
     summary = {"runs": len(results), "scored": len(per_run), "failed": failed,
                "metrics": summary_rows, "settings": settings}
+    if reg_summary:
+        summary["registration"] = reg_summary
     if report:
         from shipradar.sim.studies.evaluate.report import write_report
 
-        summary["report"] = str(write_report(out, settings, per_run, holding, summary_rows,
-                                             scan_rows, target_rows, failed))
+        summary["report"] = str(write_report(
+            out, settings, per_run, holding, summary_rows, scan_rows, target_rows, failed,
+            extra_html=registration.report_section(out, reg_summary, reg_series)))
     return summary
 
 
@@ -284,11 +301,13 @@ def compare(study_dirs: Sequence[str | Path], out: str | Path | None = None
     loaded = [_read_runs(d) for d in dirs]
     base_settings, base_rows = loaded[0]
     rows = []
+    metrics = stats.RUN_METRICS + registration.run_metric_names(
+        [r for _, runs in loaded for r in runs])
     for d, (settings, runs) in zip(dirs, loaded, strict=True):
-        for r in stats.summarise(runs):
+        for r in stats.summarise(runs, metrics):
             rows.append({"study": str(d), "tracker": settings["tracker"], "kind": "mean", **r})
     for d, (settings, runs) in zip(dirs[1:], loaded[1:], strict=True):
-        for r in stats.paired_differences(base_rows, runs):
+        for r in stats.paired_differences(base_rows, runs, metrics):
             rows.append({"study": str(d), "tracker": settings["tracker"],
                          "kind": f"minus {dirs[0]}", "metric": r["metric"],
                          "mean": r["difference"], "low": r["low"], "high": r["high"],
