@@ -1207,7 +1207,7 @@ def _nonfinite_numbers(obj: Any, where: str = "") -> list[str]:
 
 
 #: Plot columns that are NaN by design for a radar without a Doppler bank (docs/protocol.md).
-DOPPLER_COLUMNS = ("range_rate_mps", "sigma_range_rate_mps")
+DOPPLER_COLUMNS = ("range_rate_mps", "sigma_range_rate_mps", "range_rate_reference_mps")
 #: Processor types without a Doppler bank.
 NO_BANK = ("none", "mti")
 

@@ -217,8 +217,11 @@ class DwellModel:
         self._prepare_propagation(scenario)
         self._prepare_compensation(platform, radar)
         spectrum = (None, "doppler_mean_hz", "doppler_spread_hz")
+        # the sea clutter's mean μ_c is the bank's reference, computed (_sea_clutter_mean_hz)
+        # whether the map exists or not: its power, spread and Weibull a are read
         self._sea_reader = (None if self.tables.sea_clutter is None else _stacked_reader(
-            self.tables.sea_clutter, (*spectrum, "weibull_a"), periodic1=True))
+            self.tables.sea_clutter, (None, "doppler_spread_hz", "weibull_a"),
+            periodic1=True))
         self._wx_reader = (None if self.tables.weather_clutter is None else _stacked_reader(
             self.tables.weather_clutter, spectrum, periodic1=True))
         # a rain region: each trip of the range-folded sum [39]-[41] is weighted by whether
@@ -228,10 +231,10 @@ class DwellModel:
             None if self.tables.weather_clutter is None or rain is None or rain.region is None
             else _stacked_reader(self.tables.weather_clutter, ("single_trip_power_w",),
                                  periodic1=True))
-        # the spectrum's mean and spread alone, for the Doppler of every one of a scan's
-        # thousands of sea-clutter false alarms (half the gathers of the full reader)
+        # the spectrum's spread alone, for the Doppler of every one of a scan's thousands of
+        # sea-clutter false alarms (its mean is computed: _sea_clutter_mean_hz)
         self._sea_spectrum_reader = (None if self.tables.sea_clutter is None else
-                                     _stacked_reader(self.tables.sea_clutter, spectrum[1:],
+                                     _stacked_reader(self.tables.sea_clutter, spectrum[2:],
                                                      periodic1=True))
         # the false alarms' Doppler draws: a child of the radar's generator, spawned at the
         # first draw so that the parent's stream, hence every other draw, is unchanged
@@ -323,6 +326,39 @@ class DwellModel:
         return (self._platform_doppler_hz(speed, course, geom.azimuth, rng),
                 self._platform_doppler_hz(*self._table_motion, geom.azimuth, rng))
 
+    def _sea_clutter_mean_hz(self, ground_range, azimuth, platform_vel=None):
+        """μ_c [35] of the sea patch at ``ground_range`` [m] and ``azimuth`` [rad] [Hz]: f1
+        [34] plus the waves' drift, 0 when motion-compensated; f1 from the platform's
+        instantaneous velocity ``platform_vel`` (N, 3) [m/s] when given, else from the
+        clutter tables' ship motion.
+
+        The Doppler bank's reference where sea clutter leads (its filters are indexed from
+        it): the processor's, so it is computed from the ship's motion and the wind whatever
+        ``fidelity.clutter`` says, never read from the clutter map (whose ``doppler_mean_hz``
+        is the same function on its grid): switching the clutter's power off leaves every
+        reported range rate where it was.
+        """
+        if self.radar.processor.motion_compensated:
+            return np.zeros(np.shape(ground_range))
+        if platform_vel is None:
+            speed, course = self._table_motion
+        else:
+            speed = np.hypot(platform_vel[:, 0], platform_vel[:, 1])
+            course = np.arctan2(platform_vel[:, 0], platform_vel[:, 1])
+        f1 = self._platform_doppler_hz(speed, course, azimuth, ground_range)
+        wind = math.radians(self.scenario.environment.wind_direction_deg)
+        return sea_clutter.mean_clutter_doppler_hz(f1, azimuth - wind, self.wavelength)
+
+    def _relative_doppler_hz(self, geom, clutter, platform_vel=None):
+        """Each target's Doppler relative to the bank's reference [Hz], which picks its filter:
+        ``clutter["doppler_relative_hz"]`` (:meth:`clutter_at`: relative to the dominant
+        clutter's mean) or, without modelled clutter (``clutter`` None), f_d' - μ_c of the sea
+        (:meth:`_sea_clutter_mean_hz`), as where sea clutter leads."""
+        if clutter is not None:
+            return clutter["doppler_relative_hz"]
+        return self.target_doppler_hz(geom, platform_vel) - self._sea_clutter_mean_hz(
+            geom.ground_range, geom.azimuth, platform_vel)
+
     @property
     def has_doppler_bank(self) -> bool:
         """True for a DFT/FIR bank (alone or behind an MTI): plots carry a range rate."""
@@ -348,6 +384,16 @@ class DwellModel:
         return 0.5 * self.wavelength * self.radar.prf_hz / (self.n_doppler_filters
                                                             * math.sqrt(12.0))
 
+    @property
+    def range_rate_span_mps(self) -> float:
+        """Unambiguous span of the reported range rate [m/s], λ f_r / 2 (the first blind
+        speed; f_r the nominal PRF, as :meth:`range_rate_from_filter` folds): a plot's
+        ``range_rate_mps`` lies in (v_ref - S/2, v_ref + S/2] about its reference; NaN
+        without a bank."""
+        if not self.has_doppler_bank:
+            return math.nan
+        return 0.5 * self.wavelength * self.radar.prf_hz
+
     def range_rate_from_filter(self, filter_index, reference_hz):
         """Measured range rate [m/s] (positive receding) of contacts detected in bank filters
         ``filter_index``: the filter centre i f_r/N [60], folded into [-f_r/2, f_r/2) (the
@@ -369,10 +415,11 @@ class DwellModel:
             if np.broadcast_shapes(rate.shape, np.shape(reference_hz)) == rate.shape:
                 rate += reference_hz
                 rate *= -0.5 * self.wavelength
+                rate += 0.0  # filter 0 at a zero reference: 0.0, not -0.0
                 return rate
-            return -0.5 * self.wavelength * (rate + reference_hz)
+            return -0.5 * self.wavelength * (rate + reference_hz) + 0.0
         centre = self._filter_centre_hz(index)
-        return -0.5 * self.wavelength * (centre + reference_hz)
+        return -0.5 * self.wavelength * (centre + reference_hz) + 0.0
 
     def _filter_centre_hz(self, filter_index):
         """Centre of filters ``filter_index`` folded into [-f_r/2, f_r/2) [Hz]."""
@@ -402,7 +449,8 @@ class DwellModel:
         n = np.size(range_m)
         if not self.has_doppler_bank or n == 0:
             nan = np.full(n, np.nan)
-            return {"range_rate_mps": nan, "sigma_range_rate_mps": nan.copy()}
+            return {"range_rate_mps": nan, "sigma_range_rate_mps": nan.copy(),
+                    "range_rate_reference_mps": nan.copy()}
         draw = self._doppler_draw_rng(rng)
         if spectrum is not None:
             reference, spread = spectrum
@@ -418,17 +466,23 @@ class DwellModel:
         else:
             index = draw.integers(0, self.n_doppler_filters, n)
         return {"range_rate_mps": self.range_rate_from_filter(index, reference),
-                "sigma_range_rate_mps": np.full(n, self.range_rate_sigma_mps)}
+                "sigma_range_rate_mps": np.full(n, self.range_rate_sigma_mps),
+                "range_rate_reference_mps": np.broadcast_to(
+                    self._reference_mps(reference), (n,)).copy()}
+
+    def _reference_mps(self, reference_hz):
+        """The bank's reference as a range rate [m/s], -λ f/2 (the rate of filter 0: docs/
+        protocol.md 4.2), +0.0 rather than -0.0 at a zero reference."""
+        return -0.5 * self.wavelength * np.asarray(reference_hz) + 0.0
 
     def _spectrum_reference(self, range_m, azimuth_rad):
         """The Doppler bank's reference (the sea-clutter mean μ_c, plus f1 [34] when
         motion-compensated) and the clutter spread σ_s at ground ranges and azimuths [Hz];
-        0 without a sea-clutter map."""
-        reference = np.zeros(np.shape(range_m))
+        a spread of 0 without a sea-clutter map."""
+        reference = self._sea_clutter_mean_hz(range_m, azimuth_rad)
         spread = np.zeros(np.shape(range_m))
         if self._sea_spectrum_reader is not None:
-            v = np.nan_to_num(self._sea_spectrum_reader(range_m, azimuth_rad))
-            reference, spread = v[:, 0], v[:, 1]
+            spread = np.nan_to_num(self._sea_spectrum_reader(range_m, azimuth_rad))[:, 0]
         if self._compensation is not None:
             reference = reference + self._platform_doppler_hz(*self._compensation,
                                                               azimuth_rad, range_m)
@@ -730,7 +784,8 @@ class DwellModel:
         p_sc = mean_sc = spread_sc = a = zero
         if self._sea_reader is not None:
             v = np.nan_to_num(self._sea_reader(geom.ground_range, geom.azimuth))
-            p_sc, mean_sc, spread_sc, a = v[:, 0], v[:, 1], v[:, 2], v[:, 3]
+            p_sc, spread_sc, a = v[:, 0], v[:, 1], v[:, 2]
+            mean_sc = self._sea_clutter_mean_hz(geom.ground_range, geom.azimuth, platform_vel)
         p_wc = mean_wc = spread_wc = zero
         if self._wx_reader is not None:
             v = np.nan_to_num(self._wx_reader(geom.ground_range, geom.azimuth))
@@ -738,11 +793,9 @@ class DwellModel:
                 self._folded_rain_power(geom, antenna_en)
             mean_wc, spread_wc = v[:, 1], v[:, 2]
         if platform_vel is not None and not self.radar.processor.motion_compensated:
-            # the tables' μ_c [35] holds f1 [34] of the first leg: swap in the ship's
-            # instantaneous velocity (a turning frigate sweeps its clutter Doppler)
-            if self._sea_reader is not None:
-                f1, f1_table = self._instantaneous_f1(geom, platform_vel)
-                mean_sc = mean_sc + (f1 - f1_table)
+            # the weather map's mean holds f1 [34] of the first leg: swap in the ship's
+            # instantaneous velocity (a turning frigate sweeps its clutter Doppler; the sea's
+            # μ_c is computed with it already)
             if self._wx_reader is not None:
                 f1, f1_table = self._instantaneous_f1(geom, platform_vel, sea=False)
                 mean_wc = mean_wc + (f1 - f1_table)
@@ -1044,19 +1097,21 @@ class DwellModel:
             batch=None if look.batch is None else np.asarray(look.batch))
 
     def _range_rate_columns(self, geom, clutter, lead, platform_vel=None) -> dict:
-        """``range_rate_mps`` and ``sigma_range_rate_mps`` of the contacts led by targets
-        ``lead`` (NaN without a Doppler bank): the filter the model picks for the lead target
-        (:meth:`_doppler_filter` of its Doppler relative to the clutter mean), reported at
-        its centre plus the bank's reference f_d - (f_d' - μ_c)."""
+        """``range_rate_mps``, ``sigma_range_rate_mps`` and ``range_rate_reference_mps`` of
+        the contacts led by targets ``lead`` (NaN without a Doppler bank): the filter the
+        model picks for the lead target (:meth:`_doppler_filter` of its Doppler relative to
+        the bank's reference, :meth:`_relative_doppler_hz`), reported at its centre plus the
+        reference f_d - (f_d' - μ_c), which is published too."""
         if not self.has_doppler_bank:
             nan = np.full(lead.size, np.nan)
-            return {"range_rate_mps": nan, "sigma_range_rate_mps": nan.copy()}
-        rel = (self.target_doppler_hz(geom, platform_vel) if clutter is None
-               else clutter["doppler_relative_hz"])[lead]
-        fd = -2.0 * geom.radial_velocity[lead] / self.wavelength
+            return {"range_rate_mps": nan, "sigma_range_rate_mps": nan.copy(),
+                    "range_rate_reference_mps": nan.copy()}
+        rel = self._relative_doppler_hz(geom, clutter, platform_vel)[lead]
+        reference = -2.0 * geom.radial_velocity[lead] / self.wavelength - rel
         return {"range_rate_mps": self.range_rate_from_filter(self._doppler_filter(rel),
-                                                              fd - rel),
-                "sigma_range_rate_mps": np.full(lead.size, self.range_rate_sigma_mps)}
+                                                              reference),
+                "sigma_range_rate_mps": np.full(lead.size, self.range_rate_sigma_mps),
+                "range_rate_reference_mps": self._reference_mps(reference)}
 
     def _resolution_groups(self, geom, clutter, batch=None, platform_vel=None, time_s=None,
                            power_w=None):
@@ -1076,8 +1131,7 @@ class DwellModel:
         n = geom.slant_range.size
         if n == 1:
             return np.zeros(1, dtype=np.int64), 1
-        fc = self._doppler_filter(self.target_doppler_hz(geom, platform_vel) if clutter is None
-                                  else clutter["doppler_relative_hz"])
+        fc = self._doppler_filter(self._relative_doppler_hz(geom, clutter, platform_vel))
         t = np.zeros(n) if time_s is None else np.broadcast_to(np.asarray(time_s, float), (n,))
         bt = (np.zeros(n, dtype=np.int64) if batch is None
               else np.asarray(batch, dtype=np.int64))

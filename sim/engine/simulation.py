@@ -1116,6 +1116,9 @@ class RadarProcess:
             # turns a plot's S/I into an amplitude (I048/130 PAM)
             sac_sic=list(self.sim.scenario.asterix_sources()[r.id]),
             noise_power_dbm=10.0 * math.log10(self.model.n0 * 1e3),
+            # the span a tracker unfolds plots.range_rate_mps by (docs/protocol.md 4.2)
+            **({"range_rate_span_mps": self.model.range_rate_span_mps}
+               if self.model.has_doppler_bank else {}),
         )
 
     def _plan_scans(self, t_scans: list[float]) -> tuple[np.ndarray, np.ndarray]:

@@ -295,6 +295,10 @@ META = Payload(b"meta", None, (
        "resolved (docs/asterix.md)"),
     _f("noise_power_dbm", "float", "dBm", "receiver noise power N0' (DREV-R-9429 [19]): S/I + "
        "this is the plot's power above the noise floor (ASTERIX I048/130 PAM)"),
+    _f("range_rate_span_mps", "float", "m/s", "unambiguous span S = λ f_r / 2 of "
+       "`plots.range_rate_mps` (f_r the nominal `prf_hz`; the first blind speed); the "
+       "filter spacing is S / N. Absent for a radar without a Doppler bank (section 4.2)",
+       required=False),
 ))
 
 #: ``plots``: one message per sensor and sector that has any plot.
@@ -318,6 +322,11 @@ PLOTS = Payload(b"plots", None, (
        "none or mti)", required=False),
     _f("sigma_range_rate_mps", "float64[n]", "m/s", "its expected 1σ, (λ/2) f_r / (N √12) for "
        "N filters; NaN without a bank", required=False),
+    _f("range_rate_reference_mps", "float64[n]", "m/s", "the velocity the Doppler bank's "
+       "filters are indexed from at the plot (the clutter mean μ_c, plus f1 when "
+       "motion-compensated, as a range rate): `range_rate_mps` lies in (reference − S/2, "
+       "reference + S/2], S = `meta.range_rate_span_mps`, so the true rate is `range_rate_mps` "
+       "+ k S for an integer k (below); NaN without a bank", required=False),
 ))
 
 #: ``eos``: end of scan, with the antenna's position and heading.
