@@ -14,7 +14,6 @@ from hypothesis import strategies as st
 from shipradar.sim.studies.evaluate import stats
 from shipradar.sim.studies.evaluate.report import (
     QUANTITIES,
-    Quantity,
     bounded,
     format_value,
     quantity,
@@ -83,16 +82,22 @@ def test_unknown_name_by_its_suffix():
     assert quantity("a_ratio").unit == "1"
 
 
-def test_bounded_cuts_at_the_quantity_bounds():
-    frac = quantity("held_fraction")
-    assert bounded(-0.2316, 1.357, frac) == (0.0, 1.0)
-    assert bounded(0.2, 0.8, frac) == (0.2, 0.8)
-    assert bounded(-975.5, 1142.0, quantity("false")) == (0.0, 1142.0)
-    assert bounded(0.83, 1.199, quantity("siap_ambiguity")) == (1.0, 1.199)
-    lo, hi = bounded(math.nan, math.nan, frac)
+def test_bounded_cuts_at_the_figure_bounds():
+    assert bounded(-0.2316, 1.357, "held_fraction") == (0.0, 1.0)
+    assert bounded(0.2, 0.8, "held_fraction") == (0.2, 0.8)
+    assert bounded(-975.5, 1142.0, "false") == (0.0, 1142.0)
+    assert bounded(0.83, 1.199, "siap_ambiguity") == (1.0, 1.199)
+    assert bounded(-67.06, 187.1, "first_track_delay_s") == (0.0, 187.1)
+    lo, hi = bounded(math.nan, math.nan, "held_fraction")
     assert math.isnan(lo) and math.isnan(hi)
-    free = Quantity("x", "1", 2, lower=None)
-    assert bounded(-5.0, 5.0, free) == (-5.0, 5.0)
+    assert bounded(-5.0, 5.0, "an_unbounded_figure") == (-5.0, 5.0)
+
+
+def test_every_shown_interval_has_bounds():
+    """Every figure the tables show with an interval is bounded (stats.BOUNDS), so the
+    report never prints a value it cannot take."""
+    names = set(stats.RUN_METRICS) | set(stats.TARGET_METRICS) | set(stats.SCAN_METRICS)
+    assert names - set(stats.BOUNDS) == set()
 
 
 def test_compare_page_has_units(tmp_path):

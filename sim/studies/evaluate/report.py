@@ -13,8 +13,10 @@
 The figures are SVG with their text kept as text, written beside the page and inlined in it
 (the legends and tick labels are then part of the page a browser test reads). Every number
 on the page goes through :func:`format_value` with its quantity's unit and precision
-(:data:`QUANTITIES`), in fixed notation. An interval that reaches past a quantity's bound
-(below 0; above 1 for a fraction) is shown and drawn cut at the bound.
+(:data:`QUANTITIES`), in fixed notation. Intervals come clipped to each figure's bounds
+(:data:`shipradar.sim.studies.evaluate.stats.BOUNDS`); the report cuts them there again
+(:func:`bounded`) for the tables and GOSPA's band, so no page shows a value a figure cannot
+take.
 """
 
 from __future__ import annotations
@@ -35,7 +37,8 @@ __all__ = ["QUANTITIES", "Quantity", "bounded", "format_value", "quantity", "wri
 
 @dataclass(frozen=True)
 class Quantity:
-    """How a stored figure is shown: label, unit, precision and bounds.
+    """How a stored figure is shown: label, unit and precision (its bounds are
+    :data:`shipradar.sim.studies.evaluate.stats.BOUNDS`).
 
     Attributes
     ----------
@@ -47,16 +50,12 @@ class Quantity:
         Digits after the decimal point, fixed notation.
     scale : float
         Shown value = stored value × scale (stored in SI: m → km is 1e-3).
-    lower, upper : float or None
-        Bounds of the quantity (stored units): an interval is cut there. None: unbounded.
     """
 
     label: str
     unit: str
     decimals: int
     scale: float = 1.0
-    lower: float | None = 0.0
-    upper: float | None = None
 
 
 _COUNT = "count/run"
@@ -67,17 +66,15 @@ QUANTITIES: dict[str, Quantity] = {
     "localisation": Quantity("GOSPA localisation part: assigned tracks' errors", "m", 0),
     "missed": Quantity("GOSPA missed part: c^p/2 per missed target", "m", 0),
     "false": Quantity("GOSPA false part: c^p/2 per false track", "m", 0),
-    "siap_completeness": Quantity("SIAP completeness: targets tracked", "1", 3, upper=1.0),
-    "siap_ambiguity": Quantity("SIAP ambiguity: tracks per tracked target", "1", 3,
-                               lower=1.0),
-    "siap_spuriousness": Quantity("SIAP spuriousness: tracks on no target", "1", 3,
-                                  upper=1.0),
+    "siap_completeness": Quantity("SIAP completeness: targets tracked", "1", 3),
+    "siap_ambiguity": Quantity("SIAP ambiguity: tracks per tracked target", "1", 3),
+    "siap_spuriousness": Quantity("SIAP spuriousness: tracks on no target", "1", 3),
     "siap_position_accuracy_m": Quantity("SIAP position accuracy (horizontal)", "m", 0),
     "siap_velocity_accuracy_mps": Quantity("SIAP velocity accuracy (horizontal)", "m/s", 1),
     "siap_track_number_change_rate": Quantity(
         "SIAP track-number changes per hour of tracked time", "1/h", 2, scale=3600.0),
-    "siap_longest_segment": Quantity("SIAP longest track segment / target's lifetime", "1",
-                                     3, upper=1.0),
+    "siap_longest_segment": Quantity("SIAP longest unbroken track segment / lifetime", "1",
+                                     3),
     "false_tracks": Quantity("false tracks: ids never on a counted target", _COUNT, 1),
     "false_tracks_per_hour": Quantity("false tracks per simulated hour", "1/h", 0),
     "track_breaks": Quantity("track breaks (held, then not while counted)", _COUNT, 1),
@@ -91,7 +88,7 @@ QUANTITIES: dict[str, Quantity] = {
     "harness_s": Quantity("harness's own time in a run", "s", 2),
     "score_s": Quantity("scoring time of a run", "s", 2),
     # per target (a count is per target and run)
-    "held_fraction": Quantity("held fraction of counted scans", "1", 3, upper=1.0),
+    "held_fraction": Quantity("held fraction of counted scans", "1", 3),
     "first_track_delay_s": Quantity("first-track delay after counted", "s", 1),
     "first_track_range_m": Quantity("range at first track", "km", 1, scale=1e-3),
     "mean_error_m": Quantity("mean position error when held", "m", 0),
@@ -101,11 +98,11 @@ QUANTITIES: dict[str, Quantity] = {
     "first_counted_s": Quantity("first counted", "s", 1),
     "first_track_s": Quantity("first track", "s", 1),
     # per scan
-    "t_s": Quantity("simulated time", "s", 1, lower=None),
+    "t_s": Quantity("simulated time", "s", 1),
     "truths": Quantity("counted targets", "count", 1),
     "tracks": Quantity("tracks", "count", 1),
-    "completeness": Quantity("counted targets held", "1", 3, upper=1.0),
-    "spuriousness": Quantity("tracks on no counted target", "1", 3, upper=1.0),
+    "completeness": Quantity("counted targets held", "1", 3),
+    "spuriousness": Quantity("tracks on no counted target", "1", 3),
     "runs": Quantity("runs", "count", 0),
 }
 
@@ -124,8 +121,8 @@ def quantity(name: str, p: float = 1.0) -> Quantity:
     if q is None:
         for suffix, unit, decimals in _UNIT_BY_SUFFIX:
             if name.endswith(suffix):
-                return Quantity(name.replace("_", " "), unit, decimals, lower=None)
-        return Quantity(name.replace("_", " "), "1", 3, lower=None)
+                return Quantity(name.replace("_", " "), unit, decimals)
+        return Quantity(name.replace("_", " "), "1", 3)
     if name in ("localisation", "missed", "false") and p != 1:
         return replace(q, unit=f"m^{format_value(p)}", decimals=0)
     return q
@@ -163,13 +160,14 @@ def format_value(value: Any, q: Quantity | None = None) -> str:
     return s
 
 
-def bounded(low: float, high: float, q: Quantity) -> tuple[float, float]:
-    """An interval cut at the quantity's bounds (NaN stays NaN)."""
-    if q.lower is not None:
-        low, high = (max(x, q.lower) if math.isfinite(x) else x for x in (low, high))
-    if q.upper is not None:
-        low, high = (min(x, q.upper) if math.isfinite(x) else x for x in (low, high))
-    return low, high
+def bounded(low: float, high: float, name: str) -> tuple[float, float]:
+    """An interval of figure ``name`` cut at its bounds, ``stats.BOUNDS`` (NaN stays NaN; a
+    figure not listed there is unbounded)."""
+    from shipradar.sim.studies.evaluate.stats import BOUNDS
+
+    lo_b, hi_b = BOUNDS.get(name, (-math.inf, math.inf))
+    return tuple(min(max(x, lo_b), hi_b) if math.isfinite(x) else x  # type: ignore[return-value]
+                 for x in (low, high))
 
 
 # ---------------------------------------------------------------------------- HTML
@@ -190,9 +188,12 @@ def _cell(text: str, cls: str = "") -> str:
     return f"<td class='{cls}'>{text}</td>" if cls else f"<td>{text}</td>"
 
 
-def _interval(low: Any, high: Any, q: Quantity) -> tuple[str, str]:
-    lo, hi = bounded(float("nan") if low is None else float(low),
-                     float("nan") if high is None else float(high), q)
+def _interval(low: Any, high: Any, q: Quantity, name: str | None) -> tuple[str, str]:
+    """An interval's two ends as shown; cut at figure ``name``'s bounds (None: not cut)."""
+    lo = float("nan") if low is None else float(low)
+    hi = float("nan") if high is None else float(high)
+    if name is not None:
+        lo, hi = bounded(lo, hi, name)
     return format_value(lo, q), format_value(hi, q)
 
 
@@ -203,7 +204,7 @@ def _summary_table(rows: Sequence[dict[str, Any]], p: float) -> str:
     body = []
     for r in rows:
         q = quantity(str(r["metric"]), p)
-        lo, hi = _interval(r.get("low"), r.get("high"), q)
+        lo, hi = _interval(r.get("low"), r.get("high"), q, str(r["metric"]))
         body.append("<tr>" + _cell(f"<code>{html.escape(str(r['metric']))}</code>", "l")
                     + _cell(html.escape(q.label), "l") + _cell(html.escape(q.unit), "l")
                     + _cell(format_value(r.get("mean"), q)) + _cell(lo) + _cell(hi)
@@ -232,7 +233,7 @@ def _target_tables(rows: Sequence[dict[str, Any]], metrics: Sequence[str]) -> st
             cells = [_cell(html.escape(str(r["target"])), "l name"),
                      _cell(format_value(r.get("runs"), QUANTITIES["runs"]))]
             for m, q in zip(chunk, qs, strict=True):
-                lo, hi = _interval(r.get(f"{m}_low"), r.get(f"{m}_high"), q)
+                lo, hi = _interval(r.get(f"{m}_low"), r.get(f"{m}_high"), q, m)
                 ci = f"<span class='ci'>[{lo}, {hi}]</span>" if lo != "–" else ""
                 cells.append(_cell(format_value(r.get(m), q) + ci))
             body.append("<tr>" + "".join(cells) + "</tr>")
@@ -291,8 +292,7 @@ def _gospa_svg(path: Path, scan_rows: Sequence[dict[str, Any]], c_text: str, p: 
         lo = np.array([r["gospa_low"] for r in scan_rows], float)
         hi = np.array([r["gospa_high"] for r in scan_rows], float)
         if np.isfinite(lo).any():
-            q = QUANTITIES["gospa"]
-            lo, hi = np.array([bounded(a, b, q) for a, b in zip(lo, hi, strict=True)]).T
+            lo, hi = np.array([bounded(a, b, "gospa") for a, b in zip(lo, hi, strict=True)]).T
             ax.fill_between(t, lo, hi, color="k", alpha=0.15, label="GOSPA 95 % interval")
         ax.set_ylim(bottom=0.0)
         ax.set_xlabel("simulated time [s]")
@@ -343,7 +343,8 @@ def _legend_columns(n: int, rows: int) -> int:
 
 
 def _coverage_svg(path: Path, holding: Sequence[dict[str, Any]], seed: Any,
-                  colours: dict[str, Any], c_text: str) -> str:
+                  colours: dict[str, Any], c_text: str,
+                  uncounted: str = "inactive or out of coverage") -> str:
     from matplotlib.patches import Patch
 
     plt = _pyplot()
@@ -374,7 +375,7 @@ def _coverage_svg(path: Path, holding: Sequence[dict[str, Any]], seed: Any,
                      f"held: assigned within {c_text})", fontsize=9)
         handles = [Patch(color=grey, label="counted, no track held it"),
                    Patch(facecolor="white", edgecolor="0.6",
-                         label="blank: not counted (inactive or out of coverage)")]
+                         label=f"blank: not counted ({uncounted})")]
         handles += _id_handles(colours, ids, "patch")
         ax.legend(handles=handles, fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0),
                   ncol=_legend_columns(len(handles), 2 + 2 * max(len(targets), 4))
@@ -469,8 +470,20 @@ def write_report(out: Path, settings: dict[str, Any], per_run, holding, summary_
     against = (f", against a position accuracy of {format_value(acc, metre)} m (SIAP, mean "
                "over runs)" if math.isfinite(acc) and acc > 0 else "")
     c_note = (f"<p class='note'>Association distance {c_text}{against}: a track farther than "
-              "c from a target is not assigned to it (GOSPA), costs c<sup>p</sup>/2 as a false "
-              "track and leaves the target missed.</p>")
+              "c from a target is not assigned to it (GOSPA, identity), costs c<sup>p</sup>/2 "
+              "as a false track and leaves the target missed.</p>")
+    switch = m.get("switch_scans")
+    identity = (f"the identity association: one track per counted target within {c_text}"
+                f"{against}, kept from scan to scan"
+                + (f" unless GOSPA's best assignment is cheaper for {format_value(switch)} "
+                   "scans in a row" if switch is not None else ""))
+    if m.get("truth") == "pd":
+        counted = (f"counted truth: a target some radar's recent looks gave P_d ≥ "
+                   f"{format_value(m.get('pd_threshold'))}")
+        uncounted = "inactive, or no recent look reached the P_d threshold"
+    else:
+        counted = "counted truth: a target in some radar's coverage (geometric)"
+        uncounted = "inactive or out of coverage"
     figures: list[tuple[str, str, str]] = []
     missing = []
     if scan_rows:
@@ -492,30 +505,30 @@ def write_report(out: Path, settings: dict[str, Any], per_run, holding, summary_
         colours = _track_colours(track_ids)
         held = {h["track_id"] for h in holding if h["seed"] == seed}
         figures.append(("coverage", _coverage_svg(out / "coverage.svg", holding, seed,
-                                                  colours, c_text),
+                                                  colours, c_text, uncounted),
                         f"Which track held each target, seed {seed}: a target is held at a "
-                        f"scan by the track GOSPA assigns it, within {c_text}{against}. "
-                        "A colour per track id (legend at right; tab20 colours repeat after "
-                        "20 ids, the id is written on its bar where it fits)."))
+                        f"scan by the track {identity}. A colour per track id (legend at "
+                        "right; tab20 colours repeat after 20 ids, the id is written on its "
+                        "bar where it fits)."))
         figures.append(("ppi", _ppi_svg(out / "ppi.svg", data, colours, held),
                         f"Tracks over truth, seed {seed}, local east/north [km]; a track "
-                        f"marked (false) was never within {c_text} of a counted target."))
+                        f"marked (false) never held a counted target ({c_text})."))
     else:
         missing += ["coverage.svg: no scored run", "ppi.svg: no scored run"]
     threshold = (f"SIAP association within {format_value(siap_m, metre)} m (from the first "
                  "of 2 scans in a row)")
-    if m.get("switch_scans") is not None:  # a temporally consistent identity association
-        threshold += (f"; a target's track is kept unless another is better for "
-                      f"{format_value(m['switch_scans'])} scans")
+    if switch is not None:
+        threshold += (f", a track moving to a nearer truth once it has been nearer for "
+                      f"{format_value(switch)} scans")
     parts = [_head("shipradar evaluate"),
              "<h1>Tracker evaluation</h1>",
              f"<p>Scenario <b>{html.escape(str(settings.get('scenario_name')))}</b>, tracker "
              f"<code>{html.escape(str(settings.get('tracker')))}</code>, "
              f"{len(per_run)} scored run(s) of {len(per_run) + len(failed)}, seed "
              f"{html.escape(str(settings.get('seed')))}. GOSPA {c_text}, "
-             f"p = {format_value(p)}, alpha = 2; {threshold}. Intervals: 95 %, Student t "
-             "over runs; an interval reaching past a quantity's bound (below 0, above 1 for "
-             "a fraction, below 1 for the ambiguity) is shown cut at the bound.</p>",
+             f"p = {format_value(p)}, alpha = 2; {threshold}; {counted}. Intervals: 95 %, "
+             "Student t over runs, clipped to each figure's bounds (0 below every figure "
+             "here, 1 above a fraction, 1 below the ambiguity).</p>",
              "<h2>Metrics (mean over runs, 95 % interval)</h2>", c_note,
              _summary_table(summary_rows, p)]
     if target_rows:
@@ -523,9 +536,8 @@ def write_report(out: Path, settings: dict[str, Any], per_run, holding, summary_
         metrics = [k for k in target_rows[0] if k not in skip
                    and not k.endswith(("_low", "_high"))]
         parts += ["<h2>Per target (mean over runs, 95 % interval under it)</h2>",
-                  f"<p class='note'>Held, breaks, swaps and first track read each scan's "
-                  f"GOSPA assignment within {c_text}{against}. Counts are per target and "
-                  "run.</p>", _target_tables(target_rows, metrics)]
+                  f"<p class='note'>Held, breaks, swaps and first track read {identity}. "
+                  "Counts are per target and run.</p>", _target_tables(target_rows, metrics)]
     for name, svg, caption in figures:
         parts.append(f"<h2>{_FIGURE_TITLES[name]}</h2><figure id='figure-{name}'>{svg}"
                      f"<figcaption>{caption}</figcaption></figure>")
@@ -564,9 +576,9 @@ def write_compare(out: Path, dirs, settings, rows) -> Path:
     body = []
     for r in rows:
         q = quantity(str(r["metric"]), p)
-        if r["kind"] != "mean":
-            q = replace(q, lower=None, upper=None)
-        lo, hi = _interval(r.get("low"), r.get("high"), q)
+        # a difference comes clipped to its own bounds (stats.paired_differences)
+        lo, hi = _interval(r.get("low"), r.get("high"), q,
+                           str(r["metric"]) if r["kind"] == "mean" else None)
         body.append("<tr>" + _cell(f"<code>{html.escape(str(r['study']))}</code>", "l")
                     + _cell(html.escape(str(r["kind"])), "l")
                     + _cell(f"<code>{html.escape(str(r['metric']))}</code>", "l")

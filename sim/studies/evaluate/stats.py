@@ -62,7 +62,8 @@ BOUNDS: dict[str, tuple[float, float]] = {
                      "siap_velocity_accuracy_mps", "siap_track_number_change_rate",
                      "false_tracks", "false_tracks_per_hour", "track_breaks",
                      "identity_swaps", "latency_median_s", "latency_p95_s",
-                     "malformed_messages", "first_track_range_m", "mean_error_m",
+                     "malformed_messages", "first_track_delay_s", "first_track_range_m",
+                     "mean_error_m",
                      "truths", "tracks", "scans_held", "track_ids"), _NON_NEGATIVE),
 }
 
