@@ -446,3 +446,102 @@ def _run_beside_sender(rx, port, sender_args, scene):
         proc.wait(10)
         rx.close()
     return summary, wall, bus
+
+
+# ------------------------------------------------------------------ orientation dead reckoning
+def _level_euler(lat, lon, heading_deg, bank_rad=0.0):
+    """DIS Euler angles (psi, theta, phi) of a level body heading ``heading_deg`` with bank
+    ``bank_rad``, through scipy's rotations and pymap3d's ENU axes (not the code's)."""
+    import pymap3d
+    from scipy.spatial.transform import Rotation
+
+    lat, lon, h = np.atleast_1d(lat), np.atleast_1d(lon), np.radians(heading_deg)
+    enu = []
+    for vec in ((np.sin(h), np.cos(h), 0 * h), (np.cos(h), -np.sin(h), 0 * h),
+                (0 * h, 0 * h, -1 + 0 * h)):  # body x forward, y right, z down
+        enu.append(np.column_stack(pymap3d.enu2uvw(*vec, lat, lon)))
+    mats = np.stack(enu, axis=2)  # columns: the body axes in ECEF
+    rot = Rotation.from_matrix(mats) * Rotation.from_rotvec(
+        np.column_stack([np.broadcast_to(bank_rad, lat.shape), 0 * lat, 0 * lat]))
+    return rot.as_euler("ZYX")  # intrinsic yaw, pitch, roll: DIS's psi, theta, phi
+
+
+def test_a_constant_yaw_rate_turns_the_heading_linearly():
+    """Closed form: a level body (any bank φ) turning at Ω about the vertical has body rates
+    Ω (0, sin φ, cos φ); IEEE 1278.1's rotation by ω Δt (scipy's, about the body-fixed axis)
+    then heads it h0 + Ω t (pymap3d's ENU: to 1e-8 deg over 20 s), and the code's heading rate
+    is Ω: h0 + ḣ t is that heading to the code's geocentric-north bounds (1.6e-4 deg on the
+    heading, 5.5e-6 relative on its rate)."""
+    import pymap3d
+    from scipy.spatial.transform import Rotation
+
+    from shipradar.sim.adapters.dis import ecef_heading_deg, ecef_heading_rate_dps
+
+    rng = np.random.default_rng(11)
+    lat, lon = rng.uniform(-70, 70, 30), rng.uniform(-180, 180, 30)
+    h0, bank = rng.uniform(0, 360, 30), rng.uniform(-0.8, 0.8, 30)
+    rate = rng.uniform(-6, 6, 30)  # [deg/s]
+    euler = _level_euler(lat, lon, h0, bank)
+    xyz = np.column_stack(pymap3d.geodetic2ecef(lat, lon, 0.0))
+    omega = np.radians(rate)[:, None] * np.column_stack([0 * bank, np.sin(bank),
+                                                         np.cos(bank)])
+    got = ecef_heading_rate_dps(xyz, euler, omega)
+    assert got == pytest.approx(rate, rel=6e-6)
+    r0 = Rotation.from_euler("ZYX", euler)
+
+    def off(a, b):
+        return np.abs((a - b + 180.0) % 360.0 - 180.0)
+
+    for t in (1.0, 7.0, 20.0):
+        truth = h0 + rate * t
+        x = (r0 * Rotation.from_rotvec(omega * t)).as_matrix()[:, :, 0]
+        e, n, _ = pymap3d.uvw2enu(x[:, 0], x[:, 1], x[:, 2], lat, lon)
+        assert off(np.degrees(np.arctan2(e, n)), truth).max() < 1e-8
+        code = ecef_heading_deg(xyz, euler[:, :2]) + got * t
+        assert (off(code, truth) <= 1.6e-4 + 5.5e-6 * np.abs(rate) * t + 1e-9).all()
+
+
+def test_the_heading_rate_is_the_rotations_derivative():
+    """A second method for any orientation and angular velocity: the heading of scipy's
+    rotation by ω Δt (body-fixed), differentiated numerically (±1 ms), is
+    ``ecef_heading_rate_dps``."""
+    from scipy.spatial.transform import Rotation
+
+    from shipradar.sim.adapters.dis import ecef_heading_deg, ecef_heading_rate_dps
+
+    rng = np.random.default_rng(12)
+    n = 40
+    lat, lon = rng.uniform(-70, 70, n), rng.uniform(-180, 180, n)
+    xyz = np.column_stack(geodesy.geodetic2ecef(lat, lon, rng.uniform(0, 1e4, n)))
+    euler = np.column_stack([rng.uniform(-np.pi, np.pi, n), rng.uniform(-1.2, 1.2, n),
+                             rng.uniform(-np.pi, np.pi, n)])
+    omega = rng.normal(0, 0.3, (n, 3))
+    r0 = Rotation.from_euler("ZYX", euler)
+
+    def heading(t):
+        return ecef_heading_deg(xyz, (r0 * Rotation.from_rotvec(omega * t)).as_euler("ZYX")[:, :2])
+
+    d = (heading(1e-3) - heading(-1e-3) + 180.0) % 360.0 - 180.0
+    assert ecef_heading_rate_dps(xyz, euler, omega) == pytest.approx(d / 2e-3, rel=1e-5,
+                                                                       abs=1e-6)
+
+
+def test_a_ridden_platform_turns_with_its_entity():
+    """``platforms[].dis_entity`` on an entity whose state has heading 350° turning at
+    3°/s: its heading is 350 + 3 t (mod 360) until the entity leaves, then held."""
+    from shipradar.sim.world.live import RiddenPlatforms
+    from shipradar.sim.world.trajectory import trajectories
+
+    scene = parse_scenario(_scene())
+    ent = LiveTargets(scene)
+    rows = {"id": ["1:1:1"], "time_s": [2.0], "east_m": [0.0], "north_m": [0.0], "up_m": [0.0],
+            "v_east_mps": [0.0], "v_north_mps": [5.0], "v_up_mps": [0.0],
+            "heading_deg": [350.0], "heading_rate_dps": [3.0], "active": [True]}
+    ent.apply(check_states(rows, ent.bad), 2.0)
+    ridden = RiddenPlatforms(trajectories(scene.platforms, FRAME, hold=True), ent,
+                             {0: "1:1:1"})
+    assert ridden.heading_deg(0, 1.0) is None
+    for t in (2.0, 4.0, 10.0):
+        assert ridden.heading_deg(0, t) == pytest.approx((350.0 + 3.0 * (t - 2.0)) % 360.0)
+    # the entity leaves 12 s after its state (the timeout): held after
+    assert ridden.heading_deg(0, 30.0) == pytest.approx((350.0 + 3.0 * 12.0) % 360.0)

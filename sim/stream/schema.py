@@ -501,6 +501,10 @@ ENTITIES = Payload(TOPIC_ENTITIES, None, (
        "clockwise; DIS: from the Entity State PDU's orientation); used for a platform that "
        "rides on the entity (`platforms[].dis_entity`); NaN or absent: unknown",
        required=False),
+    _f("heading_rate_dps", "float64[n]", "deg/s", "rate of the heading (clockwise "
+       "positive): between states the ridden platform's heading turns at it (DIS: the "
+       "orientation turned by the angular velocity of a rotating dead-reckoning algorithm, "
+       "RPW, RVW, RPB, RVB); NaN or absent: 0", required=False),
 ))
 
 #: Topic of the sensor-bias estimates a tracker publishes back (scored by ``shipradar

@@ -54,8 +54,9 @@ MAX_ID_CHARS = 64
 _COLUMNS = ("time_s", "east_m", "north_m", "up_m", "v_east_mps", "v_north_mps", "v_up_mps")
 #: Optional accelerations (second-order dead reckoning; 0 when absent).
 _ACCEL = ("a_east_mps2", "a_north_mps2", "a_up_mps2")
-#: Optional orientation columns (a ridden platform's heading; NaN: unknown).
-_ORIENTATION = ("heading_deg",)
+#: Optional orientation columns (a ridden platform's heading, NaN: unknown; and its rate,
+#: absent or NaN: 0).
+_ORIENTATION = ("heading_deg", "heading_rate_dps")
 
 
 def _pick(values: Any, keep: np.ndarray, n: int) -> list:
@@ -214,6 +215,7 @@ class LiveTargets(MotionTable):
         self._t_first = np.zeros(cap)
         self._t_end = np.full(cap, np.inf)
         self._h = np.full(cap, np.nan)
+        self._h_rate = np.zeros(cap)
         self._default = ConstantRcs(sigma_m2=DEFAULT_ENTITY_RCS_M2)
 
     # ------------------------------------------------------------------ catalogue
@@ -266,6 +268,7 @@ class LiveTargets(MotionTable):
         self._a = more(self._a, 0.0)
         self._t_first, self._t_end = more(self._t_first, 0.0), more(self._t_end, np.inf)
         self._h = more(self._h, np.nan)
+        self._h_rate = more(self._h_rate, 0.0)
 
     def _rows_of(self, ids: list[str], types: list, names: list, t: np.ndarray
                  ) -> np.ndarray:
@@ -349,6 +352,8 @@ class LiveTargets(MotionTable):
             self._t_end[rr] = np.where(np.asarray(rows["active"], bool)[ii], np.inf, t[ii])
             if "heading_deg" in rows:
                 self._h[rr] = rows["heading_deg"][ii]
+                rate = rows.get("heading_rate_dps")
+                self._h_rate[rr] = 0.0 if rate is None else np.nan_to_num(rate[ii], nan=0.0)
         self.updates += applied.size
         if applied.size:
             self.outside_envelope += int(np.count_nonzero(self.outside(state[applied, :3])))
@@ -486,10 +491,17 @@ class RiddenPlatforms:
         return pos, vel, active
 
     def heading_deg(self, p: int, t: float) -> float | None:
-        """Platform ``p``'s heading at ``t`` [deg] from its entity's latest state (its
-        orientation), None when it has none (not riding, not yet seen, no orientation)."""
+        """Platform ``p``'s heading at ``t`` [deg] from its entity's latest state: its
+        orientation's heading h0 turned at the state's heading rate, h0 + ḣ (t − t0) (the
+        orientation's dead reckoning, IEEE 1278.1 annex E, for a turn about the vertical;
+        :func:`shipradar.sim.adapters.dis.ecef_heading_rate_dps`), held after the entity
+        leaves; None when it has none (not riding, not yet seen, no orientation)."""
+        ent = self.entities
         r = self._row(p)
-        if r is None or t < float(self.entities.t_first[r]):
+        if r is None or t < float(ent.t_first[r]):
             return None
-        h = float(self.entities._h[r])
-        return None if not np.isfinite(h) else h % 360.0
+        h = float(ent._h[r])
+        if not np.isfinite(h):
+            return None
+        dt = min(t, float(ent.t_last[r])) - float(ent._t_u[r])
+        return (h + float(ent._h_rate[r]) * dt) % 360.0
