@@ -47,6 +47,8 @@ __all__ = [
 _STREAM_TAG = 0x33E0
 #: Grid steps a Gauss-Markov path is extended by at least, at once.
 _CHUNK = 4096
+#: Latencies drawn at once.
+_LATENCY_CHUNK = 256
 _TWO_PI = 2.0 * math.pi
 
 
@@ -118,7 +120,15 @@ class GaussMarkov:
 
     def at(self, t: np.ndarray | float) -> np.ndarray:
         """The error at times ``t`` [s]."""
+        if self.sigma == 0.0:
+            return np.full(np.shape(t), self.mean)
         return self.at_index(self.index(t))
+
+    def add_to(self, x: np.ndarray, k: np.ndarray) -> np.ndarray:
+        """``x`` + the error at grid steps ``k`` (a constant added as a scalar)."""
+        if self.sigma == 0.0:
+            return np.asarray(x + self.mean) if self.mean else x
+        return np.asarray(x + self.at_index(k))
 
     def forget_before(self, t: float) -> None:
         """Drop the path before the step holding ``t`` [s] (it is never asked again)."""
@@ -174,6 +184,7 @@ class RadarErrors:
         self.latency_fixed_s = latency.fixed_s
         self.latency_mean_s = latency.random_mean_s
         self._latency_rng = error_stream(seed, radar_id, "latency")
+        self._latencies = np.zeros(0)  # drawn ahead, a chunk at a time
         #: the plots change (some error other than navigation position or latency)
         self.touches_plots = not (errors.range_bias_m.is_zero and errors.range_scale_ppm.is_zero
                                   and errors.azimuth_bias_deg.is_zero
@@ -192,11 +203,16 @@ class RadarErrors:
         t = plots["time_s"]
         if not t.size:
             return
-        r = plots["range_m"] * (1.0 + 1e-6 * self.range_scale.at(t)) + self.range_bias.at(t)
-        plots["range_m"] = np.maximum(r, 0.0)
-        az = plots["azimuth_rad"] + self.azimuth_bias.at(t) + self.heading_bias.at(t)
+        k = self.range_bias.index(t)  # every radar error is on the sector grid
+        k_nav = self.heading_bias.index(t) if self.heading_bias.sigma else k
+        r = plots["range_m"]
+        scale = self.range_scale
+        if scale.sigma or scale.mean:
+            r = r * (1.0 + 1e-6 * scale.at_index(k))
+        plots["range_m"] = np.maximum(self.range_bias.add_to(r, k), 0.0)
+        az = self.heading_bias.add_to(self.azimuth_bias.add_to(plots["azimuth_rad"], k), k_nav)
         plots["azimuth_rad"] = np.mod(az, _TWO_PI)
-        stamp = t + self.time_offset.at(t)
+        stamp = self.time_offset.add_to(t, k)
         if self.jitter_s:
             stamp = stamp + self.jitter_s * self._jitter_rng.standard_normal(t.size)
         plots["time_s"] = stamp
@@ -211,23 +227,30 @@ class RadarErrors:
         """The gyro's heading bias at times ``t`` [rad]."""
         return self.heading_bias.at(t)
 
-    def values(self, t: float) -> dict[str, float]:
-        """Every error at time ``t`` [s], by its ``truth[sensors]`` key."""
-        return {"range_bias_m": float(self.range_bias.at(t)),
-                "range_scale_ppm": float(self.range_scale.at(t)),
-                "azimuth_bias_rad": float(self.azimuth_bias.at(t)),
-                "time_offset_s": float(self.time_offset.at(t)),
-                "heading_bias_rad": float(self.heading_bias.at(t)),
-                "nav_east_error_m": float(self.nav_east.at(t)),
-                "nav_north_error_m": float(self.nav_north.at(t)),
-                "nav_up_error_m": float(self.nav_up.at(t))}
+    def values(self, t: np.ndarray) -> dict[str, list[float]]:
+        """Every error at times ``t`` (n,) [s], by its ``truth[sensors]`` key."""
+        return {"range_bias_m": self.range_bias.at(t).tolist(),
+                "range_scale_ppm": self.range_scale.at(t).tolist(),
+                "azimuth_bias_rad": self.azimuth_bias.at(t).tolist(),
+                "time_offset_s": self.time_offset.at(t).tolist(),
+                "heading_bias_rad": self.heading_bias.at(t).tolist(),
+                "nav_east_error_m": self.nav_east.at(t).tolist(),
+                "nav_north_error_m": self.nav_north.at(t).tolist(),
+                "nav_up_error_m": self.nav_up.at(t).tolist()}
 
-    def latency_s(self) -> float:
-        """The latency of the next sector message [s]: the fixed delay plus one exponential
-        draw of the stated mean."""
+    def latencies_s(self, n: int) -> np.ndarray:
+        """The latencies of the next ``n`` sector messages [s]: the fixed delay plus one
+        exponential draw of the stated mean each (drawn a chunk at a time: the same values
+        however many are asked at once)."""
         if self.latency_mean_s == 0.0:
-            return self.latency_fixed_s
-        return self.latency_fixed_s + float(self._latency_rng.exponential(self.latency_mean_s))
+            return np.full(n, self.latency_fixed_s)
+        have = self._latencies
+        if have.size < n:
+            chunks = -(-(n - have.size) // _LATENCY_CHUNK)
+            more = self._latency_rng.exponential(self.latency_mean_s, chunks * _LATENCY_CHUNK)
+            have = np.concatenate([have, self.latency_fixed_s + more])
+        out, self._latencies = have[:n], have[n:]
+        return out
 
     def forget_before(self, t: float) -> None:
         """The errors before ``t`` [s] are never asked again (a new block of revolutions)."""

@@ -836,7 +836,7 @@ class RadarProcess:
         if self.resume_times is not None:
             self.resume_times.append(env.now)
         self._live_update(0.0)
-        t_at = self._leaves(0.0, False)
+        t_at = self._leaves(0.0)
         if t_at > env.now:  # latency (issue 33)
             yield env.timeout(t_at - env.now)
         self._emit_meta(0.0, scan=0, t_at=t_at)
@@ -859,7 +859,7 @@ class RadarProcess:
                 return
             if scan > 0:
                 self._live_update(k * self.sector_s)
-                t_at = self._leaves(k * self.sector_s, False)
+                t_at = self._leaves(k * self.sector_s)
                 if t_at > env.now:  # latency: after the eos it follows (issue 33)
                     yield env.timeout(t_at - env.now)
                 self._emit_meta(k * self.sector_s, scan, t_at=t_at)
@@ -941,7 +941,15 @@ class RadarProcess:
                 stats.sectors += 1  # nothing to send: its end is not waited for
                 k += 1
                 continue
-            t_at = t_b if not sim.latency else self._leaves(t_b, has_msg)
+            if not sim.latency:
+                t_at = t_b
+            elif has_msg:  # framed at its publication time (_publication_times)
+                assert rev is not None
+                t_at = self._link_free = rev.pub[i]
+                if t_at > sim.last_publication:
+                    sim.last_publication = t_at
+            else:  # the end of scan's
+                t_at = self._leaves(t_b)
             yield env.timeout(t_at - env.now)
             sim.active_radar = self.index
             if resumes is not None:
@@ -949,12 +957,7 @@ class RadarProcess:
             if has_msg:
                 assert rev is not None
                 plots, truth = rev.plots[i], rev.truth[i]
-                if t_at != t_b:
-                    self._scan_latency = t_at - t_b
-                    if isinstance(plots, bytes) and isinstance(truth, bytes):
-                        plots, truth = protocol.retime(plots, t_at), protocol.retime(truth, t_at)
-                else:
-                    self._scan_latency = 0.0
+                self._scan_latency = t_at - t_b
                 if emit is not None:
                     self.plot_counter += rev.rows[i]
                     emit(t_at, [plots_topic, plots])
@@ -965,19 +968,18 @@ class RadarProcess:
             stats.sectors += 1
             k += 1
             if sector == n - 1 or t_b >= duration:
-                self._end_of_scan(t_b, scan, t_at=self._leaves(t_b, False))
+                self._end_of_scan(t_b, scan, t_at=self._leaves(t_b))
         return k
 
-    def _leaves(self, t: float, sector: bool) -> float:
-        """When a message made at ``t`` [s] leaves this radar (issue 33's latency): a sector's
-        ``plots`` (``sector``) after the fixed delay plus a random one, the others (``meta``,
-        ``eos`` and their truth) after the fixed one, never before the message ahead of it on
-        the link; ``t`` without latency."""
+    def _leaves(self, t: float) -> float:
+        """When a ``meta``, ``eos`` or their truth made at ``t`` [s] leaves this radar (issue
+        33's latency): after the fixed delay, never before the message ahead of it on the link
+        (a sector's ``plots`` leave as :meth:`_publication_times` planned); ``t`` without
+        latency."""
         errors = self.errors
         if errors is None or not errors.has_latency:
             return t
-        delay = errors.latency_s() if sector else errors.latency_fixed_s
-        t_at = max(self._link_free, t + delay)
+        t_at = max(self._link_free, t + errors.latency_fixed_s)
         self._link_free = t_at
         if t_at > self.sim.last_publication:
             self.sim.last_publication = t_at
@@ -1373,10 +1375,13 @@ class RadarProcess:
         scans = range(scan0, scan0 + len(edges) - 1)
         plots, truth = sector_columns(self.radar.id, scans, merged, plot_id, i0, i1, rev)
         times = self.sector_end((scan0 + rev) * n + sectors)
+        # with latency (issue 33) each message is framed at its publication time
+        pub = self._publication_times(rev, sectors, times)
+        at = times if pub is None else pub
         encoded = self.sim.encodes_ahead
         if encoded:
-            p_msgs: list[bytes] | list[dict] = plots.encode(times)
-            t_msgs: list[bytes] | list[dict] = truth.encode(times)
+            p_msgs: list[bytes] | list[dict] = plots.encode(at)
+            t_msgs: list[bytes] | list[dict] = truth.encode(at)
         else:
             p_msgs = [plots.message(j) for j in range(len(plots))]
             t_msgs = [truth.message(j) for j in range(len(truth))]
@@ -1386,8 +1391,34 @@ class RadarProcess:
         sec, tim, rows = sectors.tolist(), times.tolist(), (i1 - i0).tolist()
         s0, s1 = (i0 - first).tolist(), (i1 - first).tolist()
         m = np.searchsorted(rev, np.arange(len(scans) + 1)).tolist()
+        pubs = at.tolist()
         return [_Revolution(encoded, sec[a:b], tim[a:b], rows[a:b], p_msgs[a:b], t_msgs[a:b],
-                            s0[a:b], s1[a:b]) for a, b in zip(m[:-1], m[1:], strict=True)]
+                            s0[a:b], s1[a:b], pubs[a:b])
+                for a, b in zip(m[:-1], m[1:], strict=True)]
+
+    def _publication_times(self, rev: np.ndarray, sectors: np.ndarray, times: np.ndarray
+                           ) -> np.ndarray | None:
+        """When each sector message of the block framed now leaves (issue 33's latency; None
+        without): revolution ``rev`` (from the block's first), ``sector``, made at ``times``
+        [s]; the radar's link first in, first out from where it is now, each revolution's end
+        of scan after the fixed delay (:meth:`_leaves`, the same recursion as the process);
+        a message the run never sends (its sector starts at or after the run's end) draws
+        nothing."""
+        errors, ends = self.errors, self._ends
+        if errors is None or not errors.has_latency:
+            return None
+        assert ends is not None
+        n, sector_s, duration = self.n_sectors, self.sector_s, self.sim.duration
+        # first in, first out: each leaves at the running maximum of (the link's state now,
+        # every earlier message's own arrival, the earlier ends of scan + the fixed delay)
+        sent = ((ends.scan0 + rev) * n + sectors) * sector_s < duration
+        arrival = np.full(times.size, -np.inf)
+        arrival[sent] = times[sent] + errors.latencies_s(int(np.count_nonzero(sent)))
+        floor = np.concatenate([[self._link_free],
+                                np.asarray(ends.t) + errors.latency_fixed_s])
+        floor = np.maximum.accumulate(floor)[rev]
+        out = np.maximum(np.maximum.accumulate(arrival), floor)
+        return np.where(sent, out, times)
 
     def _send_sector(self, t_b: float, rows: int, plots: bytes | dict, truth: bytes | dict
                      ) -> None:
@@ -1557,8 +1588,45 @@ class RadarProcess:
             if ends.targets is not None:
                 bus.emit(protocol.TOPIC_TRUTH, at, ends.targets.message(j))
         if self.errors is not None:
-            bus.emit(protocol.TOPIC_TRUTH, at, self._truth_sensors(t, scan, j))
+            frames = self._bus_caps()[0]
+            if frames is not None:  # packed once per block, but the latency (issue 33)
+                items = self._truth_sensors_items(j)
+                latency = protocol.payload_items(protocol.TOPIC_TRUTH,
+                                                 {"latency_s": self._scan_latency})
+                frames.emit_frames(at, protocol.encode_items(
+                    protocol.TOPIC_TRUTH, at, len(TRUTH_SENSORS.fields), (items, latency)))
+            else:
+                bus.emit(protocol.TOPIC_TRUTH, at, self._truth_sensors(t, scan, j))
         bus.flush()
+
+    def _truth_sensors_items(self, j: int) -> bytes:
+        """The items of the ``j``-th end's ``truth[sensors]`` but its last key, ``latency_s``
+        (:func:`shipradar.sim.stream.protocol.payload_items`), those of every end of the block
+        packed at once: the same bytes as :meth:`_truth_sensors`."""
+        ends = self._ends
+        assert ends is not None and ends.true_pos is not None and self.errors is not None
+        if ends.sensor_items is None:
+            topic = protocol.TOPIC_TRUTH
+            first = self._truth_sensors(ends.t[0], ends.scan0, 0)
+            keys = list(first)
+            if keys[:3] != ["sensor", "scan", "kind"] or keys[-1] != "latency_s":
+                raise SchemaError(f"truth[sensors] keys {keys}: not the engine's packing")
+            floats = {k: first[k] for k in keys[3:-1]}
+            assert ends.errors is not None
+            pos, vel = ends.true_pos, ends.vel
+            heading = [math.radians(self._heading(e, n, tt)) for (e, n), tt in zip(
+                vel[:, :2].tolist(), ends.t, strict=True)]
+            columns = {"time_s": ends.t, **ends.errors, "true_east_m": pos[:, 0],
+                       "true_north_m": pos[:, 1],
+                       "true_up_m": pos[:, 2] + self.radar.antenna_height_m,
+                       "true_heading_rad": heading}
+            rows = protocol.float_rows(topic, floats, [np.asarray(columns[k]) for k in floats])
+            sensor = protocol.payload_items(topic, {"sensor": self.radar.id})
+            kind = protocol.payload_items(topic, {"kind": TRUTH_SENSORS.kind})
+            ends.sensor_items = [
+                b"".join((sensor, protocol.payload_items(topic, {"scan": ends.scan0 + i}), kind,
+                          row)) for i, row in enumerate(rows)]
+        return ends.sensor_items[j]
 
     def _truth_sensors(self, t: float, scan: int, j: int) -> dict[str, Any]:
         """``truth[sensors]`` at the end ``t`` [s] of revolution ``scan`` (the ``j``-th of
@@ -1568,8 +1636,11 @@ class RadarProcess:
         assert ends is not None and ends.true_pos is not None and errors is not None
         pos, vel = ends.true_pos[j], ends.vel[j]
         heading = self._heading(float(vel[0]), float(vel[1]), t)
+        if ends.errors is None:  # every end of the block's at once
+            ends.errors = errors.values(np.asarray(ends.t))
         return TRUTH_SENSORS.message(
-            sensor=self.radar.id, scan=scan, time_s=t, **errors.values(t),
+            sensor=self.radar.id, scan=scan, time_s=t,
+            **{k: v[j] for k, v in ends.errors.items()},
             true_east_m=float(pos[0]), true_north_m=float(pos[1]),
             true_up_m=float(pos[2] + self.radar.antenna_height_m),
             true_heading_rad=math.radians(heading), latency_s=self._scan_latency)
@@ -1612,6 +1683,10 @@ class _ScanEnds:
     columns: dict[str, np.ndarray] | None
     #: the platform's true position (m, 3) [m]; ``pos`` is the navigated one (issue 33)
     true_pos: np.ndarray | None = None
+    #: each error's value at every end, by its ``truth[sensors]`` key (issue 33)
+    errors: dict[str, list[float]] | None = None
+    #: each end's ``truth[sensors]`` items but ``latency_s`` (for a bus that takes frames)
+    sensor_items: list[bytes] | None = None
     #: their messages (:meth:`RadarProcess._frame_ends`)
     targets: Slices | None = None
     #: the bodies of each revolution's ``eos`` and ``truth[targets]`` and the next scan's
@@ -1659,6 +1734,8 @@ class _Revolution:
     #: ``plots_ahead``)
     starts: list[int]
     stops: list[int]
+    #: each message's publication time [s] (its end, or later with latency: issue 33)
+    pub: list[float]
 
 
 # every per-plot column the engine carries, with its dtype; a batch without ``target`` (false
