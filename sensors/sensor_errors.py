@@ -147,7 +147,7 @@ class RadarErrors:
     (``navigation``), for the engine: applied to its plots (:meth:`apply`), to its antenna
     state in ``meta`` and ``eos`` (:meth:`navigation_offset`, :meth:`heading_bias_rad`),
     reported in ``truth[sensors]`` (:meth:`values`), and the latency of its messages
-    (:meth:`latency_s`).
+    (:meth:`latencies_s`).
 
     The radar's errors are held per sector (``sector_s`` [s]); the navigation's per
     ``navigation.update_s``, keyed by the platform's id so that every radar on a ship sees
