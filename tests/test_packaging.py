@@ -47,6 +47,9 @@ def test_the_build_emits_no_setuptools_warning(tmp_path):
                           text=True, timeout=600)
     out = proc.stdout + proc.stderr
     assert proc.returncode == 0, out[-3000:]
+    # every warning class (SetuptoolsWarning and its kin, distutils' "warning:" lines); the
+    # editable build's one note, setuptools' InformationOnly "Editable installation" (a
+    # folder named like the package in the working directory), is information by its class
     lines = [line for line in out.splitlines() if "warning" in line.lower()]
     assert not lines, "\n".join(lines)
     assert sorted(p.suffix for p in dist.iterdir()) == [".whl", ".whl"]
@@ -87,3 +90,19 @@ def test_the_stream_without_the_extension_is_byte_identical(tmp_path):
     pure = _record(tmp_path, "_frames_py", {**env, _framing.PURE_PYTHON_VARIABLE: "1"})
     assert len(compiled) > 100_000
     assert pure == compiled
+
+
+def test_pyright_reads_each_module_once():
+    # imports resolve through shipradar/'s links (shipradar/sim -> ../sim, ...): the folders
+    # they point to are excluded, so that pyright does not read each module at both paths
+    import tomllib
+
+    config = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))
+    exclude = set(config["tool"]["pyright"]["exclude"])
+    links = [p for p in (ROOT / "shipradar").iterdir() if p.is_symlink()]
+    assert {p.name for p in links} == {"sim", "sensors", "tables", "scenarios"}
+    for link in links:
+        target = (link.parent / os.readlink(link)).resolve()
+        assert target.parent == ROOT and target.name in exclude, link
+    # pyright's own defaults, which an exclude list replaces
+    assert {"**/node_modules", "**/__pycache__", "**/.*"} <= exclude
