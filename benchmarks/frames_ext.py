@@ -6,7 +6,7 @@ twin ``shipradar._frames_py`` (what an install without a C compiler, or
 ``SHIPRADAR_PURE_PYTHON=1``, runs), ``--pairs`` pairs after a warm-up of each; per run the CPU
 time and wall time of the loop and the close, and the recording's hash (the two must be
 equal). Prints the medians, the ratios and the extra CPU per 1,000 messages
-(docs/performance.md section 14). CPU time is the figure to read on a shared machine.
+(docs/performance.md section 15). CPU time is the figure to read on a shared machine.
 
     python benchmarks/frames_ext.py [--example raid] [--duration 120] [--pairs 7]
 """

@@ -3,7 +3,7 @@
 Used when the extension was not built (``pip install`` on a machine without a C compiler or
 the Python headers: it is an optional extension, setup.py) or is switched off with the
 environment variable ``SHIPRADAR_PURE_PYTHON=1`` (:mod:`shipradar._framing` chooses). The
-same functions and the same bytes, slower (docs/performance.md section 14):
+same functions and the same bytes, slower (docs/performance.md section 15):
 
 - :func:`encode_slices` joins the bodies in Python (per message the prefix, the time, the
   fixed part and the column slices);

@@ -2,7 +2,7 @@
 
 ``shipradar._frames`` (compiled from ``shipradar/_frames.c``, an optional extension: built
 when the installing machine has a C compiler and the Python headers) or its pure-Python
-twin ``shipradar._frames_py`` (the same bytes, slower: docs/performance.md section 14).
+twin ``shipradar._frames_py`` (the same bytes, slower: docs/performance.md section 15).
 The compiled one is taken when it imports, unless the environment variable
 ``SHIPRADAR_PURE_PYTHON`` is set to anything but ``""`` or ``0`` when shipradar is first
 imported (to compare the two, or to rule the extension out).
