@@ -1293,7 +1293,12 @@ def check_recording(path: Path, scene: schema.Scenario) -> tuple[list[str], int,
                     if (~(s > 0)).any():
                         problems.append(f"plots.{key} not > 0: {s[~(s > 0)][:3]}")
                 t = body["time_s"]
-                if ((t < -1e-6) | (t > scene.duration_s + 1e-6)).any():
+                # a radar's clock errors (issue 33) stamp plots up to its offset and jitter
+                # (6 sigma) outside the run
+                slack = 1e-6 + max(abs(e.time_offset_s.mean) + 6.0 * (
+                    e.time_offset_s.sigma + e.time_jitter_s)
+                    for e in (r.errors for _, r in scene.radars()))
+                if ((t < -slack) | (t > scene.duration_s + slack)).any():
                     problems.append("plots.time_s outside the run")
             elif topic == b"truth":
                 problems += [f"truth{p}" for p in _truth_problems(body)]
