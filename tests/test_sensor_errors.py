@@ -560,3 +560,18 @@ def test_gauss_markov_through_the_engine():
     for lag in (1, 2, 4):
         rho = np.mean((x[:-lag] - x.mean()) * (x[lag:] - x.mean())) / np.var(x)
         assert rho == pytest.approx(math.exp(-lag / 2.0), abs=0.18)
+
+
+def test_latency_in_wall_clock_mode_and_with_processes():
+    """With latency, a run paced to the wall clock (SimPy's real-time environment) and one
+    asked for two processes (run in one: docs/protocol.md 4.5) give the fast run's
+    messages."""
+    data = _latency_scene()
+    data["duration_s"] = 3.0
+    fast = _run(data)
+    paced = CaptureBus()
+    Simulation(parse_scenario(data), bus=paced, tables=SceneTables(), realtime=50.0).run()
+    assert paced.frames == fast.frames
+    two = CaptureBus()
+    Simulation(parse_scenario(data), bus=two, tables=SceneTables(), processes=2).run()
+    assert two.frames == fast.frames
