@@ -114,9 +114,13 @@ class GaussMarkov:
         k = np.asarray(k, dtype=np.int64)
         if self.sigma == 0.0:
             return np.full(k.shape, self.mean)
-        if k.size:
-            self._extend(int(k.max()))
-        return np.asarray(self.mean + self._path[k - self._k0])
+        if not k.size:
+            return np.zeros(k.shape)
+        self._extend(int(k.max()))
+        rel = k - self._k0
+        if rel.min() < 0:  # a negative index would wrap round, silently
+            raise ValueError(f"grid step {int(k.min())} was forgotten (from {self._k0} on)")
+        return np.asarray(self.mean + self._path[rel])
 
     def at(self, t: np.ndarray | float) -> np.ndarray:
         """The error at times ``t`` [s]."""
