@@ -1,4 +1,4 @@
-"""``shipradar fidelity`` (sim/studies/fidelity.py, issues 18 and 38): common random
+"""``shipradar fidelity`` (sim/studies/fidelity/, issues 18 and 38): common random
 numbers, the comparison, the recommendation, its tolerances and its costs (a cost model in
 place of the clock: :class:`CostModel`), --apply, bad input, and ``validate --explain``.
 
@@ -12,6 +12,7 @@ from __future__ import annotations
 import copy
 import math
 import os
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -19,7 +20,7 @@ import yaml
 
 from shipradar.sim.studies import fidelity as fi
 from shipradar.sim.studies import timing as ti
-from shipradar.sim.world.scenario import load_scenario, parse_scenario
+from shipradar.sim.world.scenario import Fidelity, load_scenario, parse_scenario
 from tests.helpers import quiet_radar
 
 # an X-band variant of the tests' quiet radar
@@ -114,7 +115,7 @@ def _memo_runs():
             fi.RunResult(**{**memo[key].__dict__, "setting": setting})
 
     mp = pytest.MonkeyPatch()
-    mp.setattr(fi, "run_setting", run)
+    mp.setattr(fi.trade, "run_setting", run)  # where the study calls it
     yield
     mp.undo()
 
@@ -145,7 +146,7 @@ def test_reference_against_itself_is_exactly_zero():
     reported as not exercised."""
     s = parse_scenario(DUCTED)
     ref_fid, settings, skipped = fi.plan_settings(s, include_unexercised=True)
-    clock = fi._TableClock()
+    clock = fi.TableClock()
     seeds = [11, 12]
     a = fi.run_setting(s, settings[0], seeds, 15.0, clock)
     b = fi.run_setting(s, settings[0], seeds, 15.0, clock)
@@ -182,7 +183,7 @@ def test_common_random_numbers_survive_other_draws(monkeypatch):
                              radar=radar, duration=30.0, duct=None))
     ref_fid, settings, _ = fi.plan_settings(s)
     alt = next(x for x in settings if x.label == "clutter_fa_model=seed")
-    clock = fi._TableClock()
+    clock = fi.TableClock()
     outcome = {}
     for crn in (True, False):
         a = fi.run_setting(s, settings[0], [3], 30.0, clock, crn=crn)
@@ -264,13 +265,13 @@ def test_recommendation_applied_and_rerun_is_inside_its_tolerances(lit_study, tm
     out = tmp_path / "lit-fast.yaml"
     fi.apply_fidelity(path, study.recommended, out, unread=study.unread)
     applied = load_scenario(out)
-    read = set(fi.Fidelity.model_fields) - set(study.unread)
+    read = set(Fidelity.model_fields) - set(study.unread)
     assert "pe_grid" not in read and "pe_grid:" not in out.read_text()
     assert applied.fidelity.model_dump(include=read) == \
-        fi.Fidelity(**study.recommended).model_dump(include=read)
+        Fidelity(**study.recommended).model_dump(include=read)
     assert applied.targets == parse_scenario(LIT).targets
     s = parse_scenario(LIT)
-    clock = fi._TableClock()
+    clock = fi.TableClock()
     ref = fi.run_setting(s, fi.Setting("reference", None, None, study.reference, True,
                                        "reference"), study.seeds, study.duration_s, clock)
     again = fi.run_setting(s, fi.Setting("applied", None, None,
@@ -311,7 +312,7 @@ def test_a_three_times_cheaper_setting_is_found(lit_study):
     assert _diff_label(study) == "propagation=two_ray"
     two, free = _comp(study, "propagation=two_ray"), _comp(study, "propagation=free_space")
     assert two.ok and free.ok
-    assert fi._error_score(two, study.tolerances) < fi._error_score(free, study.tolerances)
+    assert fi.error_score(two, study.tolerances) < fi.error_score(free, study.tolerances)
     cost = study.recommended_cost
     assert cost is not None and cost.warm_ratio.n == 4
     assert cost.warm_ratio.low < 1 / 3 < cost.warm_ratio.high
@@ -383,7 +384,7 @@ def test_apply_refuses_a_shortened_study(tmp_path, capsys):
 
 
 def _diff_label(study):
-    return fi._diff_label(study.recommended, study.reference)
+    return fi.diff_label(study.recommended, study.reference)
 
 
 @pytest.mark.slow
@@ -421,9 +422,9 @@ def test_report_csv_png(lit_study, tmp_path):
     text = fi.format_report(lit_study)
     assert "recommended" in text and "fidelity:\n  pd_method:" in text
     block = text[text.index("fidelity:\n"):].split("\n\n")[0]
-    read = set(fi.Fidelity.model_fields) - set(lit_study.unread)
-    assert fi.Fidelity(**yaml.safe_load(block)["fidelity"]).model_dump(include=read) == \
-        fi.Fidelity(**lit_study.recommended).model_dump(include=read)
+    read = set(Fidelity.model_fields) - set(lit_study.unread)
+    assert Fidelity(**yaml.safe_load(block)["fidelity"]).model_dump(include=read) == \
+        Fidelity(**lit_study.recommended).model_dump(include=read)
     assert set(yaml.safe_load(block)["fidelity"]) == read
     per = fi.format_per_target(lit_study)
     assert "xr/high" in per and per.count("\n") == sum(len(c.rows) for c in lit_study.comparisons)
@@ -449,7 +450,7 @@ def test_apply_keeps_the_file_and_refuses_to_overwrite(tmp_path):
     src = tmp_path / "s.yaml"
     body = yaml.safe_dump(LIT, sort_keys=False)
     src.write_text("# my comment\n" + body + "fidelity:\n  pe_grid: fine  # old\n\n# tail\n")
-    fid = {**fi.Fidelity().model_dump(), "propagation": "two_ray"}
+    fid = {**Fidelity().model_dump(), "propagation": "two_ray"}
     out = tmp_path / "o.yaml"
     assert fi.apply_fidelity(src, fid, out) is None
     text = out.read_text()
@@ -505,10 +506,10 @@ def test_validate_explain_cli(capsys):
 
 def test_expected_first_detection_range():
     # certain detection at the first look: its range; never: None
-    assert fi._expected_first_range(np.array([1.0, 0.5]), np.array([10.0, 9.0])) == (10.0, 1.0)
-    assert fi._expected_first_range(np.zeros(3), np.array([3.0, 2.0, 1.0]))[0] is None
+    assert fi.expected_first_range(np.array([1.0, 0.5]), np.array([10.0, 9.0])) == (10.0, 1.0)
+    assert fi.expected_first_range(np.zeros(3), np.array([3.0, 2.0, 1.0]))[0] is None
     # two looks at 0.5: first at look 1 with 0.5, at look 2 with 0.25
-    r, p = fi._expected_first_range(np.array([0.5, 0.5]), np.array([10.0, 8.0]))
+    r, p = fi.expected_first_range(np.array([0.5, 0.5]), np.array([10.0, 8.0]))
     assert p == pytest.approx(0.75, abs=1e-15)
     assert r == pytest.approx((0.5 * 10 + 0.25 * 8) / 0.75, rel=1e-12)
 
@@ -619,7 +620,7 @@ def test_table_choices_name_every_fidelity_field_a_table_depends_on(table_cache)
     from shipradar.tables.scene import table_specs
     from shipradar.tables.store import inputs_hash
 
-    d = yaml.safe_load((fi.Path(__file__).resolve().parents[1] / "scenarios"
+    d = yaml.safe_load((Path(__file__).resolve().parents[1] / "scenarios"
                         / "jammed_squall.yaml").read_text())
     base = parse_scenario(d)
 
