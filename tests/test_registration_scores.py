@@ -240,3 +240,16 @@ def test_run_directory_read_back_and_scored(tmp_path: Path):
     assert s.run["registration_a_rmse_azimuth_bias_deg"] == 0.0
     assert s.run["malformed_by_reason"] == {"registration: no estimate": 1}
     assert s.run["tracks_messages"] == 0
+
+
+def test_summary_intervals_clipped_at_zero():
+    """An RMSE's or a time's Student-t interval over runs does not reach below 0."""
+    from shipradar.sim.studies.evaluate.registration import summarise_run_metrics
+
+    rows = [{"registration_a_rmse_range_bias_m": v, "registration_a_range_bias_m_converge_s": c}
+            for v, c in ((0.5, 10.0), (40.0, 200.0))]
+    out = {r["metric"]: r for r in summarise_run_metrics(rows)}
+    assert set(out) == set(rows[0])
+    for r in out.values():
+        assert r["low"] == 0.0 and r["high"] > r["mean"] and r["runs"] == 2
+    assert out["registration_a_rmse_range_bias_m"]["mean"] == pytest.approx(20.25, rel=1e-12)

@@ -313,6 +313,25 @@ def score_registration(messages: Sequence[RegistrationMessage],
     return RegistrationScores(run, rows, series)
 
 
+#: An RMSE and a time are not below 0: their intervals are clipped there, as the study's
+#: other figures are (:data:`shipradar.sim.studies.evaluate.stats.BOUNDS`).
+_BOUNDS = {"rmse": (0.0, math.inf), "converge_s": (0.0, math.inf)}
+_FREE = (-math.inf, math.inf)
+
+
+def summarise_run_metrics(per_run: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
+    """The summary rows (``metric``, ``mean``, ``low``, ``high``, ``runs``) of the
+    registration figures of ``per_run`` (:func:`run_metric_names`), each interval clipped
+    at 0."""
+    from shipradar.sim.studies.evaluate.stats import mean_interval
+
+    out = []
+    for k in run_metric_names(per_run):
+        m, lo, hi, n = mean_interval((r.get(k) for r in per_run), bounds=_BOUNDS["rmse"])
+        out.append({"metric": k, "mean": m, "low": lo, "high": hi, "runs": n})
+    return out
+
+
 def run_metric_names(per_run: Sequence[Mapping[str, Any]]) -> tuple[str, ...]:
     """The registration figures present in ``per_run`` rows, for the study's summary: per
     radar and component (in :func:`score_registration`'s order) its RMSE, then its time to
@@ -340,7 +359,7 @@ def summarise_rows(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
         row: dict[str, Any] = {"sensor": sensor, "component": comp, "runs": len(g),
                                "tolerance": g[0]["tolerance"], "warmup_s": g[0]["warmup_s"]}
         for k in ("rmse", "mean_error", "converge_s"):
-            m, lo, hi, _ = mean_interval(r[k] for r in g)
+            m, lo, hi, _ = mean_interval((r[k] for r in g), bounds=_BOUNDS.get(k, _FREE))
             row[k], row[f"{k}_low"], row[f"{k}_high"] = m, lo, hi
         row["converged_runs"] = sum(math.isfinite(r["converge_s"]) for r in g)
         out.append(row)

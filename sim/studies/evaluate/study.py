@@ -252,8 +252,7 @@ def write_results(out: str | Path, results: Sequence[tuple[dict, RunScores | Non
     _write_table(out, "per_target", per_target)
     _write_table(out, "per_run", per_run + failed)
     _write_table(out, "holding", holding)
-    summary_rows = stats.summarise(per_run, stats.RUN_METRICS
-                                   + registration.run_metric_names(per_run))
+    summary_rows = stats.summarise(per_run) + registration.summarise_run_metrics(per_run)
     reg_summary = registration.summarise_rows(reg_rows)
     if reg_rows:
         _write_table(out, "registration", reg_rows)
