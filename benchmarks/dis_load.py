@@ -9,12 +9,17 @@ aircraft within 50 km of the raid's frigate; the raid's two radars (SPS-49-like 
 Giraffe-like, their tables from the cache) run ``--duration`` s at the wall clock's pace with
 no targets of their own.  Measured:
 
-* the receiving thread's CPU time (decode with opendis, checks, the frame conversion) per
-  wall second: the fraction of one core the receive path takes;
-* the run's own CPU per scan (the main thread: dead reckoning, crossings, dwells), against
-  the same entities given as YAML targets (constant-velocity waypoints through the same
-  states) in fast mode;
-* PDUs received, dropped and counted bad.
+* the receiving thread's CPU time (the socket, the batch decoder, checks, the frame
+  conversion) per wall second: the fraction of one core the receive path takes;
+* the run's own CPU per scan (the main thread: taking the updates, dead reckoning,
+  crossings, dwells), against the same entities given as YAML targets (constant-velocity
+  waypoints through the same states) in fast mode, and the part of it spent taking the
+  updates (``Simulation.refresh_live``: drain, checks, apply);
+* PDUs received, dropped, superseded and counted bad;
+* memory per 1,000 entities (``--memory``, no sender): ``--entities`` Entity State PDUs (made
+  with the decoder's own dtype) through a receiver's batch path, the drain, the checks and a
+  live target list, under tracemalloc: what stays allocated (the receiver's per-entity
+  tables, the target list) and the peak.
 """
 
 from __future__ import annotations
@@ -95,11 +100,57 @@ def free_port() -> int:
         return int(sk.getsockname()[1])
 
 
+def memory(n: int, scene) -> None:
+    """Memory per 1,000 entities of the live path (module notes)."""
+    import gc
+    import tracemalloc
+
+    from shipradar.sim.adapters.dis import ESPDU_DTYPE
+    from shipradar.sim.world import geodesy
+    from shipradar.sim.world.live import LiveTargets, check_states
+
+    k = np.arange(n)
+    rec = np.zeros(n, ESPDU_DTYPE)
+    rec["version"], rec["pdu_type"], rec["family"], rec["length"] = 7, 1, 1, 144
+    rec["site"], rec["application"], rec["entity"] = 1, 1 + k // 60000, 1 + k % 60000
+    rec["type"] = [1, 3, 0, 39, 1, 1, 0, 0]
+    r, b = 5000.0 + 45000.0 * ((k * 0.618034) % 1.0), 2.399963 * k
+    lat, lon = 44.6 + np.degrees(r * np.cos(b) / 6367000.0), -63.0 + np.degrees(
+        r * np.sin(b) / (6388000.0 * np.cos(np.radians(44.6))))
+    rec["location"] = np.column_stack(geodesy.geodetic2ecef(lat, lon, 0.0))
+    rec["dr_algorithm"] = 2
+    rec["marking"][:, :6] = np.frombuffer(b"".join(f"E{i:05d}".encode() for i in k),
+                                          np.uint8).reshape(n, 6)
+    data = [d.tobytes() for d in rec]
+    frame = LocalFrame(scene.origin)
+    rx = DisReceiver(f"udp://127.0.0.1:{free_port()}", frame, queue_size=10 * n)
+    try:
+        gc.collect()
+        tracemalloc.start()
+        with rx._lock:
+            for lo in range(0, n, 1024):
+                rx._batch(data[lo:lo + 1024], [0.0] * len(data[lo:lo + 1024]))
+        live = LiveTargets(scene)
+        for payload in rx.drain(0.0):
+            live.apply(check_states(payload, live.bad), 0.0)
+        del payload
+        gc.collect()
+        kept, peak = tracemalloc.get_traced_memory()
+        tracemalloc.stop()
+    finally:
+        rx.close()
+    print(f"memory, {live.n} entities (receiver tables + live target list): "
+          f"{kept / 2**20 * 1000 / n:.2f} MiB per 1,000 entities kept, "
+          f"peak {peak / 2**20 * 1000 / n:.2f} MiB per 1,000 while taking them")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--entities", type=int, default=2000)
     ap.add_argument("--rate", type=float, default=5.0)
     ap.add_argument("--duration", type=float, default=20.0)
+    ap.add_argument("--memory", action="store_true",
+                    help="measure memory per 1,000 entities only (no sender, no run)")
     args = ap.parse_args()
     raid = load_scenario(ROOT / "scenarios" / "raid.yaml")
     d = raid.model_dump(mode="json")
@@ -109,6 +160,9 @@ def main() -> None:
         {"match": "1:2:*", "kind": "aircraft", "rcs": {"type": "constant", "sigma_m2": 10.0}}]
     d["external"] = {"queue_size": 1_000_000}
     scene = parse_scenario(d)
+    if args.memory:
+        memory(args.entities, scene)
+        return
     tables = load_scene_tables(scene)
     frame = LocalFrame(scene.origin)
     port = free_port()
@@ -122,6 +176,15 @@ def main() -> None:
         while time.monotonic() < warm:
             rx.first_entity.wait(0.05)
         sim = Simulation(scene, realtime=1.0, entities=rx, duration_s=args.duration)
+        taking = [0.0]
+        refresh = sim.refresh_live
+
+        def timed_refresh(now: float) -> None:
+            c = time.thread_time()
+            refresh(now)
+            taking[0] += time.thread_time() - c
+
+        sim.refresh_live = timed_refresh  # type: ignore[method-assign]
         st0 = rx.stats()
         w0, c0 = time.monotonic(), time.thread_time()
         summary = sim.run()
@@ -136,7 +199,8 @@ def main() -> None:
     pdus = st1["entity_states"] - st0["entity_states"]
     print(f"{args.entities} entities x {args.rate:g} Hz, raid radars, {args.duration:g} s real "
           f"time: {summary['live']['entities']} entities, {pdus} PDUs in the run "
-          f"({pdus / wall:.0f}/s), dropped {st1['dropped']}, bad {st1['bad_datagrams']}, "
+          f"({pdus / wall:.0f}/s), dropped {st1['dropped']}, superseded "
+          f"{st1['superseded'] - st0['superseded']}, bad {st1['bad_datagrams']}, "
           f"wall {wall:.2f} s")
     print(f"receive path: {recv_cpu:.2f} s CPU over {wall:.2f} s = {100 * recv_cpu / wall:.1f} % "
           f"of one core ({1e6 * recv_cpu / max(pdus, 1):.1f} us per PDU)")
@@ -160,7 +224,8 @@ def main() -> None:
         s2.run()
         best = min(best, time.thread_time() - c1)
     print(f"scan cost (main thread CPU per scan, {scans} scans of two radars): DIS "
-          f"{1e3 * main_cpu / scans:.2f} ms (idle waits excluded); the same targets in YAML "
+          f"{1e3 * main_cpu / scans:.2f} ms (idle waits excluded; taking the updates "
+          f"{1e3 * taking[0] / scans:.2f} ms of it); the same targets in YAML "
           f"{1e3 * best / scans:.2f} ms; ratio {main_cpu / best:.2f}")
     print(f"load average {os.getloadavg()[0]:.2f}")
 

@@ -193,3 +193,24 @@ def test_a_receiver_gives_the_same_rows_on_either_path():
             np.testing.assert_allclose(fast[key], v, rtol=1e-12, atol=1e-9, err_msg=key)
         else:
             assert fast[key] == v, key
+
+
+def test_only_the_latest_state_of_an_entity_is_handed_to_the_run():
+    """Three states of one entity and one of another in a batch: the drain hands over the
+    latest of each (the same row as that state alone gives), in the order the entities first
+    appear, the two others counted ``superseded``."""
+    rng = np.random.default_rng(4)
+    a1, b, a2, a3 = (_espdu(rng, 7, 2, 0) for _ in range(4))
+    a2, a3 = (a1[:18] + x[18:] for x in (a2, a3))  # a1's entity id (bytes 12-17)
+    got = []
+    for batch in ([a1, b, a2, a3], [a3, b]):
+        rx = DisReceiver(f"udp://127.0.0.1:{free_port()}", FRAME)
+        try:
+            got.append((_drained(rx, batch), rx.stats()))
+        finally:
+            rx.close()
+    (payload, st), (alone, _) = got
+    assert payload["id"] == alone["id"] and len(set(payload["id"])) == 2
+    for key in ("east_m", "north_m", "up_m", "v_east_mps", "heading_deg"):
+        assert payload[key] == pytest.approx(alone[key], rel=1e-12), key
+    assert st["superseded"] == 2 and st["entity_states"] == 4

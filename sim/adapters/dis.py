@@ -374,6 +374,8 @@ class DisReceiver:
         self.datagrams = 0
         self.entity_states = 0
         self.dropped = 0
+        #: states replaced by a later one of the same entity before the run took them
+        self.superseded = 0
         self.bad: dict[str, int] = {}
         self.ignored: dict[str, int] = {}
         self.freezes = 0
@@ -605,7 +607,7 @@ class DisReceiver:
         omega = np.where(np.isin(algo, ROTATING)[:, None],
                          rec["angular_velocity"].astype(float), 0.0)
         active = (rec["appearance"] & DEACTIVATED_BIT) == 0
-        self._queue(slots, received, xyz, vel, acc, active, euler, omega, named=True)
+        self._queue(slots, received, xyz, vel, acc, active, euler, omega)
         if not self.first_entity.is_set():
             self.first_entity.set()
 
@@ -632,11 +634,11 @@ class DisReceiver:
         dt = (received - self._last_t[slots])[:, None]
         nan3 = np.full((slots.size, 3), np.nan)
         self._queue(slots, np.full(slots.size, received), p + v * dt + 0.5 * a * dt * dt,
-                    v + a * dt, a, np.zeros(slots.size, bool), nan3, nan3, named=False)
+                    v + a * dt, a, np.zeros(slots.size, bool), nan3, nan3)
 
     def _queue(self, slots: np.ndarray, received: np.ndarray, xyz: np.ndarray,
                vel: np.ndarray, acc: np.ndarray, active: np.ndarray, euler: np.ndarray,
-               omega: np.ndarray, *, named: bool) -> None:
+               omega: np.ndarray) -> None:
         """Queue rows (ECEF states) carried into the local frame, as far as the queue has
         room (:attr:`queue_size` rows; the rest dropped and counted)."""
         room = self.queue_size - self._queued
@@ -651,13 +653,12 @@ class DisReceiver:
         pos, v, a = ecef_state_to_local(self.frame, xyz, vel, acc)
         pick = operator.itemgetter(*slots.tolist())
         ids = [pick(self._slot_id)] if n == 1 else list(pick(self._slot_id))
-        if named:
-            types = [pick(self._slot_type)] if n == 1 else list(pick(self._slot_type))
-            names = [pick(self._slot_name)] if n == 1 else list(pick(self._slot_name))
-        else:
-            types = names = [None] * n
+        # a Remove Entity's row too carries the entity's type and name (its row may be the
+        # first the run sees of an entity new in the batch: the drain keeps the last)
+        types = [pick(self._slot_type)] if n == 1 else list(pick(self._slot_type))
+        names = [pick(self._slot_name)] if n == 1 else list(pick(self._slot_name))
         self._chunks.append({
-            "id": ids, "received": received, "pos": pos, "vel": v, "acc": a,
+            "slot": slots, "id": ids, "received": received, "pos": pos, "vel": v, "acc": a,
             "type": types, "name": names, "active": active,
             "heading_deg": ecef_heading_deg(xyz, euler[:, :2]),
             "heading_rate_dps": ecef_heading_rate_dps(xyz, euler, omega)})
@@ -667,18 +668,37 @@ class DisReceiver:
     def drain(self, now_s: float) -> list[dict[str, Any]]:
         """The states received since the last call, as one ``entities`` payload (times: the
         simulated time of arrival, ``now_s`` less the wall time since; negative before the run's
-        start)."""
+        start): each entity's latest only, in the order the entities first appear (the run
+        applies them all at ``now_s``, where an earlier state of the same entity would be
+        replaced unused; counted ``superseded``)."""
         with self._lock:
             chunks, self._chunks, self._queued = self._chunks, [], 0
         if not chunks:
             return []
         wall = time.monotonic()
+        # an entity's states are applied at once at the revolution's start, where only its
+        # latest (arrival times rise) moves it: the others are superseded, counted, not sent
+        slots = np.concatenate([c["slot"] for c in chunks])
+        n = slots.size
+        # each entity's last row, in the order the entities first appear (a new entity's
+        # row in the target list is its first appearance's)
+        first = np.unique(slots, return_index=True)[1]
+        keep = (n - 1 - np.unique(slots[::-1], return_index=True)[1])[np.argsort(first)]
+        if keep.size < n:
+            with self._lock:
+                self.superseded += n - keep.size
+        every = keep.size == n
 
         def cat(key: str) -> np.ndarray:
-            return np.concatenate([c[key] for c in chunks])
+            a = np.concatenate([c[key] for c in chunks])
+            return a if every else a[keep]
 
         def join(key: str) -> list:
-            return [x for c in chunks for x in c[key]] if len(chunks) > 1 else chunks[0][key]
+            a = [x for c in chunks for x in c[key]] if len(chunks) > 1 else chunks[0][key]
+            if every:
+                return a
+            got = operator.itemgetter(*keep.tolist())(a)
+            return [got] if keep.size == 1 else list(got)
 
         pos, vel, acc = cat("pos"), cat("vel"), cat("acc")
         return [{
@@ -720,6 +740,7 @@ class DisReceiver:
         with self._lock:
             return {"endpoint": self.endpoint, "port": self.port, "datagrams": self.datagrams,
                     "entity_states": self.entity_states, "dropped": self.dropped,
+                    "superseded": self.superseded,
                     "bad_datagrams": dict(sorted(self.bad.items())),
                     "ignored": dict(sorted(self.ignored.items())),
                     "freezes": self.freezes, "frozen_s": round(self.frozen_s, 3),
