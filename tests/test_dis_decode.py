@@ -150,11 +150,20 @@ def test_what_is_not_the_fixed_layout_is_left_to_opendis():
     assert index.tolist() == [1, 2, 7]
 
 
-def _drained(rx: DisReceiver, data: list[bytes]) -> dict:
-    with rx._lock:
-        rx._batch(data, [100.0 + 0.01 * i for i in range(len(data))])
-    (payload,) = rx.drain(0.0)
-    return payload
+def _each_drained(batches: list[list[bytes]]) -> list[tuple[dict, dict]]:
+    """Each batch of datagrams through a receiver of its own (as received 10 ms apart): the
+    drained payload and the receiver's counts."""
+    out = []
+    for data in batches:
+        rx = DisReceiver(f"udp://127.0.0.1:{free_port()}", FRAME)
+        try:
+            with rx._lock:
+                rx._batch(data, [100.0 + 0.01 * i for i in range(len(data))])
+            (payload,) = rx.drain(0.0)
+            out.append((payload, rx.stats()))
+        finally:
+            rx.close()
+    return out
 
 
 def test_a_receiver_gives_the_same_rows_on_either_path():
@@ -173,14 +182,7 @@ def test_a_receiver_gives_the_same_rows_on_either_path():
     p.entityAppearance = p.capabilities = 0
     data.append(_serialize(p))
     slow = [d[:8] + b"\0\0" + d[10:] for d in data]
-    got = []
-    for batch in (data, slow):
-        rx = DisReceiver(f"udp://127.0.0.1:{free_port()}", FRAME)
-        try:
-            got.append((_drained(rx, batch), rx.stats()))
-        finally:
-            rx.close()
-    (fast, st_fast), (ref, st_ref) = got
+    (fast, st_fast), (ref, st_ref) = _each_drained([data, slow])
     assert st_fast["entity_states"] == st_ref["entity_states"] == len(data)
     assert st_fast["ignored"] == st_ref["ignored"]
     assert st_fast["ignored"]["body-axis dead reckoning taken as FPW"] == 4 * 2 * 2
@@ -202,14 +204,7 @@ def test_only_the_latest_state_of_an_entity_is_handed_to_the_run():
     rng = np.random.default_rng(4)
     a1, b, a2, a3 = (_espdu(rng, 7, 2, 0) for _ in range(4))
     a2, a3 = (a1[:18] + x[18:] for x in (a2, a3))  # a1's entity id (bytes 12-17)
-    got = []
-    for batch in ([a1, b, a2, a3], [a3, b]):
-        rx = DisReceiver(f"udp://127.0.0.1:{free_port()}", FRAME)
-        try:
-            got.append((_drained(rx, batch), rx.stats()))
-        finally:
-            rx.close()
-    (payload, st), (alone, _) = got
+    (payload, st), (alone, _) = _each_drained([[a1, b, a2, a3], [a3, b]])
     assert payload["id"] == alone["id"] and len(set(payload["id"])) == 2
     for key in ("east_m", "north_m", "up_m", "v_east_mps", "heading_deg"):
         assert payload[key] == pytest.approx(alone[key], rel=1e-12), key
