@@ -3,9 +3,11 @@
 ``python tests/evaluate_trackers.py MODE {plots} {tracks} [--shift-m D] [--after N]``:
 
 - ``oracle``: publishes the truth topic's counted targets (the harness's own definition,
-  :func:`shipradar.sim.studies.evaluate.metrics.counted_targets`: active, and ``in_coverage``
-  in some radar's latest ``truth[targets]``) as its tracks at every end of scan of the first
-  radar, ids ``T<index>``; ``--shift-m D`` moves them D metres east;
+  :func:`shipradar.sim.studies.evaluate.metrics.counted_matrix`, by its default rule or
+  ``--truth``: ``pd``, active and some radar's look of the last three of its scans reached
+  the P_d threshold; ``coverage``, active and ``in_coverage`` in some radar's latest
+  ``truth[targets]``) as its tracks at every end of scan of the first radar, ids
+  ``T<index>``; ``--shift-m D`` moves them D metres east;
 - ``silent``: subscribes and reads, never publishes;
 - ``crash``: like the oracle, then exits with code 3 and a message on stderr after
   ``--after`` tracks messages;
@@ -33,6 +35,10 @@ import zmq
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from shipradar.sim.stream.protocol import decode, encode  # noqa: E402
+from shipradar.sim.studies.evaluate.metrics import (  # noqa: E402
+    DEFAULT_METRICS,
+    PD_WINDOW_SCANS,
+)
 
 
 def main() -> int:
@@ -44,6 +50,7 @@ def main() -> int:
     ap.add_argument("--shift-m", type=float, default=0.0)
     ap.add_argument("--after", type=int, default=3)
     ap.add_argument("--tod0", type=float, default=0.0)
+    ap.add_argument("--truth", choices=("coverage", "pd"), default=DEFAULT_METRICS.truth)
     a = ap.parse_args()
     if a.mode == "never":
         time.sleep(3600)
@@ -59,6 +66,8 @@ def main() -> int:
     sub.connect(a.plots)
     sub.setsockopt(zmq.SUBSCRIBE, b"")  # the oracle reads the truth: a test tracker only
     covered: dict[str, np.ndarray] = {}
+    looks: dict[str, list[tuple[float, np.ndarray, np.ndarray]]] = {}
+    period: dict[str, float] = {}
     first = None
     sent = 0
     while True:
@@ -67,12 +76,26 @@ def main() -> int:
         topic, t, p = decode(sub.recv_multipart())
         if topic == b"meta":
             first = first or p["sensor"]
+            period[p["sensor"]] = float(p["scan_period_s"])
         elif topic == b"truth" and p["kind"] == "targets":
             covered[p["sensor"]] = np.asarray(p["in_coverage"], bool)
+            looks.setdefault(p["sensor"], []).append(
+                (p["time_s"], np.asarray(p["look_time_s"]), np.asarray(p["pd"])))
             if p["sensor"] != first or a.mode == "silent":
                 continue
             pos = np.stack([p["east_m"], p["north_m"], p["up_m"]], axis=-1)
-            seen = np.logical_or.reduce(list(covered.values()))
+            if a.truth == "coverage":
+                seen = np.logical_or.reduce(list(covered.values()))
+            else:  # a look of the window reached the threshold, for some radar
+                now = p["time_s"]
+                seen = np.zeros(pos.shape[0], bool)
+                for s, copies in looks.items():
+                    w = PD_WINDOW_SCANS * period[s]
+                    for tc, lt, pd in copies:
+                        if now - w < tc <= now + 1e-6:
+                            n = min(lt.size, seen.size)
+                            ok = np.nan_to_num(pd[:n]) >= DEFAULT_METRICS.pd_threshold
+                            seen[:n] |= ok & (np.nan_to_num(lt[:n], nan=-np.inf) > now - w)
             idx = np.flatnonzero(seen & np.asarray(p["active"], bool))
             tracks = {
                 "sensor": p["sensor"], "scan": p["scan"], "time_s": p["time_s"],

@@ -40,6 +40,9 @@ ROOT = Path(__file__).resolve().parents[1]
 DEMO = str(ROOT / "scenarios" / "single_missile.yaml")
 TRACKERS = ROOT / "tests" / "evaluate_trackers.py"
 PY = shlex.quote(sys.executable)
+#: The harness tests run the demo for a few seconds, before any radar can detect the missile
+#: (about 21 km): they score by the geometric rule, and their oracle publishes by it.
+COVERAGE = MetricConfig(truth="coverage")
 #: Timestamps handed to Stone Soup: simulated t [s] after this (any fixed epoch would do).
 EPOCH = dt.datetime(2000, 1, 1)
 
@@ -354,8 +357,8 @@ def test_counted_by_pd_reads_the_looks():
     pd[3:, 0] = 0.2  # ...with a P_d below the threshold from the 4th scan
     _with_coverage(data, {"r": (t, cover)})
     data.looks = {"r": (t, look_t, pd)}
-    assert not counted_targets(data, 0).any()  # the default rule: geometry
-    got = [counted_targets(data, i, MetricConfig(truth="pd")).tolist() for i in range(6)]
+    assert not counted_targets(data, 0, COVERAGE).any()  # the geometric rule
+    got = [counted_targets(data, i).tolist() for i in range(6)]  # the default: "pd"
     # target 0: its good looks (0.5..2.5 s) stay in the 3 s window until the 6th scan;
     # target 1: one look at 1 s with P_d 0.9, counted until the window passes it (t >= 4)
     assert got == [[True, True, False], [True, True, False], [True, True, False],
@@ -473,6 +476,8 @@ def _spec(tmp_path, mode, *extra, seed=7, duration=6.0, **kw):
     from shipradar.sim.studies.evaluate.runner import RunSpec
 
     cmd = f"{PY} {shlex.quote(str(TRACKERS))} {mode} {{plots}} {{tracks}} " + " ".join(extra)
+    if mode in ("oracle", "crash", "malformed"):
+        cmd += " --truth coverage"
     return RunSpec(DEMO, seed, str(tmp_path / f"{mode}-{seed}"), cmd, duration_s=duration,
                    **kw)
 
@@ -482,7 +487,8 @@ def _run_and_score(spec):
     from shipradar.sim.studies.evaluate.runner import run_tracker_command
 
     info = run_tracker_command(spec)
-    return info, (score_run(load_run(spec.run_dir)) if info["status"] == "ok" else None)
+    return info, (score_run(load_run(spec.run_dir), COVERAGE) if info["status"] == "ok"
+                  else None)
 
 
 def test_harness_oracle_and_shift(tmp_path):
@@ -503,6 +509,32 @@ def test_harness_silent_scores_missed_only(tmp_path):
     assert info["status"] == "ok" and s.run["tracks_messages"] == 0
     assert s.run["missed"] == pytest.approx(2000.0 / 2, rel=1e-12)  # one missile, c/2
     assert s.run["localisation"] == 0.0 and s.run["false"] == 0.0
+
+
+def test_harness_collects_what_load_run_reads_back(tmp_path):
+    """The data collected while a run goes (what a study scores) equals the run directory
+    read back (what --rescore scores): the same truth, coverage, looks, inputs with their
+    wall times, tracks, and so the same scores, latency included."""
+    from shipradar.sim.studies.evaluate.data import load_run
+    from shipradar.sim.studies.evaluate.runner import run_and_collect
+
+    spec = _spec(tmp_path, "oracle", "--shift-m", "10", seed=9)
+    info, live = run_and_collect(spec)
+    assert info["status"] == "ok", info
+    back = load_run(spec.run_dir)
+    for name in ("scan_t", "truth_pos", "truth_vel", "truth_active"):
+        np.testing.assert_array_equal(getattr(live, name), getattr(back, name))
+    assert live.target_ids == back.target_ids and live.ref_sensor == back.ref_sensor
+    for mine, theirs in ((live.inputs, back.inputs), (live.coverage, back.coverage),
+                         (live.looks, back.looks)):
+        assert mine.keys() == theirs.keys()
+        for k in mine:
+            for a, b in zip(mine[k], theirs[k], strict=True):
+                np.testing.assert_array_equal(a, b)
+    assert len(live.tracks) == len(back.tracks) > 0
+    a, b = score_run(live, COVERAGE), score_run(back, COVERAGE)
+    assert a.per_scan == b.per_scan and a.per_target == b.per_target
+    assert a.run == b.run
 
 
 def test_harness_crashing_tracker_fails_its_run(tmp_path):
@@ -559,15 +591,15 @@ def test_study_cli_rescore_compare_determinism(tmp_path):
     from shipradar.sim.studies.evaluate.cli import cli_main
     from shipradar.sim.studies.evaluate.study import run_study
 
-    oracle = f"{PY} {shlex.quote(str(TRACKERS))} oracle {{plots}} {{tracks}}"
+    oracle = f"{PY} {shlex.quote(str(TRACKERS))} oracle {{plots}} {{tracks}} --truth coverage"
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
                       dashboard_address=":0") as cluster, Client(cluster) as client:
         a = run_study(DEMO, oracle, runs=2, out=tmp_path / "a", seed=3, duration_s=5.0,
-                      client=client)
+                      client=client, config=COVERAGE)
         b = run_study(DEMO, oracle + " --shift-m 40", runs=2, out=tmp_path / "b", seed=3,
-                      duration_s=5.0, client=client)
+                      duration_s=5.0, client=client, config=COVERAGE)
         a2 = run_study(DEMO, oracle, runs=2, out=tmp_path / "a2", seed=3, duration_s=5.0,
-                       client=client, report=False)
+                       client=client, report=False, config=COVERAGE)
     assert a["scored"] == 2 and not a["failed"] and b["scored"] == a2["scored"] == 2
     for name in ("index.html", "gospa.svg", "coverage.svg", "ppi.svg", "per_scan.parquet",
                  "per_run.csv", "per_target.parquet", "summary.csv"):
@@ -577,10 +609,10 @@ def test_study_cli_rescore_compare_determinism(tmp_path):
     pa = pd.read_parquet(tmp_path / "a" / "per_scan.parquet")[cols]
     pd.testing.assert_frame_equal(pa, pd.read_parquet(tmp_path / "a2" / "per_scan.parquet")[cols])
     # rescore with another cut-off, no run
-    assert cli_main(["--rescore", str(tmp_path / "b"), "--c", "30"]) == 0
+    assert cli_main(["--rescore", str(tmp_path / "b"), "--c", "30", "--truth", "coverage"]) == 0
     rb = pd.read_parquet(tmp_path / "b" / "per_run.parquet")
     assert (rb["missed"] == 15.0).all() and (rb["false"] == 15.0).all()  # 40 m > c = 30 m
-    assert cli_main(["--rescore", str(tmp_path / "b")]) == 0
+    assert cli_main(["--rescore", str(tmp_path / "b"), "--truth", "coverage"]) == 0
     assert cli_main(["--compare", str(tmp_path / "a"), str(tmp_path / "b"),
                      "--out", str(tmp_path / "cmp")]) == 0
     cmp = pd.read_csv(tmp_path / "cmp" / "compare.csv")
@@ -632,9 +664,10 @@ def test_study_on_dask_cli_cluster(tmp_path):
                 stderr=subprocess.DEVNULL, env=env, start_new_session=True))
         with Client(addr, timeout=60) as client:
             client.wait_for_workers(2, timeout=60)
-            oracle = f"{PY} {shlex.quote(str(TRACKERS))} oracle {{plots}} {{tracks}}"
+            oracle = (f"{PY} {shlex.quote(str(TRACKERS))} oracle {{plots}} {{tracks}} "
+                      f"--truth coverage")
             res = run_study(DEMO, oracle, runs=2, out=tmp_path / "s", seed=5,
-                            duration_s=4.0, client=client, report=False)
+                            duration_s=4.0, client=client, report=False, config=COVERAGE)
             workers = {w["host"] for w in client.scheduler_info()["workers"].values()}
         assert res["scored"] == 2 and workers == {"127.0.0.1"}
         assert all(r["mean"] == 0.0 for r in res["metrics"] if r["metric"] == "gospa")
@@ -681,7 +714,8 @@ def test_in_process_evaluate():
     from shipradar.api import evaluate
 
     s = shipradar.load_scenario(DEMO)
-    res = evaluate(s, tracker=lambda: _OracleObject(s), runs=2, seed=2, duration_s=5.0)
+    res = evaluate(s, tracker=lambda: _OracleObject(s), runs=2, seed=2, duration_s=5.0,
+                   config=COVERAGE)
     assert len(res["per_run"]) == 2 and not res["failed"]
     assert all(r["gospa"] == 0.0 and r["siap_completeness"] == 1.0 for r in res["per_run"])
 

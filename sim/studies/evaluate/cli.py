@@ -66,10 +66,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="scans in a row another assignment must be better before a track's "
                         "association (identity, SIAP) moves to it (default 3; 1: each scan "
                         "on its own)")
-    p.add_argument("--truth", choices=("coverage", "pd"), default="coverage",
-                   help="which targets count: 'coverage' (in_coverage: instrumented range "
-                        "and 4/3-earth horizon, default) or 'pd' (some radar's recent look "
-                        "reached --pd-threshold)")
+    p.add_argument("--truth", choices=("coverage", "pd"), default="pd",
+                   help="which targets count: 'pd' (some radar's look of the window reached "
+                        "--pd-threshold; default) or 'coverage' (in_coverage: instrumented "
+                        "range and 4/3-earth horizon)")
     p.add_argument("--pd-threshold", type=float, default=0.5,
                    help="--truth pd: P_d a look must reach (default 0.5)")
     p.add_argument("--pd-window", type=float, default=None, metavar="S",

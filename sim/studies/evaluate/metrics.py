@@ -46,7 +46,9 @@ their tracks. Both associations accept a pair within ``c`` (2 km by default; the
 threshold defaults to it): wide against the ~300 m accuracy of a track on a 100 km radar,
 so that a coasting or lagging track still counts as held.
 
-Which truth counts (:func:`counted_matrix`, the one place), by ``MetricConfig.truth``:
+Which truth counts (:func:`counted_matrix`, the one place), by ``MetricConfig.truth``
+(default ``"pd"``: a tracker is scored against what the radars could detect; docs/studies.md
+says why):
 
 - ``"coverage"``: at each scored scan, a target that is active and *in coverage* of at
   least one radar, as the stream says it: each radar's ``in_coverage`` of its latest
@@ -78,6 +80,7 @@ from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
+from scipy.optimize import linear_sum_assignment
 
 from shipradar.sensors.propagation import horizon_range
 from shipradar.sim.studies.evaluate.data import RunData, TracksMessage
@@ -116,7 +119,8 @@ class MetricConfig:
         Scans in a row another assignment (identity) or another truth (SIAP) must be better
         before a track's association moves to it (>= 1; 1: every scan on its own).
     truth : str
-        Which truth counts: ``"coverage"`` (geometric) or ``"pd"`` (the looks' P_d).
+        Which truth counts: ``"pd"`` (the looks' P_d, default) or ``"coverage"``
+        (geometric).
     pd_threshold : float
         ``truth = "pd"``: the P_d a look must reach for its target to count (0 < x <= 1).
     pd_window_s : float or None
@@ -132,7 +136,7 @@ class MetricConfig:
     siap_threshold_m: float | None = None
     max_track_age_s: float | None = None
     switch_scans: int = 3
-    truth: str = "coverage"
+    truth: str = "pd"
     pd_threshold: float = 0.5
     pd_window_s: float | None = None
     registration: RegistrationConfig = RegistrationConfig()
@@ -270,12 +274,14 @@ def counted_targets(data: RunData, i: int, config: MetricConfig | None = None
     return counted_matrix(data, config)[i]
 
 
-def _antenna_at(radar: dict[str, Any], t: float) -> np.ndarray:
-    """Antenna position at t [m], linear between the ends of scan (the nearest outside)."""
+def _antenna_at(radar: dict[str, Any], t: float | np.ndarray) -> np.ndarray:
+    """Antenna position at t [m] (shape (3,), or (K, 3) for K times), linear between the
+    ends of scan (the nearest outside)."""
     et, ep = radar["eos_t"], radar["eos_pos"]
+    t = np.asarray(t, float)
     if et.size == 0:
-        return np.zeros(3)
-    return np.array([np.interp(t, et, ep[:, i]) for i in range(3)])
+        return np.zeros((*t.shape, 3))
+    return np.stack([np.interp(t, et, ep[:, i]) for i in range(3)], axis=-1)
 
 
 def tracks_at(tracks: list[TracksMessage], t_s: float, max_age_s: float,
@@ -312,8 +318,6 @@ def tracks_at(tracks: list[TracksMessage], t_s: float, max_age_s: float,
 
 
 def _lsa(cost: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    from scipy.optimize import linear_sum_assignment
-
     if cost.size == 0:
         return np.zeros(0, int), np.zeros(0, int)
     return linear_sum_assignment(cost)
@@ -708,14 +712,15 @@ def score_run(data: RunData, config: MetricConfig = DEFAULT_METRICS) -> RunScore
     truth_state = np.stack([data.truth_pos[..., 0], data.truth_vel[..., 0],
                             data.truth_pos[..., 1], data.truth_vel[..., 1]], axis=-1) \
         if n_scans else np.zeros((0, k_targets, 4))
+    if ref is not None and n_scans:
+        a = _antenna_at(ref, data.scan_t)
+        ref_range = np.hypot(data.truth_pos[..., 0] - a[:, None, 0],
+                             data.truth_pos[..., 1] - a[:, None, 1])
     per_scan: list[dict[str, Any]] = []
     scans: list[_Scan] = []
     ids_seen: set[str] = set()
     for i, t in enumerate(data.scan_t):
         pos = data.truth_pos[i]
-        if ref is not None:
-            a = _antenna_at(ref, float(t))
-            ref_range[i] = np.hypot(pos[:, 0] - a[0], pos[:, 1] - a[1])
         idx = np.flatnonzero(counted_all[i])
         ids, state, up = tracks_at(tracks, float(t), max_age, track_t)
         v, to_track = gospa_scan(state[:, [0, 2]], pos[idx][:, :2], config.c_m, config.p)

@@ -42,22 +42,28 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
+import msgpack
 import numpy as np
 import zmq
+from zmq.utils.monitor import recv_monitor_message
 
 from shipradar.sim.stream.bus import Bus, Publisher, PublisherStalledError, RunInterrupted
 from shipradar.sim.stream.protocol import ProtocolError, decode, encode
 from shipradar.sim.stream.recording import Recorder
-from shipradar.sim.stream.schema import TOPIC_REGISTRATION
+from shipradar.sim.stream.schema import EOS, META, PLOTS, TOPIC_REGISTRATION, TRUTH_TARGETS
 from shipradar.sim.studies.evaluate.data import TOPIC_TRACKS, Collect, RunData, add_tracks
+from shipradar.sim.studies.evaluate.registration import TRUTH_SENSORS_KIND
 
-__all__ = ["RunSpec", "fill_placeholders", "free_port", "run_tracker_command",
-           "run_tracker_object"]
+__all__ = ["RunSpec", "fill_placeholders", "free_port", "run_and_collect",
+           "run_tracker_command", "run_tracker_object"]
 
 #: Lines of the tracker's stderr kept in ``run.json`` when it fails.
 STDERR_TAIL_LINES = 20
 #: Grace between SIGTERM and SIGKILL when the harness stops a tracker [s].
 KILL_GRACE_S = 5.0
+#: How often the collector thread looks at its stop flag, and the drain at its three
+#: conditions [s]: the harness's delay in stopping after a run.
+POLL_S = 0.01
 
 
 @dataclass(frozen=True)
@@ -149,9 +155,71 @@ class _TimedPublisher(Publisher):
         return ok
 
 
+def _peek(body, keys: tuple[str, ...]) -> dict[str, Any]:
+    """Top-level ``keys`` of a message body, read without decoding the rest (its arrays are
+    skipped, not built)."""
+    u = msgpack.Unpacker(raw=False)
+    u.feed(body)
+    out: dict[str, Any] = {}
+    for _ in range(u.read_map_header()):
+        k = u.unpack()
+        if k in keys:
+            out[k] = u.unpack()
+            if len(out) == len(keys):
+                break
+        else:
+            u.skip()
+    return out
+
+
+#: The ``truth`` kinds the scorer reads (``Collect.add``): the targets' states, the radars'
+#: true errors (registration).
+_TRUTH_KINDS_READ = (TRUTH_TARGETS.kind, TRUTH_SENSORS_KIND)
+
+
+class _CollectingBus(Bus):
+    """The run's bus, also handing the scorer what it reads (a
+    :class:`~shipradar.sim.studies.evaluate.data.Collect`) as each message goes out, so that
+    a run is scored without reading its recording back: the ``meta``, ``eos``,
+    ``truth[targets]`` and ``truth[sensors]`` messages decoded, of a ``plots`` message only
+    its time and sensor (the latency's inputs), nothing of the others. The same
+    ``Collect.add`` calls as :func:`~shipradar.sim.studies.evaluate.data.load_run`'s, with
+    the same wall times (the publisher's, by message index), so the two give the same
+    data."""
+
+    def __init__(self, publisher: _TimedPublisher, recorder: Recorder, collect: Collect):
+        super().__init__(publisher, recorder)
+        self.collect = collect
+        self.sent_s = publisher.sent_s
+        self.n = 0
+
+    def emit_frames(self, t_sim: float, frames) -> None:
+        super().emit_frames(t_sim, frames)
+        self._add(frames)
+
+    def emit_many(self, records) -> None:
+        super().emit_many(records)
+        for _, frames in records:
+            self._add(frames)
+
+    def _add(self, frames) -> None:
+        i, self.n = self.n, self.n + 1
+        sent = self.sent_s[i] if i < len(self.sent_s) else math.nan
+        topic = bytes(frames[0])
+        if topic == PLOTS.topic:
+            p = _peek(frames[1], ("t", "sensor"))
+            self.collect.add(topic, float(p["t"]), p, sent)
+        elif topic in (META.topic, EOS.topic) or (
+                topic == TRUTH_TARGETS.topic
+                and _peek(frames[1], ("kind",)).get("kind") in _TRUTH_KINDS_READ):
+            _, t, payload = decode(frames)
+            self.collect.add(topic, t, payload, sent)
+
+
 class _Collector(threading.Thread):
     """Receives the tracker's ``tracks`` (and ``registration``) messages with their wall
-    times; ``connected`` is set once the connection to the tracker is made."""
+    times; ``connected`` is set once the ZMTP handshake with the tracker's publisher has
+    succeeded."""
 
     def __init__(self, endpoint: str, t0: float):
         super().__init__(daemon=True, name="evaluate-tracks")
@@ -177,10 +245,13 @@ class _Collector(threading.Thread):
         poller.register(self.monitor, zmq.POLLIN)
         try:
             while not self.stop.is_set():
-                for s, _ in poller.poll(100):
+                for s, _ in poller.poll(int(POLL_S * 1000)):
                     if s is self.monitor:
-                        self.monitor.recv_multipart()
-                        self.connected.set()
+                        # the handshake, not the TCP connection: the subscription goes out
+                        # with it, so the tracker's first message is not dropped
+                        event = recv_monitor_message(self.monitor)
+                        if event["event"] == zmq.EVENT_HANDSHAKE_SUCCEEDED:
+                            self.connected.set()
                         continue
                     frames = self.sock.recv_multipart()
                     now = time.perf_counter()
@@ -229,6 +300,25 @@ def _write_tracks(run_dir: Path, records: list[tuple[float, float, list[bytes]]]
             rec.write(t, frames)
 
 
+_SCENES: dict[tuple[str, int, str | None], tuple[Any, Any]] = {}
+
+
+def _scene(path: str):
+    """The scenario of ``path`` and its tables, loaded once per process while the file and
+    the table cache are the same (a study's worker runs one scene many times; the tables
+    are read-only, as :func:`run_tracker_object` already shares them between runs)."""
+    from shipradar.sim.world.scenario import load_scenario
+    from shipradar.tables.scene import load_scene_tables
+
+    key = (str(Path(path).resolve()), os.stat(path).st_mtime_ns,
+           os.environ.get("SHIPRADAR_TABLES"))
+    if key not in _SCENES:
+        _SCENES.clear()
+        scenario = load_scenario(path)
+        _SCENES[key] = (scenario, load_scene_tables(scenario))
+    return _SCENES[key]
+
+
 def run_tracker_command(spec: RunSpec) -> dict[str, Any]:
     """Run one seeded run with the tracker command of ``spec``; write its run directory.
 
@@ -239,19 +329,39 @@ def run_tracker_command(spec: RunSpec) -> dict[str, Any]:
         ``error`` (why it failed), ``exit_code`` and ``stderr_tail`` of the tracker,
         ``stopped_by_harness``, the endpoints, ``duration_s``, the simulator's summary and the
         wall times: ``wall_s`` (the whole run), ``run_s`` (the simulation with the tracker
-        reading), ``startup_s`` (scenario, tables, tracker start until it subscribed),
-        ``drain_s``, ``harness_s`` (the rest: the harness's own work after the run, stopping
-        the tracker, writing the files).
+        reading), ``startup_s`` (scenario, tables, tracker start until it subscribed, the
+        simulation built),
+        ``drain_s``, ``harness_s`` (the rest: the harness's own work after the run:
+        ``stop_s`` stopping the tracker and the collector, ``write_s`` writing the files).
     """
+    return _run_command(spec, None)
+
+
+def run_and_collect(spec: RunSpec) -> tuple[dict[str, Any], RunData | None]:
+    """:func:`run_tracker_command`, and the run's data as
+    :func:`~shipradar.sim.studies.evaluate.data.load_run` would read it back from the run
+    directory (None for a failed run), collected while the run went: no recording is read.
+    ``collect_s``: the time to assemble it after the run [s]."""
+    collect = Collect()
+    info = _run_command(spec, collect)
+    records = info.pop("_records", [])
+    if info["status"] != "ok":
+        return info, None
+    t0 = time.perf_counter()
+    data = collect.result(json.loads(json.dumps(info, default=_json_default)))
+    for _, recv, frames in records:
+        add_tracks(data, frames, recv, decoded=False)
+    info["collect_s"] = time.perf_counter() - t0  # part of the scoring's cost
+    return info, data
+
+
+def _run_command(spec: RunSpec, collect: Collect | None) -> dict[str, Any]:
     from shipradar.sim.engine.simulation import Simulation
-    from shipradar.sim.world.scenario import load_scenario
-    from shipradar.tables.scene import load_scene_tables
 
     wall0 = time.perf_counter()
     run_dir = Path(spec.run_dir)
     run_dir.mkdir(parents=True, exist_ok=True)
-    scenario = load_scenario(spec.scenario)
-    tables = load_scene_tables(scenario)
+    scenario, tables = _scene(spec.scenario)
     duration = float(scenario.duration_s if spec.duration_s is None else spec.duration_s)
     info: dict[str, Any] = {"seed": spec.seed, "status": "ok", "error": None,
                             "scenario": scenario.name, "duration_s": duration,
@@ -284,9 +394,11 @@ def run_tracker_command(spec: RunSpec) -> dict[str, Any]:
             raise _RunFailed(f"cannot start the tracker: {exc}") from None
         _wait_ready(spec, proc, publisher, collector, uses_plots="{plots}" in spec.tracker,
                     uses_tracks="{tracks}" in spec.tracker)
-        startup_s = time.perf_counter() - wall0
+        # built after the tracker is ready: the milliseconds it takes also let the tracker's
+        # publisher take in the harness's subscription before its first message
         recorder = Recorder(run_dir / "stream.rec", overwrite=True)
-        bus = Bus(publisher, recorder)
+        bus = (Bus(publisher, recorder) if collect is None
+               else _CollectingBus(publisher, recorder, collect))
         publisher.bus = bus
         sim_bus: Any = bus
         if "{asterix}" in spec.tracker:
@@ -297,6 +409,7 @@ def run_tracker_command(spec: RunSpec) -> dict[str, Any]:
                          realtime=spec.realtime, tables=tables,
                          entities=_entities(spec.entities))
         t_run = time.perf_counter()
+        startup_s = t_run - wall0  # the tracker until it subscribed, the simulation built
         try:
             summary = sim.run()
         except RunInterrupted:
@@ -317,6 +430,7 @@ def run_tracker_command(spec: RunSpec) -> dict[str, Any]:
         info["error"] = f"harness error: {exc!r}"
         info["traceback"] = traceback.format_exc(limit=8)
     finally:
+        t_stop = time.perf_counter()
         if bus is not None:
             bus.close(linger_ms=0)
         elif publisher is not None:  # close is idempotent
@@ -334,6 +448,8 @@ def run_tracker_command(spec: RunSpec) -> dict[str, Any]:
             collector.join()
         stdout.close()
         stderr.close()
+        stop_s = time.perf_counter() - t_stop
+    t_write = time.perf_counter()
     if info["status"] != "ok":
         info["stderr_tail"] = _tail(run_dir / "tracker.stderr")
     records = collector.records if collector is not None else []
@@ -344,8 +460,11 @@ def run_tracker_command(spec: RunSpec) -> dict[str, Any]:
     info["summary"] = summary
     wall = time.perf_counter() - wall0
     info.update(wall_s=wall, startup_s=startup_s, run_s=run_s, drain_s=drain_s,
-                harness_s=max(wall - startup_s - run_s - drain_s, 0.0))
+                harness_s=max(wall - startup_s - run_s - drain_s, 0.0), stop_s=stop_s,
+                write_s=time.perf_counter() - t_write)
     (run_dir / "run.json").write_text(json.dumps(info, indent=1, default=_json_default))
+    if collect is not None:
+        info["_records"] = records
     return info
 
 
@@ -393,7 +512,7 @@ def _drain(spec: RunSpec, proc, collector, last_t: float) -> None:
             return
         if time.perf_counter() - collector.last_recv > spec.drain_s:
             return
-        time.sleep(0.05)  # a bounded poll of three conditions, none of them an event
+        time.sleep(POLL_S)  # a bounded poll of three conditions, none of them an event
 
 
 # ----------------------------------------------------------------------------- in process

@@ -44,7 +44,7 @@ from shipradar.sim.studies.evaluate.metrics import (
     RunScores,
     score_run,
 )
-from shipradar.sim.studies.evaluate.runner import RunSpec, run_tracker_command
+from shipradar.sim.studies.evaluate.runner import RunSpec, run_and_collect
 
 __all__ = ["compare", "rescore", "run_dir_name", "run_study", "study_seeds", "write_results"]
 
@@ -74,17 +74,18 @@ def _score_dir(run_dir: str, config: MetricConfig) -> tuple[dict[str, Any], RunS
 
 
 def _run_and_score(spec: RunSpec, config: MetricConfig) -> tuple[dict, RunScores | None]:
-    """In the worker: one run, then its scores (the harness's scoring time is counted)."""
-    info = run_tracker_command(spec)
-    if info["status"] != "ok":
+    """In the worker: one run, then its scores from the data collected during the run (the
+    same as ``load_run(spec.run_dir)``; the harness's scoring time is counted)."""
+    info, data = run_and_collect(spec)
+    if data is None:
         return info, None
     t0 = time.perf_counter()
     try:
-        scores = score_run(load_run(spec.run_dir), config)
+        scores = score_run(data, config)
     except Exception as exc:  # noqa: BLE001 - reported on the run; the others are scored
         info.update(status="failed", error=f"scoring error: {exc!r}")
         return info, None
-    info["score_s"] = time.perf_counter() - t0
+    info["score_s"] = time.perf_counter() - t0 + info.get("collect_s", 0.0)
     return info, scores
 
 
@@ -187,8 +188,9 @@ def run_study(scenario: str, tracker: str, *, runs: int, out: str | Path,
     summary.update(wall_s=wall, workers=n_workers,
                    runs_per_minute=60.0 * runs / wall if wall > 0 else math.nan)
     infos = [i for i, _ in ordered]
-    costs = [(i.get("harness_s", 0.0) + i.get("score_s", 0.0)) / i["wall_s"]
-             for i in infos if i.get("wall_s")]
+    # of the worker's time on a run: the run itself (wall_s) and its scoring (score_s)
+    costs = [(i.get("harness_s", 0.0) + i.get("score_s", 0.0))
+             / (i["wall_s"] + i.get("score_s", 0.0)) for i in infos if i.get("wall_s")]
     summary["harness_share"] = float(np.mean(costs)) if costs else math.nan
     (out / "summary.json").write_text(json.dumps(summary, indent=1, default=str))
     return summary
