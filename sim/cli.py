@@ -576,7 +576,7 @@ def _x(factor: float | None) -> str:
 
 
 def cmd_replay(args) -> int:
-    from shipradar.sim.stream.bus import replay
+    from shipradar.sim.stream.bus import ReplaySettings, replay
 
     if not Path(args.recording).exists():
         raise BadInput(f"replay: recording {args.recording} does not exist")
@@ -593,10 +593,12 @@ def cmd_replay(args) -> int:
         asterix = AsterixBus(None, UdpSender(args.asterix, allow_remote=args.allow_remote),
                              args.asterix_max_datagram)
     try:
-        summary = replay(args.recording, endpoint=args.publish, speed=args.speed,
-                         fast=args.fast, wait_subscribers=args.wait_subscribers,
-                         wait_timeout_s=args.wait_timeout, on_slow=args.on_slow,
-                         allow_remote=args.allow_remote, strict=args.strict, curve=curve,
+        settings = ReplaySettings(endpoint=args.publish, speed=args.speed, fast=args.fast,
+                                  wait_subscribers=args.wait_subscribers,
+                                  wait_timeout_s=args.wait_timeout, on_slow=args.on_slow,
+                                  allow_remote=args.allow_remote, strict=args.strict,
+                                  curve=curve)
+        summary = replay(args.recording, settings,
                          out=None if args.publish or args.asterix else sys.stdout,
                          tap=None if asterix is None else asterix.emit_frames)
     finally:

@@ -16,6 +16,7 @@ from shipradar.sim.stream.bus import (
     Bus,
     EndpointError,
     Publisher,
+    ReplaySettings,
     SubscriberTimeoutError,
     check_bind_endpoint,
     message_json,
@@ -343,7 +344,8 @@ def test_replay_republishes_byte_identical_frames(tmp_path):
     endpoint = f"ipc://{tmp_path}/replay.ipc"
     col = Collector(endpoint, len(frames))  # connects before replay binds: ZeroMQ retries
     col.start()
-    summary = replay(path, endpoint=endpoint, fast=True, wait_subscribers=1, wait_timeout_s=10)
+    summary = replay(path, ReplaySettings(endpoint=endpoint, fast=True, wait_subscribers=1,
+                                           wait_timeout_s=10))
     col.join(20)
     assert col.frames == frames
     assert summary["frames"] == 200 and not summary["truncated"]
@@ -366,7 +368,7 @@ def test_replay_paces_by_simulated_time_over_speed(tmp_path):
     def sleep(d):
         now[0] += d
 
-    summary = replay(path, speed=2.0, out=Out(), clock=lambda: now[0], sleep=sleep)
+    summary = replay(path, ReplaySettings(speed=2.0), out=Out(), clock=lambda: now[0], sleep=sleep)
     # t/speed from the first message; a late message (t=2 after t=3) goes out at once.
     assert [s - 100.0 for s in sent_at] == pytest.approx([0.0, 0.5, 0.5, 1.5, 1.5, 2.0])
     assert summary["wall_s"] == pytest.approx(2.0)
@@ -377,10 +379,10 @@ def test_replay_real_clock_speed(tmp_path):
     path = tmp_path / "run.srrec"
     make_recording(path, [0.05 * i for i in range(11)])  # 0.5 s simulated
     t0 = time.monotonic()
-    summary = replay(path, speed=2.0)
+    summary = replay(path, ReplaySettings(speed=2.0))
     wall = time.monotonic() - t0
     assert 0.24 <= summary["wall_s"] <= wall < 2.0
-    fast = replay(path, fast=True)
+    fast = replay(path, ReplaySettings(fast=True))
     assert fast["wall_s"] < 0.2
 
 
@@ -390,7 +392,7 @@ def test_replay_of_truncated_recording_reports_it(tmp_path):
     data = path.read_bytes()
     path.write_bytes(data[:-3])
     out = io.StringIO()
-    summary = replay(path, fast=True, out=out)
+    summary = replay(path, ReplaySettings(fast=True), out=out)
     assert summary["frames"] == 4 and summary["truncated"]
     # format 2: 32-byte record header (marker, length, flags, sequence, CRCs), then t_sim,
     # frame count and the frames with their lengths
@@ -406,14 +408,14 @@ def test_replay_rejects_bad_input_before_binding(tmp_path):
     bad = tmp_path / "bad.srrec"
     bad.write_bytes(b"not a recording at all")
     with pytest.raises(RecordingError):
-        replay(bad, endpoint="tcp://0.0.0.0:1")
+        replay(bad, ReplaySettings(endpoint="tcp://0.0.0.0:1"))
     good = tmp_path / "good.srrec"
     make_recording(good, [0.0])
     for speed in (0.0, -1.0, float("nan"), float("inf")):
         with pytest.raises(ValueError, match="speed"):
-            replay(good, speed=speed)
+            replay(good, ReplaySettings(speed=speed))
     with pytest.raises(EndpointError):
-        replay(good, endpoint="tcp://0.0.0.0:1")
+        replay(good, ReplaySettings(endpoint="tcp://0.0.0.0:1"))
 
 
 # -- tail ------------------------------------------------------------------------------------

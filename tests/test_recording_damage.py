@@ -21,7 +21,7 @@ from hypothesis import strategies as st
 
 from shipradar.sim.cli import main
 from shipradar.sim.engine.simulation import Simulation
-from shipradar.sim.stream.bus import Bus, replay
+from shipradar.sim.stream.bus import Bus, ReplaySettings, replay
 from shipradar.sim.stream.recording import (
     HEADER_BYTES,
     REC2_HEADER_BYTES,
@@ -336,7 +336,7 @@ def test_replay_goes_past_damage_and_strict_stops(real, tmp_path, capsys):
         buf[spans[k][0] + 40] ^= 1
     bad.write_bytes(bytes(buf))
     out = io.StringIO()
-    summary = replay(str(bad), fast=True, out=out)
+    summary = replay(str(bad), ReplaySettings(fast=True), out=out)
     assert summary["frames"] == len(records) - 2
     assert summary["damaged_regions"] == 2 and summary["records_skipped"] == 2
     assert summary["bytes_skipped"] == sum(spans[k][1] - spans[k][0] for k in (4, 9))

@@ -14,13 +14,14 @@ import sys
 import time
 from collections import Counter
 from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, TextIO
 
 if TYPE_CHECKING:
     import zmq
 
 from shipradar.sim.stream.protocol import MAX_BODY_BYTES, ProtocolError, decode, encode, to_jsonable
-from shipradar.sim.stream.recording import Recorder, read_recording
+from shipradar.sim.stream.recording import Recorder, RecordingReader, read_recording
 from shipradar.sim.stream.sink import Closing
 from shipradar.sim.world.errors import BadInputError, PeerError
 
@@ -31,6 +32,7 @@ __all__ = [
     "EndpointError",
     "Publisher",
     "PublisherStalledError",
+    "ReplaySettings",
     "RunInterrupted",
     "SubscriberTimeoutError",
     "check_bind_endpoint",
@@ -632,55 +634,87 @@ def message_json(frames: Sequence[bytes]) -> str:
     return json.dumps(obj, allow_nan=False, separators=(",", ":"))
 
 
+#: Where :func:`replay` hands a message, ``sink(t_sim, frames)`` (what it returns is ignored).
+_ReplaySink = Callable[[float, Sequence[bytes]], object]
+
+
+@dataclass(frozen=True)
+class ReplaySettings:
+    """How :func:`replay` republishes a recording (``shipradar replay``'s options).
+
+    Attributes
+    ----------
+    endpoint : str or None
+        Publish on this endpoint (as :class:`Publisher`). None: do not publish.
+    speed : float
+        Simulated seconds per wall-clock second (2.0: twice real time); > 0 and finite
+        unless ``fast``.
+    fast : bool
+        Ignore times and send as fast as the subscribers take them.
+    wait_subscribers : int
+        Subscribers to wait for before the first message.
+    wait_timeout_s, on_slow, allow_remote
+        As for :class:`Publisher` ([s], ``"pace"`` or ``"drop"``, bool).
+    linger_ms : int
+        Time allowed at the end to deliver queued messages [ms].
+    strict : bool
+        Stop with :class:`shipradar.sim.stream.recording.RecordingError` at the first damaged
+        record (default: skip damaged records and go on; the summary counts them).
+    curve : shipradar.sim.stream.security.CurveServer or None
+        Authenticate and encrypt the stream (see :class:`Publisher`).
+
+    Raises
+    ------
+    ValueError
+        A speed that is not a positive finite number (without ``fast``).
+    """
+
+    endpoint: str | None = None
+    speed: float = 1.0
+    fast: bool = False
+    wait_subscribers: int = 0
+    wait_timeout_s: float = 30.0
+    on_slow: str = "pace"
+    allow_remote: bool = False
+    linger_ms: int = DEFAULT_LINGER_MS
+    strict: bool = False
+    curve: Any = None
+
+    def __post_init__(self) -> None:
+        if not self.fast and not (self.speed > 0 and self.speed < float("inf")):
+            raise ValueError(f"speed must be a positive finite number, got {self.speed!r}")
+
+
 def replay(
     path: str,
+    settings: ReplaySettings = ReplaySettings(),
     *,
-    endpoint: str | None = None,
-    speed: float = 1.0,
-    fast: bool = False,
-    wait_subscribers: int = 0,
     out: TextIO | None = None,
-    wait_timeout_s: float = 30.0,
-    on_slow: str = "pace",
-    allow_remote: bool = False,
-    linger_ms: int = DEFAULT_LINGER_MS,
+    tap: Callable[[float, Sequence[bytes]], None] | None = None,
     clock: Callable[[], float] = time.monotonic,
     sleep: Callable[[float], None] = time.sleep,
-    tap: Callable[[float, Sequence[bytes]], None] | None = None,
-    strict: bool = False,
-    curve: Any = None,
 ) -> dict[str, Any]:
     """Republish a recording's messages unchanged, paced by their simulated times.
+
+    The steps: the recording opened (a bad file fails before anything is bound), the
+    publisher bound and its subscribers awaited (:func:`_replay_publisher`), each message
+    sent at its paced time to the publisher, ``tap`` and ``out`` (:func:`_deliver_paced`),
+    the publisher closed and the counts summed up (:func:`_replay_summary`).
 
     Parameters
     ----------
     path : str
         Recording to replay.
-    endpoint : str or None, optional
-        Publish on this endpoint (as :class:`Publisher`). None: do not publish.
-    speed : float, optional
-        Simulated seconds per wall-clock second (2.0: twice real time); > 0.
-    fast : bool, optional
-        Ignore times and send as fast as the subscribers take them.
-    wait_subscribers : int, optional
-        Subscribers to wait for before the first message.
+    settings : ReplaySettings, optional
+        Where to publish, how fast, how strictly.
     out : TextIO or None, optional
         Also print each message as a JSON line (:func:`message_json`) to this stream.
-    wait_timeout_s, on_slow, allow_remote : optional
-        As for :class:`Publisher`.
-    linger_ms : int, optional
-        Time allowed at the end to deliver queued messages [ms].
-    clock, sleep : callable, optional
-        Monotonic clock [s] and sleep function (replaceable in tests).
     tap : callable or None, optional
         Also called as ``tap(t_sim, frames)`` for each message, at its paced time (e.g. the
         ASTERIX output of ``replay --asterix``,
         :class:`shipradar.sim.adapters.asterix.udp.AsterixBus`).
-    strict : bool, optional
-        Stop with :class:`shipradar.sim.stream.recording.RecordingError` at the first damaged record
-        (default: skip damaged records and go on; the summary counts them).
-    curve : shipradar.sim.stream.security.CurveServer or None, optional
-        Authenticate and encrypt the stream (see :class:`Publisher`).
+    clock, sleep : callable, optional
+        Monotonic clock [s] and sleep function (replaceable in tests).
 
     Returns
     -------
@@ -696,60 +730,91 @@ def replay(
     subscribers are ready; a message late (slow subscriber, non-increasing times) goes out
     at once and later ones keep the original schedule, so lateness never accumulates.
     """
-    if not fast and not (speed > 0 and speed < float("inf")):
-        raise ValueError(f"speed must be a positive finite number, got {speed!r}")
-    reader = read_recording(path, strict=strict)  # bad file: fail before binding anything
+    reader = read_recording(path, strict=settings.strict)  # bad file: fail before binding
     publisher = None
     try:
-        if endpoint is not None:
-            publisher = Publisher(
-                endpoint,
-                wait_subscribers=wait_subscribers,
-                wait_timeout_s=wait_timeout_s,
-                on_slow=on_slow,
-                allow_remote=allow_remote,
-                curve=curve,
-            )
-            publisher.wait_for_subscribers()
-        count = 0
-        t_first = t_last = None
-        w0 = clock()
-        for t_sim, frames in reader:
-            if t_first is None:
-                t_first = t_sim
-                w0 = clock()
-            if not fast:
-                delay = w0 + (t_sim - t_first) / speed - clock()
-                if delay > 0:
-                    sleep(delay)
-            if publisher is not None:
-                publisher.send(frames)
-            if tap is not None:
-                tap(t_sim, frames)
-            if out is not None:
-                out.write(message_json(frames) + "\n")
-            count += 1
-            t_last = t_sim
-        wall_s = clock() - w0
+        publisher = _replay_publisher(settings)
+        sinks = [s for s in (None if publisher is None else _publish(publisher), tap,
+                             None if out is None else _print_json(out)) if s is not None]
+        sent = _deliver_paced(reader, settings, sinks, clock, sleep)
         if publisher is not None:
-            publisher.close(linger_ms)
-        return {
-            "frames": count,
-            "truncated": reader.truncated,
-            "bytes_ignored": reader.bytes_ignored,
-            "damaged_regions": len(reader.damaged),
-            "bytes_skipped": reader.bytes_skipped,
-            "records_skipped": reader.records_skipped,
-            "t_first": t_first,
-            "t_last": t_last,
-            "wall_s": wall_s,
-            "schema_version": reader.schema_version,
-            "publisher": None if publisher is None else publisher.stats,
-        }
+            publisher.close(settings.linger_ms)
+        return _replay_summary(reader, sent, publisher)
     finally:
         reader.close()
         if publisher is not None:
             publisher.close(0)
+
+
+def _replay_publisher(settings: ReplaySettings) -> Publisher | None:
+    """The publisher of a replay, bound, with its subscribers arrived (None: no endpoint)."""
+    if settings.endpoint is None:
+        return None
+    publisher = Publisher(settings.endpoint, wait_subscribers=settings.wait_subscribers,
+                          wait_timeout_s=settings.wait_timeout_s, on_slow=settings.on_slow,
+                          allow_remote=settings.allow_remote, curve=settings.curve)
+    publisher.wait_for_subscribers()
+    return publisher
+
+
+def _publish(publisher: Publisher) -> _ReplaySink:
+    """A replay sink that publishes each message."""
+    return lambda _t, frames: publisher.send(frames)
+
+
+def _print_json(out: TextIO) -> _ReplaySink:
+    """A replay sink that prints each message as a JSON line (:func:`message_json`)."""
+    return lambda _t, frames: out.write(message_json(frames) + "\n")
+
+
+def _deliver_paced(reader: RecordingReader, settings: ReplaySettings,
+                sinks: Sequence[_ReplaySink],
+                clock: Callable[[], float], sleep: Callable[[float], None]
+                ) -> tuple[int, float | None, float | None, float]:
+    """Hand each message to every sink at its paced time (see :func:`replay`'s Notes).
+
+    Returns
+    -------
+    tuple
+        Messages sent, first and last simulated times [s] (None when there were none), and
+        the wall seconds from the first message to the end [s].
+    """
+    count = 0
+    t_first = t_last = None
+    w0 = clock()
+    for t_sim, frames in reader:
+        if t_first is None:
+            t_first = t_sim
+            w0 = clock()
+        if not settings.fast:
+            delay = w0 + (t_sim - t_first) / settings.speed - clock()
+            if delay > 0:
+                sleep(delay)
+        for sink in sinks:
+            sink(t_sim, frames)
+        count += 1
+        t_last = t_sim
+    return count, t_first, t_last, clock() - w0
+
+
+def _replay_summary(reader: RecordingReader,
+                    sent: tuple[int, float | None, float | None, float],
+                    publisher: Publisher | None) -> dict[str, Any]:
+    """The JSON-ready summary of a replay (see :func:`replay`'s Returns)."""
+    count, t_first, t_last, wall_s = sent
+    return {
+        "frames": count,
+        "truncated": reader.truncated,
+        "bytes_ignored": reader.bytes_ignored,
+        "damaged_regions": len(reader.damaged),
+        "bytes_skipped": reader.bytes_skipped,
+        "records_skipped": reader.records_skipped,
+        "t_first": t_first,
+        "t_last": t_last,
+        "wall_s": wall_s,
+        "schema_version": reader.schema_version,
+        "publisher": None if publisher is None else publisher.stats,
+    }
 
 
 def tail(
