@@ -38,6 +38,7 @@ hashable description, not by the callable), through :func:`shipradar.tables.stor
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -113,57 +114,69 @@ def _noise_limit_range(ranges: np.ndarray, power: np.ndarray, limit_w: float) ->
     return out
 
 
-def sea_clutter_map_inputs(
-    *,
-    freq_hz: float,
-    polarization: str,
-    antenna_height_m: float,
-    beamwidth_az_rad: float,
-    pulse_width_s: float,
-    radar_constant_w_m2: float,
-    elevation_pattern: ElevationPattern,
-    noise_power_w: float,
-    rotation_rate_rad_s: float,
-    wind_speed_mps: float,
-    wind_direction_rad: float,
-    max_range_m: float,
-    wave_height_m: float | None = None,
-    sea_state: float | None = None,
-    duct_height_m: float = 0.0,
-    a_min: float = sc.RAYLEIGH_A,
-    motion_compensated: bool = True,
-    ship_speed_mps: float = 0.0,
-    ship_heading_rad: float = 0.0,
-    n_range: int = DEFAULT_N_RANGE,
-    n_azimuth: int = DEFAULT_N_AZIMUTH,
-    k_factor: float = geometry.K_FACTOR,
-) -> dict[str, Any]:
-    """The hashable inputs of a sea-clutter map (arguments of :func:`build_sea_clutter_map`)."""
-    kind, bw, sl, tilt = elevation_pattern
-    return {
-        "freq_hz": float(freq_hz),
-        "polarization": sc.polarization_letter(polarization),
-        "antenna_height_m": float(antenna_height_m),
-        "beamwidth_az_rad": float(beamwidth_az_rad),
-        "pulse_width_s": float(pulse_width_s),
-        "radar_constant_w_m2": float(radar_constant_w_m2),
-        "elevation_pattern": [str(kind), float(bw), float(sl), float(tilt)],
-        "noise_power_w": float(noise_power_w),
-        "rotation_rate_rad_s": float(rotation_rate_rad_s),
-        "wind_speed_mps": float(wind_speed_mps),
-        "wind_direction_rad": float(wind_direction_rad),
-        "max_range_m": float(max_range_m),
-        "wave_height_m": None if wave_height_m is None else float(wave_height_m),
-        "sea_state": None if sea_state is None else float(sea_state),
-        "duct_height_m": float(duct_height_m),
-        "a_min": float(a_min),
-        "motion_compensated": bool(motion_compensated),
-        "ship_speed_mps": float(ship_speed_mps),
-        "ship_heading_rad": float(ship_heading_rad),
-        "n_range": int(n_range),
-        "n_azimuth": int(n_azimuth),
-        "k_factor": float(k_factor),
-    }
+@dataclass(frozen=True)
+class SeaClutterMapSpec:
+    """What a sea-clutter map depends on: one declaration, read by the cache key
+    (:meth:`inputs`) and by :func:`build_sea_clutter_map`, whose docstring gives each
+    field's meaning and unit."""
+
+    freq_hz: float
+    polarization: str
+    antenna_height_m: float
+    beamwidth_az_rad: float
+    pulse_width_s: float
+    radar_constant_w_m2: float
+    elevation_pattern: ElevationPattern
+    noise_power_w: float
+    rotation_rate_rad_s: float
+    wind_speed_mps: float
+    wind_direction_rad: float
+    max_range_m: float
+    wave_height_m: float | None = None
+    sea_state: float | None = None
+    duct_height_m: float = 0.0
+    a_min: float = sc.RAYLEIGH_A
+    motion_compensated: bool = True
+    ship_speed_mps: float = 0.0
+    ship_heading_rad: float = 0.0
+    n_range: int = DEFAULT_N_RANGE
+    n_azimuth: int = DEFAULT_N_AZIMUTH
+    k_factor: float = geometry.K_FACTOR
+
+    def inputs(self) -> dict[str, Any]:
+        """The hashable inputs (the table's cache key and its provenance)."""
+        kind, bw, sl, tilt = self.elevation_pattern
+        return {
+            "freq_hz": float(self.freq_hz),
+            "polarization": sc.polarization_letter(self.polarization),
+            "antenna_height_m": float(self.antenna_height_m),
+            "beamwidth_az_rad": float(self.beamwidth_az_rad),
+            "pulse_width_s": float(self.pulse_width_s),
+            "radar_constant_w_m2": float(self.radar_constant_w_m2),
+            "elevation_pattern": [str(kind), float(bw), float(sl), float(tilt)],
+            "noise_power_w": float(self.noise_power_w),
+            "rotation_rate_rad_s": float(self.rotation_rate_rad_s),
+            "wind_speed_mps": float(self.wind_speed_mps),
+            "wind_direction_rad": float(self.wind_direction_rad),
+            "max_range_m": float(self.max_range_m),
+            "wave_height_m": None if self.wave_height_m is None else float(self.wave_height_m),
+            "sea_state": None if self.sea_state is None else float(self.sea_state),
+            "duct_height_m": float(self.duct_height_m),
+            "a_min": float(self.a_min),
+            "motion_compensated": bool(self.motion_compensated),
+            "ship_speed_mps": float(self.ship_speed_mps),
+            "ship_heading_rad": float(self.ship_heading_rad),
+            "n_range": int(self.n_range),
+            "n_azimuth": int(self.n_azimuth),
+            "k_factor": float(self.k_factor),
+        }
+
+
+def sea_clutter_map_inputs(**kwargs: Any) -> dict[str, Any]:
+    """The hashable inputs of a sea-clutter map: the keywords are the fields of
+    :class:`SeaClutterMapSpec` (the arguments of :func:`build_sea_clutter_map`)."""
+    return SeaClutterMapSpec(**kwargs).inputs()
+
 
 
 def build_sea_clutter_map(*, elevation_directivity: Directivity, **kwargs: Any) -> Table:
@@ -428,61 +441,75 @@ def weather_range_axis(max_range_m: float, n_range: int, prf_hz: float) -> np.nd
     return axis[keep]
 
 
-def weather_clutter_map_inputs(
-    *,
-    freq_hz: float,
-    antenna_height_m: float,
-    beamwidth_az_rad: float,
-    beamwidth_el_rad: float,
-    pulse_width_s: float,
-    prf_hz: float,
-    radar_constant_w_m2: float,
-    rain_rate_mm_h: float,
-    cloud_base_m: float,
-    rotation_rate_rad_s: float,
-    wind_speed_mps: float,
-    wind_direction_rad: float,
-    max_range_m: float,
-    precipitation: str = "rain",
-    rain_attenuation_db_per_km: float = 0.0,
-    turbulence_spread_mps: float = wc.RAIN_TURBULENCE_SPREAD_MPS,
-    motion_compensated: bool = True,
-    ship_speed_mps: float = 0.0,
-    ship_heading_rad: float = 0.0,
-    n_range: int = DEFAULT_N_RANGE,
-    n_azimuth: int = DEFAULT_N_AZIMUTH,
-    k_factor: float = geometry.K_FACTOR,
-) -> dict[str, Any]:
-    """The hashable inputs of a weather-clutter map (see :func:`build_weather_clutter_map`)."""
-    if rain_rate_mm_h <= 0.0:
-        raise ValueError("a weather-clutter map needs precipitation (rain_rate_mm_h > 0)")
-    if rain_attenuation_db_per_km < 0.0:
-        raise ValueError(
-            f"rain_attenuation_db_per_km must be >= 0, got {rain_attenuation_db_per_km}")
-    return {
-        "freq_hz": float(freq_hz),
-        "antenna_height_m": float(antenna_height_m),
-        "beamwidth_az_rad": float(beamwidth_az_rad),
-        "beamwidth_el_rad": float(beamwidth_el_rad),
-        "pulse_width_s": float(pulse_width_s),
-        "prf_hz": float(prf_hz),
-        "radar_constant_w_m2": float(radar_constant_w_m2),
-        "rain_rate_mm_h": float(rain_rate_mm_h),
-        "cloud_base_m": float(cloud_base_m),
-        "rotation_rate_rad_s": float(rotation_rate_rad_s),
-        "wind_speed_mps": float(wind_speed_mps),
-        "wind_direction_rad": float(wind_direction_rad),
-        "max_range_m": float(max_range_m),
-        "precipitation": str(precipitation),
-        "rain_attenuation_db_per_km": float(rain_attenuation_db_per_km),
-        "turbulence_spread_mps": float(turbulence_spread_mps),
-        "motion_compensated": bool(motion_compensated),
-        "ship_speed_mps": float(ship_speed_mps),
-        "ship_heading_rad": float(ship_heading_rad),
-        "n_range": int(n_range),
-        "n_azimuth": int(n_azimuth),
-        "k_factor": float(k_factor),
-    }
+@dataclass(frozen=True)
+class WeatherClutterMapSpec:
+    """What a weather-clutter map depends on: one declaration, read by the cache key
+    (:meth:`inputs`) and by :func:`build_weather_clutter_map`, whose docstring gives each
+    field's meaning and unit."""
+
+    freq_hz: float
+    antenna_height_m: float
+    beamwidth_az_rad: float
+    beamwidth_el_rad: float
+    pulse_width_s: float
+    prf_hz: float
+    radar_constant_w_m2: float
+    rain_rate_mm_h: float
+    cloud_base_m: float
+    rotation_rate_rad_s: float
+    wind_speed_mps: float
+    wind_direction_rad: float
+    max_range_m: float
+    precipitation: str = "rain"
+    rain_attenuation_db_per_km: float = 0.0
+    turbulence_spread_mps: float = wc.RAIN_TURBULENCE_SPREAD_MPS
+    motion_compensated: bool = True
+    ship_speed_mps: float = 0.0
+    ship_heading_rad: float = 0.0
+    n_range: int = DEFAULT_N_RANGE
+    n_azimuth: int = DEFAULT_N_AZIMUTH
+    k_factor: float = geometry.K_FACTOR
+
+    def __post_init__(self) -> None:
+        if self.rain_rate_mm_h <= 0.0:
+            raise ValueError("a weather-clutter map needs precipitation (rain_rate_mm_h > 0)")
+        if self.rain_attenuation_db_per_km < 0.0:
+            raise ValueError(
+                f"rain_attenuation_db_per_km must be >= 0, got {self.rain_attenuation_db_per_km}")
+
+    def inputs(self) -> dict[str, Any]:
+        """The hashable inputs (the table's cache key and its provenance)."""
+        return {
+            "freq_hz": float(self.freq_hz),
+            "antenna_height_m": float(self.antenna_height_m),
+            "beamwidth_az_rad": float(self.beamwidth_az_rad),
+            "beamwidth_el_rad": float(self.beamwidth_el_rad),
+            "pulse_width_s": float(self.pulse_width_s),
+            "prf_hz": float(self.prf_hz),
+            "radar_constant_w_m2": float(self.radar_constant_w_m2),
+            "rain_rate_mm_h": float(self.rain_rate_mm_h),
+            "cloud_base_m": float(self.cloud_base_m),
+            "rotation_rate_rad_s": float(self.rotation_rate_rad_s),
+            "wind_speed_mps": float(self.wind_speed_mps),
+            "wind_direction_rad": float(self.wind_direction_rad),
+            "max_range_m": float(self.max_range_m),
+            "precipitation": str(self.precipitation),
+            "rain_attenuation_db_per_km": float(self.rain_attenuation_db_per_km),
+            "turbulence_spread_mps": float(self.turbulence_spread_mps),
+            "motion_compensated": bool(self.motion_compensated),
+            "ship_speed_mps": float(self.ship_speed_mps),
+            "ship_heading_rad": float(self.ship_heading_rad),
+            "n_range": int(self.n_range),
+            "n_azimuth": int(self.n_azimuth),
+            "k_factor": float(self.k_factor),
+        }
+
+
+def weather_clutter_map_inputs(**kwargs: Any) -> dict[str, Any]:
+    """The hashable inputs of a weather-clutter map: the keywords are the fields of
+    :class:`WeatherClutterMapSpec` (see :func:`build_weather_clutter_map`)."""
+    return WeatherClutterMapSpec(**kwargs).inputs()
+
 
 
 def weather_clutter_profile(

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import weakref
 from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -223,60 +224,102 @@ def table_grid(freq_hz: float, antenna_height_m: float, *, polarization: str,
 
 
 # =========================================================================== table
-def propagation_table_inputs(
-    freq_hz: float,
-    antenna_height_m: float,
-    *,
-    polarization: str,
-    pattern_description: Mapping[str, Any],
-    profile: Mapping[str, Any],
-    wave_height_m: float = 0.0,
-    max_range_m: float,
-    max_height_m: float,
-    fidelity: str = "standard",
-    tilt_rad: float = 0.0,
-    surface: str = "sea",
-    sea_temperature_c: float = prop.SEA_TEMPERATURE_C,
-    salinity_psu: float = prop.SEA_SALINITY_PSU,
-    max_angle_rad: float | None = None,
-) -> dict[str, Any]:
-    """Exactly the inputs that change a propagation table (hashed into its cache key)."""
-    return {
-        "freq_hz": float(freq_hz),
-        "antenna_height_m": float(antenna_height_m),
-        "polarization": prop.normalize_polarization(polarization),
-        "pattern": dict(pattern_description),
-        "tilt_rad": float(tilt_rad),
-        "profile": prop.normalize_profile_spec(profile),
-        "wave_height_m": float(wave_height_m),
-        "max_range_m": float(max_range_m),
-        "max_height_m": float(max_height_m),
-        "fidelity": str(fidelity),
-        "surface": str(surface),
-        "sea_temperature_c": float(sea_temperature_c) if surface == "sea" else None,
-        "salinity_psu": float(salinity_psu) if surface == "sea" else None,
-        "max_angle_rad": None if max_angle_rad is None else float(max_angle_rad),
-    }
+@dataclass(frozen=True)
+class PropagationTableSpec:
+    """What a PE table F(R_t, h) depends on: one declaration, read by the cache key
+    (:meth:`inputs`) and by the builder (:func:`build_propagation_table`).
+
+    Attributes
+    ----------
+    freq_hz : float
+        Carrier frequency [Hz].
+    antenna_height_m : float
+        Antenna height above the surface [m].
+    polarization : str
+        ``"H"`` or ``"V"`` (:func:`shipradar.sensors.propagation.normalize_polarization`).
+    profile : Mapping
+        M-profile description (:func:`shipradar.sensors.propagation.normalize_profile_spec`).
+    max_range_m, max_height_m : float
+        The table's last range and highest height [m].
+    pattern_description : Mapping
+        Hashable description of the elevation pattern (``{"kind": "gaussian",
+        "beamwidth_rad": ..., "sidelobe_db": ...}``); isotropic by default.
+    wave_height_m : float
+        Significant wave height (Miller-Brown roughness) [m].
+    fidelity : str
+        PE grid, ``"coarse"``, ``"standard"`` or ``"fine"``.
+    tilt_rad : float
+        Elevation tilt of the beam [rad].
+    surface : str
+        ``"sea"`` or another surface of :mod:`shipradar.sensors.parabolic_equation`.
+    sea_temperature_c, salinity_psu : float
+        Sea water for the permittivity [°C], [psu] (in the key only over the sea).
+    max_angle_rad : float or None
+        Widest propagation angle carried [rad]; None: the PE's own.
+    """
+
+    freq_hz: float
+    antenna_height_m: float
+    polarization: str
+    profile: Mapping[str, Any]
+    max_range_m: float
+    max_height_m: float
+    pattern_description: Mapping[str, Any] = field(
+        default_factory=lambda: {"kind": "isotropic"})
+    wave_height_m: float = 0.0
+    fidelity: str = "standard"
+    tilt_rad: float = 0.0
+    surface: str = "sea"
+    sea_temperature_c: float = prop.SEA_TEMPERATURE_C
+    salinity_psu: float = prop.SEA_SALINITY_PSU
+    max_angle_rad: float | None = None
+
+    def inputs(self) -> dict[str, Any]:
+        """Exactly the inputs that change the table (hashed into its cache key)."""
+        sea = self.surface == "sea"
+        return {
+            "freq_hz": float(self.freq_hz),
+            "antenna_height_m": float(self.antenna_height_m),
+            "polarization": prop.normalize_polarization(self.polarization),
+            "pattern": dict(self.pattern_description),
+            "tilt_rad": float(self.tilt_rad),
+            "profile": prop.normalize_profile_spec(self.profile),
+            "wave_height_m": float(self.wave_height_m),
+            "max_range_m": float(self.max_range_m),
+            "max_height_m": float(self.max_height_m),
+            "fidelity": str(self.fidelity),
+            "surface": str(self.surface),
+            "sea_temperature_c": float(self.sea_temperature_c) if sea else None,
+            "salinity_psu": float(self.salinity_psu) if sea else None,
+            "max_angle_rad": None if self.max_angle_rad is None else float(self.max_angle_rad),
+        }
+
+
+def _spec_of(freq_hz: float, antenna_height_m: float, elevation_pattern: object,
+             kwargs: dict[str, Any]) -> PropagationTableSpec:
+    """The spec of a builder's keywords; a callable pattern must come with its description
+    (only the isotropic pattern may go without)."""
+    if kwargs.get("pattern_description") is None:
+        if elevation_pattern is not None:
+            raise ValueError("a callable elevation_pattern needs its pattern_description")
+        kwargs = {k: v for k, v in kwargs.items() if k != "pattern_description"}
+    return PropagationTableSpec(freq_hz, antenna_height_m, **kwargs)
+
+
+def propagation_table_inputs(freq_hz: float, antenna_height_m: float, **kwargs: Any
+                             ) -> dict[str, Any]:
+    """Exactly the inputs that change a propagation table (hashed into its cache key): the
+    keywords are the fields of :class:`PropagationTableSpec`."""
+    return PropagationTableSpec(freq_hz, antenna_height_m, **kwargs).inputs()
 
 
 def build_propagation_table(
     freq_hz: float,
     antenna_height_m: float,
     *,
-    polarization: str,
     elevation_pattern: Callable[[np.ndarray], np.ndarray] | None,
-    pattern_description: Mapping[str, Any] | None = None,
-    profile: Mapping[str, Any],
-    wave_height_m: float = 0.0,
-    max_range_m: float,
-    max_height_m: float,
-    fidelity: str = "standard",
-    tilt_rad: float = 0.0,
-    surface: str = "sea",
-    sea_temperature_c: float = prop.SEA_TEMPERATURE_C,
-    salinity_psu: float = prop.SEA_SALINITY_PSU,
-    max_angle_rad: float | None = None,
     progress: bool | None = None,
+    **kwargs: Any,
 ) -> Table:
     """Build the table F(R_t, h) with the PE (no cache; see :func:`get_propagation_table`).
 
@@ -293,7 +336,8 @@ def build_propagation_table(
     "gaussian", "beamwidth_rad": ..., "sidelobe_db": ...}``) stands for it in the provenance
     and must describe it completely; it may be omitted only for the isotropic pattern.
     ``profile`` is a description dict (see
-    :func:`shipradar.sensors.propagation.normalize_profile_spec`).
+    :func:`shipradar.sensors.propagation.normalize_profile_spec`). The other keywords are
+    the fields of :class:`PropagationTableSpec`.
 
     Returns
     -------
@@ -301,33 +345,24 @@ def build_propagation_table(
         Axes ``("range_m", "height_over_range")`` in ``("m", "1")``; values: linear F
         (float32), NaN where the PE does not apply (steep angles, above the domain).
     """
-    if pattern_description is None:
-        if elevation_pattern is not None:
-            raise ValueError("a callable elevation_pattern needs its pattern_description")
-        pattern_description = {"kind": "isotropic"}
-    inputs = propagation_table_inputs(
-        freq_hz, antenna_height_m, polarization=polarization,
-        pattern_description=pattern_description, profile=profile, wave_height_m=wave_height_m,
-        max_range_m=max_range_m, max_height_m=max_height_m, fidelity=fidelity, tilt_rad=tilt_rad,
-        surface=surface, sea_temperature_c=sea_temperature_c, salinity_psu=salinity_psu,
-        max_angle_rad=max_angle_rad,
-    )
-    eps = prop.sea_water_permittivity(freq_hz, sea_temperature_c, salinity_psu)
+    t = _spec_of(freq_hz, antenna_height_m, elevation_pattern, kwargs)
+    inputs = t.inputs()
+    eps = prop.sea_water_permittivity(t.freq_hz, t.sea_temperature_c, t.salinity_psu)
     m_of_h = prop.profile_from_spec(inputs["profile"])
-    top = table_pe_height(freq_hz, antenna_height_m, m_of_h, max_range_m=max_range_m,
-                          max_height_m=max_height_m, fidelity=fidelity,
-                          max_angle_rad=max_angle_rad, polarization=polarization,
-                          surface=surface)
-    s = pe.prepare_march(freq_hz, antenna_height_m, polarization=polarization,
+    top = table_pe_height(t.freq_hz, t.antenna_height_m, m_of_h, max_range_m=t.max_range_m,
+                          max_height_m=t.max_height_m, fidelity=t.fidelity,
+                          max_angle_rad=t.max_angle_rad, polarization=t.polarization,
+                          surface=t.surface)
+    s = pe.prepare_march(t.freq_hz, t.antenna_height_m, polarization=t.polarization,
                          elevation_pattern=elevation_pattern, profile=m_of_h,
-                         wave_height_m=wave_height_m, max_range_m=max_range_m,
-                         max_height_m=top, fidelity=fidelity, tilt_rad=tilt_rad,
-                         surface=surface, permittivity=complex(eps),
-                         max_angle_rad=max_angle_rad, range_step_m=None, step_scale=1.0)
-    ranges, w = table_axes(freq_hz, antenna_height_m, max_range_m, max_height_m, s.dx,
-                           s.theta_max, fidelity, pe.trapping_layer(m_of_h, max_height_m))
+                         wave_height_m=t.wave_height_m, max_range_m=t.max_range_m,
+                         max_height_m=top, fidelity=t.fidelity, tilt_rad=t.tilt_rad,
+                         surface=t.surface, permittivity=complex(eps),
+                         max_angle_rad=t.max_angle_rad, range_step_m=None, step_scale=1.0)
+    ranges, w = table_axes(t.freq_hz, t.antenna_height_m, t.max_range_m, t.max_height_m, s.dx,
+                           s.theta_max, t.fidelity, pe.trapping_layer(m_of_h, t.max_height_m))
     tan_max = np.tan(s.theta_max)
-    phase = pe.reference_phase(freq_hz, antenna_height_m, m_of_h, top)
+    phase = pe.reference_phase(t.freq_hz, t.antenna_height_m, m_of_h, top)
 
     def sample(range_m: float, u: np.ndarray) -> np.ndarray:
         row = np.full(w.size, np.nan + 0j, dtype=np.complex64)
@@ -370,11 +405,7 @@ def get_propagation_table(
     ``$SHIPRADAR_TABLES``).  Returns ``(table, built)``; ``built`` is False on a cache hit.
     """
     spec = {k: v for k, v in kwargs.items() if k not in ("elevation_pattern", "progress")}
-    if spec.get("pattern_description") is None:
-        if kwargs.get("elevation_pattern") is not None:
-            raise ValueError("a callable elevation_pattern needs its pattern_description")
-        spec["pattern_description"] = {"kind": "isotropic"}
-    inputs = propagation_table_inputs(freq_hz, antenna_height_m, **spec)
+    inputs = _spec_of(freq_hz, antenna_height_m, kwargs.get("elevation_pattern"), spec).inputs()
     return get_or_build(
         TABLE_NAME, TABLE_VERSION, inputs,
         lambda: build_propagation_table(freq_hz, antenna_height_m, **kwargs), root=root,
