@@ -282,6 +282,7 @@ def pfa_from_false_alarm_time(
 
 
 # ----------------------------------------------------------------------------- [74]-[77]
+# long: 72 of its lines are the docstring; the code is [73]-[77] and the MTI-bank terms, one chain
 def effective_pulses(
     n_pulses: ArrayLike,
     *,

@@ -912,6 +912,7 @@ class ClutterFalseAlarms:
         The [94]-[95] reading of the map (the spike's tail, :func:`spike_excess`).
     """
 
+    # params: the P_fac sectors' columns and the radar's constants of [94]-[96], by keyword
     def __init__(self, r_min_m: ArrayLike, r_max_m: ArrayLike, az_min_rad: ArrayLike,
                  az_max_rad: ArrayLike, p_fac: ArrayLike, cells: ArrayLike,
                  weibull_a: ArrayLike, *,

@@ -52,6 +52,8 @@ def bandwidth_ratio(
     )
 
 
+# long: 42 docstring lines; [47]'s factors in one expression
+# params: [47]'s physical factors, each an input with its unit
 def jammer_power_w(
     p_jt_w: ArrayLike,
     g_j: ArrayLike,

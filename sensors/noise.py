@@ -187,6 +187,7 @@ def galactic_noise_temperature_k(freq_hz: ArrayLike) -> NDArray[np.float64]:
     return T0_K * power_ratio(fam_db)
 
 
+# long: 35 docstring lines; the radiative-transfer integral and its quadrature in one place
 def sky_temperature_k(
     freq_hz: float,
     elevation_rad: ArrayLike,

@@ -388,6 +388,8 @@ class MarchSetup:
     freq_hz: float
 
 
+# long: the PE's set-up in its documented order: grid, starting field, surface, absorber, M
+# params: every physical input and grid control of the PE, as solve_pe takes them
 def prepare_march(
     freq_hz: float,
     antenna_height_m: float,
@@ -536,6 +538,8 @@ def march(s: MarchSetup, sample: Callable[[float, np.ndarray], np.ndarray],
     return ranges, out
 
 
+# long: 51 docstring lines (each input with its unit); the code is prepare_march + march
+# params: the PE's physical inputs and grid controls; tables pass a PropagationTableSpec
 def solve_pe(
     freq_hz: float,
     antenna_height_m: float,

@@ -299,6 +299,7 @@ def surface_duct_height(heights_m: ArrayLike, m_units: ArrayLike) -> float:
     return float(np.asarray(heights_m, dtype=float)[i]) if i > 0 and m[i] <= m[0] else 0.0
 
 
+# long: 35 docstring lines; the bulk (NPS-type) model is one iteration over its stability functions
 def evaporation_duct_height(
     air_temperature_c: ArrayLike,
     sea_temperature_c: ArrayLike,
@@ -614,6 +615,7 @@ def horizon_range(h1: ArrayLike, h2: ArrayLike, k_factor: float = K_FACTOR) -> _
             + np.sqrt(2 * a_e * np.asarray(h2, np.float64)))
 
 
+# params: two_ray_factor's geometry, sea and pattern inputs (its terms without the target)
 def two_ray_terms(
     d: _Floats, h1: _Floats, h2: _Floats, freq: float, pol: str, wave: float,
     pattern: Callable[[NDArray[np.float64]], NDArray[np.float64]], tilt: float, k_factor: float,
@@ -785,6 +787,8 @@ def interference_region_limit(
     return lo
 
 
+# long: 51 docstring lines; 3.1.2's two-ray chain (divergence, Fresnel, roughness, diffraction)
+# params: the geometry, the sea and the pattern of 3.1.2, each an input with its unit
 def two_ray_factor(
     range_m: ArrayLike,
     antenna_height_m: ArrayLike,

@@ -117,6 +117,7 @@ def _fog_loss_db(gamma_fog_db_per_km: float, slant_range_m: ArrayLike, elevation
     return gamma_fog_db_per_km * length / constants.kilo
 
 
+# params: the gas and fog inputs of [16] (P.676, P.840) and the grid, by keyword
 def atmospheric_loss_grid(
     freq_hz: float,
     ranges_m: ArrayLike,

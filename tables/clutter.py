@@ -179,6 +179,7 @@ def sea_clutter_map_inputs(**kwargs: Any) -> dict[str, Any]:
 
 
 
+# long: 61 docstring lines (each field of SeaClutterMapSpec with its unit)
 def build_sea_clutter_map(*, elevation_directivity: Directivity, **kwargs: Any) -> Table:
     """Build the sea-clutter map of one radar in one environment.
 

@@ -139,6 +139,8 @@ RESOLUTIONS = {
 }
 
 
+# long: one normalisation per processor kind (MTI, banks, cascade, stagger) of [49]-[62]
+# params: the processor's declaration; a spec record as the clutter maps' is not done yet
 def improvement_table_inputs(
     processor: str,
     *,

@@ -275,6 +275,7 @@ _CHANNELS = {
 _INPUTS = {"tracks": "tracker", "registration": "tracker", "entities": "feed"}
 
 
+# long: the AsyncAPI document written out literally, one channel per topic
 def asyncapi_document() -> dict[str, Any]:
     """The AsyncAPI 3.0 document of the stream: one channel per ZeroMQ topic, its messages'
     payloads the JSON Schemas of :func:`payload_schema` (inlined as components)."""

@@ -258,6 +258,7 @@ class Recorder(Closing):
         if len(self._buf) >= self.buffer_bytes:
             self._write_out()
 
+    # long: 24 docstring lines; the record framing loop must give write()'s bytes exactly
     def write_many(self, records: Sequence[tuple[float, Sequence[bytes]]]) -> int | None:
         """Append several messages: the same records, byte for byte, as one :meth:`write`
         per message, framed in one loop and appended to the buffer in one piece.

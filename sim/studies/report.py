@@ -236,6 +236,7 @@ def _find_study(scenario_path: Path | None, out_dir: Path, name: str) -> Path | 
 
 
 # --------------------------------------------------------------------------- report
+# long: the report page's sections in page order, each a call of its figure module
 def build_report(scenario, out_dir: str | os.PathLike = "report", *,
                  montecarlo: str | os.PathLike | None = None, duration_s: float | None = None,
                  seed: int | None = None, fa_scans: int = 300, tables=None) -> dict[str, Any]:

@@ -538,6 +538,7 @@ def _association(tid: str, piece: np.ndarray, truth_piece: np.ndarray, target: i
 
 def _last_present(present: np.ndarray, i: int) -> int:
     return int(np.flatnonzero(present[:i])[-1])
+# long: 24 docstring lines; Stone Soup's SIAP formulas one after the other
 def siap(scans: list[_Scan], assocs: list[Association], scan_t: np.ndarray,
          truth_state: np.ndarray) -> dict[str, Any]:
     """SIAP metrics (Stone Soup's ``SIAPMetrics`` formulas, module docstring) of the
@@ -689,6 +690,7 @@ def _merged_inputs(data: RunData) -> tuple[np.ndarray, np.ndarray]:
     return t[order], s[order]
 
 
+# long: the metrics of one run in the module docstring's order
 def score_run(data: RunData, config: MetricConfig = DEFAULT_METRICS) -> RunScores:
     """Score one run (see the module docstring for every definition).
 

@@ -444,6 +444,7 @@ def _mean_of(rows: Sequence[dict[str, Any]], metric: str) -> float:
     return math.nan
 
 
+# long: the HTML page's sections in page order
 def write_report(out: Path, settings: dict[str, Any], per_run, holding, summary_rows,
                  scan_rows, target_rows, failed, extra_html: str = "") -> Path:
     """Write ``index.html`` and its SVG figures into ``out``; a figure that cannot be drawn

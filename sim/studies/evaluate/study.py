@@ -89,6 +89,8 @@ def _run_and_score(spec: RunSpec, config: MetricConfig) -> tuple[dict, RunScores
     return info, scores
 
 
+# long: 28 docstring lines; the study's steps (runs, scheduler, scores, report)
+# params: shipradar evaluate's options, by keyword (the public API mirrors the CLI)
 def run_study(scenario: str, tracker: str, *, runs: int, out: str | Path,
               seed: int | None = None, duration_s: float | None = None,
               config: MetricConfig = DEFAULT_METRICS, scheduler: str | None = None,
