@@ -253,3 +253,22 @@ def test_summary_intervals_clipped_at_zero():
     for r in out.values():
         assert r["low"] == 0.0 and r["high"] > r["mean"] and r["runs"] == 2
     assert out["registration_a_rmse_range_bias_m"]["mean"] == pytest.approx(20.25, rel=1e-12)
+
+
+def test_report_section_fixed_notation_and_figure(tmp_path):
+    """The report's registration table shows each component in its display unit (deg, ms)
+    in fixed notation, never 1e-05, and draws registration.svg."""
+    import re
+
+    from shipradar.sim.studies.evaluate.registration import report_section
+
+    truth = {"a": _truth(azimuth_bias_rad=0.004, time_offset_s=0.05)}
+    t = SCAN_S * np.arange(1, 11)
+    msgs = _msgs("a", t, azimuth_bias_rad=np.full(t.size, 0.004 + 1e-7),
+                 time_offset_s=np.full(t.size, 0.05 + 2e-6))
+    s = score_registration(msgs, truth, RegistrationConfig(), seed=1)
+    page = report_section(tmp_path, summarise_rows(s.rows), s.series)
+    assert "<td>deg</td>" in page and "<td>ms</td>" in page
+    assert not re.search(r"\d[eE][-+]?\d", page), page
+    assert (tmp_path / "registration.svg").stat().st_size > 1000
+    assert report_section(tmp_path, [], []) == ""

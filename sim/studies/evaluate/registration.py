@@ -380,6 +380,7 @@ def report_section(out: Any, summary_rows: Sequence[Mapping[str, Any]],
     comps = [c for c in COMPONENTS if any(r["component"] == c for r in summary_rows)]
     scale = {"azimuth_bias_rad": (math.degrees(1.0), "deg"), "time_offset_s": (1e3, "ms"),
              "range_bias_m": (1.0, "m"), "range_scale_ppm": (1.0, "ppm")}
+    decimals = {"deg": 4, "ms": 1, "m": 1, "ppm": 1, "s": 0}
     if series:
         import matplotlib
 
@@ -408,8 +409,11 @@ def report_section(out: Any, summary_rows: Sequence[Mapping[str, Any]],
         fig.savefig(Path(out) / "registration.svg")
         plt.close(fig)
 
-    def fmt(v: Any, f: float = 1.0) -> str:
-        return "–" if not isinstance(v, float) or math.isnan(v) else f"{v * f:.4g}"
+    def fmt(v: Any, f: float = 1.0, unit: str = "s") -> str:
+        """Fixed notation (never 1e-05), the unit's decimals."""
+        if not isinstance(v, float) or math.isnan(v):
+            return "–"
+        return f"{v * f:,.{decimals[unit]}f}"
 
     head = ("<tr><th>sensor</th><th>component</th><th>unit</th><th>RMSE</th>"
             "<th>95 % interval</th><th>mean error</th><th>tolerance</th>"
@@ -418,9 +422,10 @@ def report_section(out: Any, summary_rows: Sequence[Mapping[str, Any]],
     for r in summary_rows:
         f, unit = scale[r["component"]]
         body += (f"<tr><td>{html.escape(r['sensor'])}</td><td>{r['component']}</td>"
-                 f"<td>{unit}</td><td>{fmt(r['rmse'], f)}</td><td>{fmt(r['rmse_low'], f)} – "
-                 f"{fmt(r['rmse_high'], f)}</td><td>{fmt(r['mean_error'], f)}</td>"
-                 f"<td>{fmt(r['tolerance'], f)}</td><td>{fmt(r['converge_s'])}</td>"
+                 f"<td>{unit}</td><td>{fmt(r['rmse'], f, unit)}</td>"
+                 f"<td>{fmt(r['rmse_low'], f, unit)} – {fmt(r['rmse_high'], f, unit)}</td>"
+                 f"<td>{fmt(r['mean_error'], f, unit)}</td><td>{fmt(r['tolerance'], f, unit)}"
+                 f"</td><td>{fmt(r['converge_s'])}</td>"
                  f"<td>{r['converged_runs']} of {r['runs']}</td></tr>")
     warm = summary_rows[0]["warmup_s"]
     parts = [
