@@ -59,9 +59,9 @@ def generator_rates(scenario, tables, scans: int = 300) -> dict:
         model.noise_false_alarms_per_scan = 2000.0
         n, t0 = 0, time.perf_counter()
         for _ in range(scans):
-            fa = model.noise_false_alarms(rng)
+            fa = model.false_alarms.noise_false_alarms(rng)
             t = np.mod(fa["azimuth_rad"], 2 * math.pi) / omega
-            n += model.false_alarm_plots(fa["range_m"], fa["azimuth_rad"], t, rng)[
+            n += model.false_alarms.false_alarm_plots(fa["range_m"], fa["azimuth_rad"], t, rng)[
                 "range_m"].size
         dt = time.perf_counter() - t0
         row.update(noise_fa_per_s=round(n / dt))
@@ -101,9 +101,9 @@ def run_share(scenario, tables, duration: float, clutter_fa: bool = True,
     t_clutter, t_noise = [0.0], [0.0]
     for rp in sim.radars:
         if clutter_fa:
-            rp.model.clutter_false_alarms = _timed(rp.model.clutter_false_alarms, t_clutter)
+            rp.model.false_alarms.clutter_false_alarms = _timed(rp.model.false_alarms.clutter_false_alarms, t_clutter)
         else:
-            rp.model.clutter_false_alarms = lambda *a, **k: None
+            rp.model.false_alarms.clutter_false_alarms = lambda *a, **k: None
         rp._scan_false_alarms = _timed(rp._scan_false_alarms, t_noise)
     t0 = time.perf_counter()
     summary = sim.run()

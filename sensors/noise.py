@@ -74,6 +74,15 @@ def power_ratio(value_db: ArrayLike) -> NDArray[np.float64]:
     return 10.0 ** (np.asarray(value_db, dtype=np.float64) / 10.0)
 
 
+#: Smallest power ratio :func:`db` takes the logarithm of: -300 dB, so zero powers stay finite.
+DB_FLOOR = 1e-30
+
+
+def db(x: ArrayLike) -> NDArray[np.float64]:
+    """10 log10 of a power ratio [dB], floored at -300 dB so that zero powers stay finite."""
+    return 10.0 * np.log10(np.maximum(x, DB_FLOOR))
+
+
 def processing_loss(
     l_g_db: ArrayLike = L_G_DB, l_l_db: ArrayLike = L_L_DB, l_m_db: ArrayLike = L_M_DB
 ) -> NDArray[np.float64]:

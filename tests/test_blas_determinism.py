@@ -3,7 +3,7 @@
 The ``meta`` message's clutter false-alarm density was a matrix product; OpenBLAS splits such
 a sum differently with one thread than with two, so the raid's recording differed between
 this 2-core machine and a 1-core one, or a Dask worker (which runs with one thread). The
-density is now summed in a fixed order without BLAS (``sim.dwell.model._sum_over_sectors``).
+density is now summed in a fixed order without BLAS (``sim.dwell.false_alarm_model._sum_over_sectors``).
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from shipradar.sim.dwell.model import _sum_over_sectors
+from shipradar.sim.dwell.false_alarm_model import _sum_over_sectors
 
 ROOT = Path(__file__).resolve().parents[1]
 RAID = str(ROOT / "scenarios" / "raid.yaml")

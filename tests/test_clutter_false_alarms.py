@@ -427,7 +427,7 @@ def test_clutter_density_falls_with_range_noise_uniform(table_cache):
     assert stats.kstest(r, lambda x: np.interp(x, edges, cdf_nodes)).pvalue > 1e-3
     # noise false alarms stay uniform in range (t_fa = 0.1 s: about one per scan)
     noisy = model_of(clutter_scene(false_alarm_time_s=0.1))
-    rn = np.concatenate([noisy.noise_false_alarms(rng)["range_m"] for _ in range(400)])
+    rn = np.concatenate([noisy.false_alarms.noise_false_alarms(rng)["range_m"] for _ in range(400)])
     assert rn.size > 100
     assert stats.kstest(rn / r_max, "uniform").pvalue > 1e-3
 

@@ -87,15 +87,15 @@ def test_doppler_filters_separate_targets_by_the_bank_size(ptype, extra, n_filte
     m = _model(r)
     prf = r["prf_hz"]
     # one target at the centre of every filter (Doppler relative to the clutter mean)
-    idx = m._doppler_filter(np.arange(n_filters) * prf / n_filters)
+    idx = m.doppler_filter(np.arange(n_filters) * prf / n_filters)
     assert idx.tolist() == list(range(n_filters))
     # one more filter's width folds back to filter 0 (Doppler ambiguity)
-    assert m._doppler_filter(np.array([prf]))[0] == 0
+    assert m.doppler_filter(np.array([prf]))[0] == 0
 
 
 def test_mti_only_radar_never_separates_by_doppler():
     m = _model(quiet_radar(processor={"type": "mti", "mti_order": 2}))
-    assert set(m._doppler_filter(np.linspace(-300, 300, 7))) == {0}
+    assert set(m.doppler_filter(np.linspace(-300, 300, 7))) == {0}
 
 
 def _rain_model(region):

@@ -82,7 +82,7 @@ def test_shipped_radars_emit_noise_false_alarms_at_one_per_t_fa(sc, platform, ra
     model = DwellModel(sc, platform, radar, SceneTables())
     t_fa, t_scan = radar.false_alarm_time_s, radar.scan_period_s
     revolutions = int(4000 * t_fa / t_scan)
-    fa = model.noise_false_alarms(np.random.default_rng(20230), revolutions)
+    fa = model.false_alarms.noise_false_alarms(np.random.default_rng(20230), revolutions)
     k = fa["range_m"].size
     lo, hi = poisson_interval(k, revolutions * t_scan, confidence=CONFIDENCE)
     assert lo <= 1.0 / t_fa <= hi

@@ -115,7 +115,7 @@ def test_mti_only_radar_reports_nan():
     _, out = _plots(scene_model, [10.0, -40.0])
     assert np.isnan(out["range_rate_mps"]).all() and np.isnan(out["sigma_range_rate_mps"]).all()
     _, m = scene_model
-    fa = m.false_alarm_plots(np.array([1e3]), np.array([0.1]), np.array([0.0]),
+    fa = m.false_alarms.false_alarm_plots(np.array([1e3]), np.array([0.1]), np.array([0.0]),
                              np.random.default_rng(0))
     assert np.isnan(fa["range_rate_mps"]).all()
 
@@ -125,7 +125,7 @@ def test_noise_false_alarms_fall_uniformly_on_the_filter_centres(bank):
     rng = np.random.default_rng(3)
     n = 16000
     before = np.random.default_rng(3)
-    fa = m.false_alarm_plots(np.full(n, 5e3), np.zeros(n), np.zeros(n), rng)
+    fa = m.false_alarms.false_alarm_plots(np.full(n, 5e3), np.zeros(n), np.zeros(n), rng)
     step = m.wavelength * PRF / (2 * N_FILTERS)
     k = fa["range_rate_mps"] / step
     assert k == pytest.approx(np.round(k), abs=1e-9)

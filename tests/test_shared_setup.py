@@ -86,17 +86,15 @@ def _recording(scenario, tables, path):
 def test_runs_in_one_process_share_the_set_up_and_give_the_same_bytes(tmp_path):
     sc = load_scenario(ROOT / "scenarios" / "single_missile.yaml")
     tables = load_scene_tables(sc)
-    dwell_model._GENERATORS.clear()
-    dwell_model._FA_SPECTRA.clear()
-    dwell_model._TWO_RAY.clear()
+    dwell_model.forget_process_caches()
     first, sim_a = _recording(sc, tables, tmp_path / "a.rec")
     again, sim_b = _recording(sc, tables, tmp_path / "b.rec")
     fresh, sim_c = _recording(sc, load_scene_tables(sc), tmp_path / "c.rec")
     assert first == again == fresh
     a, b, c = (s.radars[0].model for s in (sim_a, sim_b, sim_c))
-    assert a._clutter_fa_generator is not b._clutter_fa_generator  # a twin per run
-    assert a._clutter_fa_generator.eta is b._clutter_fa_generator.eta  # its arrays shared
-    assert a._clutter_fa_spectrum is b._clutter_fa_spectrum
+    assert a.false_alarms.generator is not b.false_alarms.generator  # a twin per run
+    assert a.false_alarms.generator.eta is b.false_alarms.generator.eta  # its arrays shared
+    assert a.false_alarms.sector_spectrum is b.false_alarms.sector_spectrum
     assert a._two_ray is b._two_ray is c._two_ray  # by value: the antenna and the sea
     if a.tables.pfac is not c.tables.pfac:  # other table objects: their own generator
-        assert a._clutter_fa_generator.eta is not c._clutter_fa_generator.eta
+        assert a.false_alarms.generator.eta is not c.false_alarms.generator.eta

@@ -34,7 +34,6 @@ otherwise noise.  The three cases cover every (N, C, J) exactly once.  Jamming i
 from __future__ import annotations
 
 import functools
-import hashlib
 import math
 import weakref
 from collections.abc import Callable
@@ -56,10 +55,13 @@ from shipradar.sensors import (
     weather_clutter,
 )
 from shipradar.sensors.detection import INTERFERENCE_NAMES, Interference
+from shipradar.sensors.noise import DB_FLOOR, db
 from shipradar.sensors.radar import (
     false_alarm_probability,
     pulses_per_beamwidth,
 )
+from shipradar.sim.dwell import false_alarm_model
+from shipradar.sim.dwell.false_alarm_model import FalseAlarmModel, remember_bounded
 from shipradar.sim.dwell.look import (
     Contacts,
     Decision,
@@ -77,33 +79,11 @@ from shipradar.tables.store import StackedLookup2D, Table
 _RCS_CONSTANT, _RCS_MISSILE, _RCS_TABLE = 0, 1, 2
 #: Resolution of the common aspect grid on which RCS tables are resampled [deg].
 _RCS_TABLE_STEP_DEG = 0.1
-#: Elevation beyond which the sky-noise model is evaluated for T'_a when the antenna points
-#: at the horizon: Blake's curves are for the beam axis; we use the elevation of the beam
-#: maximum, at least 0.
-_DB_FLOOR = 1e-30
-#: :meth:`DwellModel.clutter_false_alarm_density` by P_fac table (its inputs hash and a digest
-#: of the arrays the generator reads: a table loaded again for the next run hits too) and
-#: generator constants: a pure function of them, computed once per process, not once per run.
-#: Its matrix product starts OpenBLAS's threads, whose spinning cost ~0.4 s of CPU per run
-#: on a loaded 2-core machine, five times the demo's own run (docs/performance.md section 10).
-_DENSITY_CACHE: dict[tuple, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
-_DENSITY_CACHE_MAX = 16
-#: The same by table object (its id, checked through a weak reference: nothing kept alive),
-#: in front of the digest (~4 ms a run for the demo's map).
-_DENSITY_BY_TABLE: dict[tuple, tuple[weakref.ref, tuple[np.ndarray, np.ndarray, np.ndarray]]] = {}
 #: The clutter maps' stacked readers by table object, arrays and periodicity: the stack is
 #: a copy of the table's arrays (~5 ms a run for the demo's two) and is only read afterwards.
 _READERS: dict[tuple, tuple[weakref.ref, StackedLookup2D]] = {}
-#: What else a run sets up from the radar and its tables alone, once per process, by table
-#: object (checked through weak references) and the radar's constants, only read afterwards:
-#: the P_fac map's generator (each run draws with a twin of its own,
-#: :meth:`shipradar.sensors.false_alarms.ClutterFalseAlarms.shared`), the clutter spectrum at
-#: its sectors (:meth:`DwellModel._clutter_fa_spectrum`) and the two-ray fallback's terms per
-#: target height (:class:`_TwoRayFallback`): ~3 ms of a 110 s run of the demo, 2 ms of them
-#: the fallback's 48-step bisections for the missile's one height.
-_GENERATORS: dict[tuple, tuple[weakref.ref, false_alarms.ClutterFalseAlarms]] = {}
-_FA_SPECTRA: dict[tuple, tuple[weakref.ref, weakref.ref | None,
-                               tuple[np.ndarray, np.ndarray]]] = {}
+#: The two-ray fallback's terms per target height (:class:`_TwoRayFallback`) by the radar's
+#: constants and sea: 2 ms of the demo's run, the 48-step bisections for the missile's height.
 _TWO_RAY: dict[tuple, _TwoRayFallback] = {}
 
 
@@ -112,15 +92,9 @@ def forget_process_caches() -> None:
     set-up again, as the first run of a new process does. Changes no result (the caches hold
     pure values); the fidelity study's first-run timing uses it
     (:mod:`shipradar.sim.studies.timing`)."""
-    for cache in (_DENSITY_CACHE, _DENSITY_BY_TABLE, _READERS, _GENERATORS, _FA_SPECTRA,
-                  _TWO_RAY):
+    for cache in (_READERS, _TWO_RAY):
         cache.clear()
-
-
-def _remember(cache: dict, key: tuple, value: object) -> None:
-    if len(cache) >= _DENSITY_CACHE_MAX:
-        cache.pop(next(iter(cache)))
-    cache[key] = value
+    false_alarm_model.forget_caches()
 
 
 def _stacked_reader(table: Table, arrays: tuple[str | None, ...],
@@ -132,13 +106,8 @@ def _stacked_reader(table: Table, arrays: tuple[str | None, ...],
     if seen is not None and seen[0]() is table:
         return seen[1]
     reader = StackedLookup2D(table, arrays, periodic1=periodic1)
-    _remember(_READERS, key, (weakref.ref(table), reader))
+    remember_bounded(_READERS, key, (weakref.ref(table), reader))
     return reader
-
-
-def db(x):
-    """10 log10 of a power ratio, floored at -300 dB so that zero powers stay finite."""
-    return 10.0 * np.log10(np.maximum(x, _DB_FLOOR))
 
 
 @dataclass(frozen=True)
@@ -236,9 +205,9 @@ class DwellModel:
         self._sea_spectrum_reader = (None if self.tables.sea_clutter is None else
                                      _stacked_reader(self.tables.sea_clutter, spectrum[2:],
                                                      periodic1=True))
-        # the false alarms' Doppler draws: a child of the radar's generator, spawned at the
-        # first draw so that the parent's stream, hence every other draw, is unchanged
-        self._doppler_rng: np.random.Generator | None = None
+        #: the noise and sea-clutter false alarms and their density
+        #: (:class:`shipradar.sim.dwell.false_alarm_model.FalseAlarmModel`)
+        self.false_alarms = FalseAlarmModel(self)
         self.rain_gamma_db_per_km = 0.0
         if env.rain is not None and fid.atmosphere:
             # P.838 through itur, kept in the table store (itur's import: 0.6 s of start-up)
@@ -304,7 +273,7 @@ class DwellModel:
 
         speed, course = ship_motion(platform)
         self._table_motion = (speed, course)
-        self._compensation = (speed, course) if (
+        self.compensation = (speed, course) if (
             radar.processor.motion_compensated and speed > 0.0) else None
 
     def _platform_doppler_hz(self, speed, course, azimuth, ground_range=None):
@@ -431,51 +400,12 @@ class DwellModel:
         """:meth:`_filter_centre_hz` of every filter of the bank."""
         return self._filter_centre_hz(np.arange(self.n_doppler_filters, dtype=np.int64))
 
-    def _doppler_draw_rng(self, rng: np.random.Generator) -> np.random.Generator:
-        """A child of the radar's generator for the false alarms' Doppler draws (spawned
-        once: the parent's stream, hence every other draw, is unchanged)."""
-        if self._doppler_rng is None:
-            self._doppler_rng = rng.spawn(1)[0]
-        return self._doppler_rng
-
-    def _false_alarm_range_rate(self, range_m, azimuth_rad, rng, clutter: bool,
-                                spectrum=None) -> dict:
-        """Range-rate columns of false alarms: the filter of a noise alarm is uniform over the
-        bank; a sea-clutter alarm's Doppler is drawn from the clutter spectrum [33] (Gaussian
-        about μ_c with σ_s), then reported as a target's would be.  The bank's reference and
-        the spread are read from the clutter map at each alarm's cell, or given as
-        ``spectrum`` (reference, spread) (the sea-clutter alarms: their P_fac sector's, see
-        :meth:`_clutter_fa_spectrum`)."""
-        n = np.size(range_m)
-        if not self.has_doppler_bank or n == 0:
-            nan = np.full(n, np.nan)
-            return {"range_rate_mps": nan, "sigma_range_rate_mps": nan.copy(),
-                    "range_rate_reference_mps": nan.copy()}
-        draw = self._doppler_draw_rng(rng)
-        if spectrum is not None:
-            reference, spread = spectrum
-        else:
-            reference, spread = self._spectrum_reference(np.asarray(range_m),
-                                                         np.asarray(azimuth_rad))
-        if clutter:
-            # standard_normal: normal(0, 1)'s draws (0 + 1 z is z, but for the sign of a zero,
-            # which no filter index sees), without its loc + scale z per element
-            doppler = draw.standard_normal(n)
-            doppler *= spread
-            index = self._doppler_filter(doppler)
-        else:
-            index = draw.integers(0, self.n_doppler_filters, n)
-        return {"range_rate_mps": self.range_rate_from_filter(index, reference),
-                "sigma_range_rate_mps": np.full(n, self.range_rate_sigma_mps),
-                "range_rate_reference_mps": np.broadcast_to(
-                    self._reference_mps(reference), (n,)).copy()}
-
-    def _reference_mps(self, reference_hz):
+    def reference_mps(self, reference_hz):
         """The bank's reference as a range rate [m/s], -λ f/2 (the rate of filter 0: docs/
         protocol.md 4.2), +0.0 rather than -0.0 at a zero reference."""
         return -0.5 * self.wavelength * np.asarray(reference_hz) + 0.0
 
-    def _spectrum_reference(self, range_m, azimuth_rad):
+    def spectrum_reference(self, range_m, azimuth_rad):
         """The Doppler bank's reference (the sea-clutter mean μ_c, plus f1 [34] when
         motion-compensated) and the clutter spread σ_s at ground ranges and azimuths [Hz];
         a spread of 0 without a sea-clutter map."""
@@ -483,133 +413,10 @@ class DwellModel:
         spread = np.zeros(np.shape(range_m))
         if self._sea_spectrum_reader is not None:
             spread = np.nan_to_num(self._sea_spectrum_reader(range_m, azimuth_rad))[:, 0]
-        if self._compensation is not None:
-            reference = reference + self._platform_doppler_hz(*self._compensation,
+        if self.compensation is not None:
+            reference = reference + self._platform_doppler_hz(*self.compensation,
                                                               azimuth_rad, range_m)
         return reference, spread
-
-    @functools.cached_property
-    def _clutter_fa_generator(self):
-        """The P_fac map's per-scan generator
-        (:func:`shipradar.tables.pfac.clutter_false_alarm_generator`), made at its first use; None
-        without a P_fac map."""
-        pfac = self.tables.pfac
-        if pfac is None:
-            return None
-        r = self.radar
-        key = (id(pfac), self.pfa, r.n_channels, self.n_pulses, r.h_range, r.h_azimuth)
-        seen = _GENERATORS.get(key)
-        if seen is None or seen[0]() is not pfac:
-            from shipradar.tables.pfac import clutter_false_alarm_generator
-
-            seen = (weakref.ref(pfac), clutter_false_alarm_generator(
-                pfac, pfa=self.pfa, n_channels=r.n_channels, n_pulses=self.n_pulses,
-                h_range=r.h_range, h_azimuth=r.h_azimuth))
-            _remember(_GENERATORS, key, seen)
-        return seen[1].shared()
-
-    def clutter_false_alarm_density(self, ring_m: float = 250.0, azimuth_sectors: int = 36
-                                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-        """Expected sea-clutter false alarms per scan in each slant-range ring and azimuth
-        sector, as the plots report them (seed 7.2, the generator's own sectors).
-
-        The generator (:class:`shipradar.sensors.false_alarms.ClutterFalseAlarms`) draws each
-        P_fac sector's η = P_fac × cells alarms uniform in ground range and azimuth inside
-        it, and reports the slant range of the sea point (the antenna height over the k-earth,
-        :func:`shipradar.sensors.sea_clutter.slant_range_m`) and the azimuth, with no noise
-        added. So each sector's η splits between the cells in proportion to its overlap in
-        ground range (the ring's slant edges mapped to ground range by the inverse of
-        ``slant_range_m``) and in azimuth: the cell values are exact expectations.
-
-        Parameters
-        ----------
-        ring_m : float, optional
-            Ring width in slant range [m], > 0; rings start at 0 and end at the last holding
-            any.
-        azimuth_sectors : int, optional
-            Azimuth sectors, equal, from true north (36: 10° each; a P_fac map's own 1°
-            sectors would make the ``meta`` message ten times larger for a wind dependence
-            that is smooth over tens of degrees).
-
-        Returns
-        -------
-        (range_edges_m, azimuth_edges_rad, per_scan) or None
-            Ring edges in slant range [m] (r + 1), sector edges [rad] (a + 1, from 0 to 2π),
-            the expected count per scan in
-            each cell (r, a) [-], summing to the generator's η total. None without a P_fac
-            map.
-        """
-        pfac = self.tables.pfac
-        if pfac is None:
-            return None
-        if not ring_m > 0.0 or azimuth_sectors < 1:
-            raise ValueError("ring_m must be > 0 and azimuth_sectors >= 1")
-        r = self.radar
-        consts = (self.pfa, r.n_channels, self.n_pulses, r.h_range, r.h_azimuth, float(ring_m),
-                  int(azimuth_sectors))
-        seen = _DENSITY_BY_TABLE.get((id(pfac), *consts))
-        if seen is not None and seen[0]() is pfac:  # this very table: no digest needed
-            return seen[1]
-        digest = hashlib.blake2b(digest_size=16)
-        for a in (pfac.values, pfac.extra["cells"], pfac.extra["weibull_a"]):
-            digest.update(np.ascontiguousarray(a).data)
-        key = (pfac.key, digest.digest(), *consts)
-        out = _DENSITY_CACHE.get(key)
-        if out is None:
-            out = self._clutter_false_alarm_density(ring_m, int(azimuth_sectors))
-            for a in out:
-                a.setflags(write=False)  # shared by every run on these tables
-            if len(_DENSITY_CACHE) >= _DENSITY_CACHE_MAX:
-                _DENSITY_CACHE.pop(next(iter(_DENSITY_CACHE)))
-            _DENSITY_CACHE[key] = out
-        _remember(_DENSITY_BY_TABLE, (id(pfac), *consts), (weakref.ref(pfac), out))
-        return out
-
-    def _clutter_false_alarm_density(self, ring_m: float, n_az: int
-                                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """:meth:`clutter_false_alarm_density`, computed."""
-        gen = self._clutter_fa_generator
-        az_edges = np.linspace(0.0, 2.0 * math.pi, n_az + 1)
-        if gen.eta.size == 0:
-            return np.zeros(1), az_edges, np.zeros((0, n_az))
-        h, a_e = gen.antenna_height_m, gen.k_factor * geometry.EARTH_RADIUS_M
-        r_top = float(sea_clutter.slant_range_m(gen.r_max_m.max(), h, gen.k_factor))
-        edges = ring_m * np.arange(int(math.ceil(r_top / ring_m)) + 1, dtype=float)
-        # slant R -> ground d: R² = h² + 4 a_e (a_e + h) sin²(d / 2 a_e), inverted
-        s2 = np.clip((edges**2 - h * h) / (4.0 * a_e * (a_e + h)), 0.0, 1.0)
-        g_edges = 2.0 * a_e * np.arcsin(np.sqrt(s2))
-        frac_r = _overlap_fraction(g_edges, gen.r_min_m, gen.r_max_m)
-        # azimuth intervals may pass 2π (az_max ≤ az_min + 2π): the bins shifted by ±2π too
-        frac_az = np.add.reduce([_overlap_fraction(az_edges + shift, gen.az_min_rad,
-                                                   gen.az_max_rad)
-                                 for shift in (-2.0 * math.pi, 0.0, 2.0 * math.pi)])
-        per_scan = _sum_over_sectors(frac_r * gen.eta, frac_az)
-        last = np.flatnonzero(per_scan.sum(axis=1) > 0.0)
-        n = 0 if last.size == 0 else int(last[-1]) + 1
-        return edges[:n + 1], az_edges, per_scan[:n]
-
-    @functools.cached_property
-    def _clutter_fa_spectrum(self) -> tuple[np.ndarray, np.ndarray]:
-        """(reference, spread) [Hz] of :meth:`_spectrum_reference` at the centre of every
-        active P_fac sector, for the sea-clutter false alarms' Doppler: the P_fac sector is
-        the resolution of the clutter false-alarm model (count, position bounds and spike
-        S/I are the sector's), and the spectrum changes little across one."""
-        pfac, sea = self.tables.pfac, self.tables.sea_clutter
-        key = (id(pfac), id(sea), self._compensation, self.wavelength,
-               self.radar.antenna_height_m)
-        seen = _FA_SPECTRA.get(key)
-        if seen is not None and seen[0]() is pfac and (
-                sea is None if seen[1] is None else seen[1]() is sea):
-            return seen[2]
-        gen = self._clutter_fa_generator
-        centre_r = 0.5 * (gen.r_min_m + gen.r_max_m)
-        centre_az = np.mod(0.5 * (gen.az_min_rad + gen.az_max_rad), 2.0 * math.pi)
-        spectrum = self._spectrum_reference(centre_r, centre_az)
-        for a in spectrum:
-            a.setflags(write=False)  # shared by every run on these tables
-        _remember(_FA_SPECTRA, key, (weakref.ref(pfac), None if sea is None
-                                     else weakref.ref(sea), spectrum))
-        return spectrum
 
     def _prepare_propagation(self, scenario: Scenario) -> None:
         self.propagation_mode = scenario.fidelity.propagation
@@ -621,7 +428,7 @@ class DwellModel:
         two_ray = _TWO_RAY.get(key)
         if two_ray is None:
             two_ray = _TwoRayFallback(self.radar, self.wave_height, self.elevation_pattern)
-            _remember(_TWO_RAY, key, two_ray)
+            remember_bounded(_TWO_RAY, key, two_ray)
         self._two_ray = two_ray
 
     def azimuth_pattern(self, offset_rad, envelope=False):
@@ -761,9 +568,9 @@ class DwellModel:
         fd = -2.0 * geom.radial_velocity / self.wavelength
         if platform_vel is not None and self.radar.processor.motion_compensated:
             return fd - self._instantaneous_f1(geom, platform_vel)[0]
-        if self._compensation is None:
+        if self.compensation is None:
             return fd
-        return fd - self._platform_doppler_hz(*self._compensation, geom.azimuth,
+        return fd - self._platform_doppler_hz(*self.compensation, geom.azimuth,
                                               geom.ground_range)
 
     def clutter_at(self, geom, tpos, antenna_en, platform_vel=None):
@@ -882,10 +689,10 @@ class DwellModel:
                                  Interference.NOISE)).astype(np.uint8)
         noise_like = p_r / ((n + jam_w) * self.l_x * self.l_cfar)
         # [67]: L_B is a loss (divides), as its name and Blake's 1.6 dB say
-        residue_si = (p_r / (np.maximum(clutter_w, _DB_FLOOR) * self.l_c)
+        residue_si = (p_r / (np.maximum(clutter_w, DB_FLOOR) * self.l_c)
                       * improvement / dist_loss / (self.l_cfar * self.l_cd * self.l_b))
         noise_after = noise_like * coherent_gain
-        clutter_si = residue_si * noise_after / np.maximum(residue_si + noise_after, _DB_FLOOR)
+        clutter_si = residue_si * noise_after / np.maximum(residue_si + noise_after, DB_FLOOR)
         si = np.where(code == Interference.CLUTTER, clutter_si, noise_like)
         return si, code
 
@@ -1034,7 +841,7 @@ class DwellModel:
         group, n_groups, lead = contacts.group, contacts.n_groups, contacts.lead
         p_r, p_sum = power.received_power_w, contacts.power_w
         si, code, hit = decision.si, decision.interference, decision.hit
-        w = p_r / np.maximum(p_sum[group], _DB_FLOOR)
+        w = p_r / np.maximum(p_sum[group], DB_FLOOR)
         r_true = np.bincount(group, weights=w * geom.slant_range, minlength=n_groups)
         az_c = np.bincount(group, weights=w * np.cos(geom.azimuth), minlength=n_groups)
         az_s = np.bincount(group, weights=w * np.sin(geom.azimuth), minlength=n_groups)
@@ -1099,7 +906,7 @@ class DwellModel:
     def _range_rate_columns(self, geom, clutter, lead, platform_vel=None) -> dict:
         """``range_rate_mps``, ``sigma_range_rate_mps`` and ``range_rate_reference_mps`` of
         the contacts led by targets ``lead`` (NaN without a Doppler bank): the filter the
-        model picks for the lead target (:meth:`_doppler_filter` of its Doppler relative to
+        model picks for the lead target (:meth:`doppler_filter` of its Doppler relative to
         the bank's reference, :meth:`_relative_doppler_hz`), reported at its centre plus the
         reference f_d - (f_d' - μ_c), which is published too."""
         if not self.has_doppler_bank:
@@ -1108,10 +915,10 @@ class DwellModel:
                     "range_rate_reference_mps": nan.copy()}
         rel = self._relative_doppler_hz(geom, clutter, platform_vel)[lead]
         reference = -2.0 * geom.radial_velocity[lead] / self.wavelength - rel
-        return {"range_rate_mps": self.range_rate_from_filter(self._doppler_filter(rel),
+        return {"range_rate_mps": self.range_rate_from_filter(self.doppler_filter(rel),
                                                               reference),
                 "sigma_range_rate_mps": np.full(lead.size, self.range_rate_sigma_mps),
-                "range_rate_reference_mps": self._reference_mps(reference)}
+                "range_rate_reference_mps": self.reference_mps(reference)}
 
     def _resolution_groups(self, geom, clutter, batch=None, platform_vel=None, time_s=None,
                            power_w=None):
@@ -1131,7 +938,7 @@ class DwellModel:
         n = geom.slant_range.size
         if n == 1:
             return np.zeros(1, dtype=np.int64), 1
-        fc = self._doppler_filter(self._relative_doppler_hz(geom, clutter, platform_vel))
+        fc = self.doppler_filter(self._relative_doppler_hz(geom, clutter, platform_vel))
         t = np.zeros(n) if time_s is None else np.broadcast_to(np.asarray(time_s, float), (n,))
         bt = (np.zeros(n, dtype=np.int64) if batch is None
               else np.asarray(batch, dtype=np.int64))
@@ -1183,7 +990,7 @@ class DwellModel:
         i, j = i[near], j[near]
         return np.minimum(i, j), np.maximum(i, j)
 
-    def _doppler_filter(self, doppler_hz):
+    def doppler_filter(self, doppler_hz):
         """Doppler filter index of each target (0 for a radar without a filter bank).
 
         The bank has ``n_filters`` filters, by default as many as it has taps: N_c for a DFT
@@ -1215,76 +1022,6 @@ class DwellModel:
             "n_coherent": proc.n_coherent if proc.type in ("dft_bank", "fir_bank", "mti_bank")
             else 1,
         }
-
-    # ------------------------------------------------------------------ false alarms
-    def noise_false_alarms(self, rng: np.random.Generator, revolutions: int | None = None
-                           ) -> dict:
-        """Noise-induced false alarms [90]-[93]: count, uniform R and θ.  One revolution's,
-        or with ``revolutions`` those of that many revolutions drawn together (every count
-        first, then all ranges and all azimuths) with the ``revolution`` index of each."""
-        per_scan, channels = self.noise_false_alarms_per_scan, self.radar.n_channels
-        r_max = self.radar.instrumented_range_m
-        if revolutions is None:
-            count = int(false_alarms.false_alarm_count(per_scan, channels, rng))
-            r, az = false_alarms.uniform_positions(count, 0.0, r_max, 0.0, 2.0 * math.pi, rng)
-            return {"range_m": np.asarray(r, dtype=float),
-                    "azimuth_rad": np.asarray(az, dtype=float)}
-        counts = false_alarms.false_alarm_count(per_scan, channels, rng, size=revolutions)
-        r, az = false_alarms.uniform_positions(counts, 0.0, r_max, 0.0, 2.0 * math.pi, rng)
-        return {"range_m": np.asarray(r, dtype=float), "azimuth_rad": np.asarray(az, dtype=float),
-                "revolution": np.repeat(np.arange(revolutions), counts)}
-
-    def false_alarm_plots(self, range_m, azimuth_rad, time_s, rng) -> dict:
-        """Plot columns for noise false alarms at the given positions and times.
-
-        The reported S/I is drawn consistently with a threshold crossing: the integrated
-        square-law noise statistic of N_n pulses is Gamma(N_n, 1); conditioned on exceeding
-        the P_fa threshold it is drawn by inverse CDF in the tail, and reported as the
-        per-pulse excess over the mean noise.
-        """
-        from scipy.special import gammainccinv
-
-        n = range_m.size
-        u = rng.random(n)
-        x = gammainccinv(self.n_pulses, self.pfa * u)
-        si = np.maximum(x / self.n_pulses - 1.0, 1e-3)
-        n_e = np.full(n, self.n_pulses)
-        errs = measurement.expected_errors(si, n_e, self.range_cell, self.theta_b,
-                                           h_range=self.radar.h_range,
-                                           h_azimuth=self.radar.h_azimuth)
-        return {
-            "time_s": time_s,
-            "range_m": range_m,
-            "azimuth_rad": azimuth_rad,
-            "snr_db": db(si),
-            "sigma_range_m": errs[0] / measurement.SIGMAS_PER_ERROR,
-            "sigma_azimuth_rad": errs[1] / measurement.SIGMAS_PER_ERROR,
-            "interference": np.full(n, Interference.NOISE, dtype=np.uint8),
-            **self._false_alarm_range_rate(range_m, azimuth_rad, rng, clutter=False),
-        }
-
-    def clutter_false_alarms(self, t_a, t_b, beam_start, omega, rng):
-        """Sea-clutter-induced false alarms of one revolution [t_a, t_b) (seed 7.2, [94]-[96]),
-        or of several drawn together when ``t_a``, ``t_b`` and ``beam_start`` are arrays (one
-        element per revolution; the plots then carry their ``revolution`` index).
-
-        Per P_fac-map sector: a count by [91]-[93] from η = P_fac × cells, uniform positions,
-        times when the beam (at ``beam_start`` [rad] at t_a, ``omega`` [rad/s]) sweeps them
-        (:class:`shipradar.sensors.false_alarms.ClutterFalseAlarms`).  None without a P_fac map.
-        """
-        gen = self._clutter_fa_generator
-        if gen is None:
-            return None
-        many = np.ndim(t_a) > 0
-        out = (gen.scans if many else gen.scan)(t_a, t_b, beam_start, omega, rng)
-        if out is not None:
-            spectrum = None
-            if self.has_doppler_bank:
-                spectrum = tuple(v.take(out["sector"]) for v in self._clutter_fa_spectrum)
-            out.update(self._false_alarm_range_rate(out["range_m"], out["azimuth_rad"], rng,
-                                                    clutter=True, spectrum=spectrum))
-        return out
-
 
 class _TwoRayFallback:
     """:func:`shipradar.sensors.propagation.two_ray_factor` of one radar, with the per-height terms
@@ -1375,36 +1112,6 @@ class _TwoRayFallback:
         intermediate = np.exp((1 - w) * np.log(np.maximum(f_lim, tiny))
                               + w * np.log(np.maximum(f_diff_h, tiny)))
         return np.where(inside, f_inter, np.where(beyond, diffraction, intermediate))
-
-
-def _sum_over_sectors(by_ring: np.ndarray, by_azimuth: np.ndarray) -> np.ndarray:
-    """``by_ring @ by_azimuth.T`` (rings × sectors, azimuth cells × sectors -> rings × cells)
-    in a fixed order, without BLAS: a sector overlaps one or two azimuth cells, so each cell
-    sums the columns of its own sectors, in sector order (``np.add.reduceat``).
-
-    A BLAS product's bits depend on its thread count (OpenBLAS splits the sum differently
-    with one thread than with two): the ``meta`` message's density, hence the recording,
-    differed between machines and between a run and a Dask worker (one thread). This sum is
-    the same on every machine, and ~100 times faster for a P_fac map of 11,608 sectors.
-    """
-    n_cells = by_azimuth.shape[0]
-    cell, sector = np.nonzero(by_azimuth)  # row-major: by cell, then by sector
-    terms = by_ring[:, sector] * by_azimuth[cell, sector]
-    out = np.zeros((by_ring.shape[0], n_cells))
-    cells, first = np.unique(cell, return_index=True)
-    if cells.size:
-        out[:, cells] = np.add.reduceat(terms, first, axis=1)
-    return out
-
-
-def _overlap_fraction(edges: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """Fraction of each interval [lo_j, hi_j] inside each bin [edges_i, edges_i+1] (bins ×
-    intervals); an interval of zero width counts whole in the bin holding it."""
-    a, b = edges[:-1, None], edges[1:, None]
-    span = hi - lo
-    inside = np.clip(np.minimum(b, hi) - np.maximum(a, lo), 0.0, None)
-    point = ((lo >= a) & (lo < b)).astype(float)
-    return np.where(span > 0.0, inside / np.where(span > 0.0, span, 1.0), point)
 
 
 def _greedy_contacts(n: int, pairs: tuple[np.ndarray, np.ndarray],

@@ -1038,7 +1038,7 @@ class RadarProcess:
         out: dict[str, Any] = {
             "clutter_false_alarms_per_scan": total,
             "clutter_false_alarm_profile": {"range_edges_m": edges, "per_scan": per_scan}}
-        density = self.model.clutter_false_alarm_density()
+        density = self.model.false_alarms.clutter_false_alarm_density()
         if density is not None:
             r_edges, az_edges, cells = density
             out["clutter_false_alarm_density"] = {
@@ -1202,19 +1202,19 @@ class RadarProcess:
         t_b = np.array([b for _, b in bounds])
         beam = self.beam_azimuth(t_a)
         parts = []
-        fa = model.noise_false_alarms(self.rng, len(bounds))
+        fa = model.false_alarms.noise_false_alarms(self.rng, len(bounds))
         rev = fa["revolution"]
         t = t_a[rev] + np.mod(fa["azimuth_rad"] - beam[rev], TWO_PI) / self.omega
         keep = t < t_b[rev]
         n = int(np.count_nonzero(keep))
         if n:
-            plots = model.false_alarm_plots(fa["range_m"][keep], fa["azimuth_rad"][keep],
+            plots = model.false_alarms.false_alarm_plots(fa["range_m"][keep], fa["azimuth_rad"][keep],
                                             t[keep], self.rng)
             plots["origin"] = np.full(n, ORIGIN_NOISE, dtype=np.uint8)
             plots["revolution"] = rev[keep]
             sim.stats.noise_false_alarms += n
             parts.append(plots)
-        clutter = model.clutter_false_alarms(t_a, t_b, beam, self.omega, self.rng)
+        clutter = model.false_alarms.clutter_false_alarms(t_a, t_b, beam, self.omega, self.rng)
         if clutter is not None and clutter["range_m"].size:
             n = clutter["range_m"].size
             clutter["origin"] = np.full(n, ORIGIN_SEA_CLUTTER, np.uint8)

@@ -303,8 +303,8 @@ def generated_false_alarms(scenario, radar_id: str | None = None, scans: int = 2
     omega = 2.0 * math.pi / period
     out: dict[str, list] = {"range_m": [], "azimuth_rad": [], "origin": [], "scan": []}
     for k in range(scans):
-        nf = model.noise_false_alarms(rng)
-        cf = model.clutter_false_alarms(k * period, (k + 1) * period, 0.0, omega, rng)
+        nf = model.false_alarms.noise_false_alarms(rng)
+        cf = model.false_alarms.clutter_false_alarms(k * period, (k + 1) * period, 0.0, omega, rng)
         parts = [(nf["range_m"], nf["azimuth_rad"], 1)]
         if cf is not None:
             parts.append((cf["range_m"], cf["azimuth_rad"], 2))
