@@ -101,7 +101,8 @@ def run_share(scenario, tables, duration: float, clutter_fa: bool = True,
     t_clutter, t_noise = [0.0], [0.0]
     for rp in sim.radars:
         if clutter_fa:
-            rp.model.false_alarms.clutter_false_alarms = _timed(rp.model.false_alarms.clutter_false_alarms, t_clutter)
+            fam = rp.model.false_alarms
+            fam.clutter_false_alarms = _timed(fam.clutter_false_alarms, t_clutter)
         else:
             rp.model.false_alarms.clutter_false_alarms = lambda *a, **k: None
         rp._scan_false_alarms = _timed(rp._scan_false_alarms, t_noise)

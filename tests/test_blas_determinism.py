@@ -3,7 +3,8 @@
 The ``meta`` message's clutter false-alarm density was a matrix product; OpenBLAS splits such
 a sum differently with one thread than with two, so the raid's recording differed between
 this 2-core machine and a 1-core one, or a Dask worker (which runs with one thread). The
-density is now summed in a fixed order without BLAS (``sim.dwell.false_alarm_model._sum_over_sectors``).
+density is now summed in a fixed order without BLAS
+(``sim.dwell.false_alarm_model._sum_over_sectors``).
 """
 
 from __future__ import annotations

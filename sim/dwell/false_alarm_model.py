@@ -243,7 +243,8 @@ class FalseAlarmModel:
 
     @functools.cached_property
     def sector_spectrum(self) -> tuple[np.ndarray, np.ndarray]:
-        """(reference, spread) [Hz] of :meth:`_spectrum_reference` at the centre of every
+        """(reference, spread) [Hz] of
+        :meth:`shipradar.sim.dwell.model.DwellModel.spectrum_reference` at the centre of every
         active P_fac sector, for the sea-clutter false alarms' Doppler: the P_fac sector is
         the resolution of the clutter false-alarm model (count, position bounds and spike
         S/I are the sector's), and the spectrum changes little across one."""

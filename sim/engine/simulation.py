@@ -1208,8 +1208,8 @@ class RadarProcess:
         keep = t < t_b[rev]
         n = int(np.count_nonzero(keep))
         if n:
-            plots = model.false_alarms.false_alarm_plots(fa["range_m"][keep], fa["azimuth_rad"][keep],
-                                            t[keep], self.rng)
+            plots = model.false_alarms.false_alarm_plots(
+                fa["range_m"][keep], fa["azimuth_rad"][keep], t[keep], self.rng)
             plots["origin"] = np.full(n, ORIGIN_NOISE, dtype=np.uint8)
             plots["revolution"] = rev[keep]
             sim.stats.noise_false_alarms += n
