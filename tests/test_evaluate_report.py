@@ -128,3 +128,24 @@ def test_coverage_legend_lists_ids_in_natural_order_and_counts_the_rest(tmp_path
     assert shown == ids[:report.LEGEND_IDS]
     assert f"… {50 - report.LEGEND_IDS} more track ids" in legend
     assert "no track held it" in legend
+
+
+def test_registration_section_fixed_notation_and_bounded(tmp_path):
+    """The registration section (registration.report_section) follows the report's rules:
+    numbers through format_value, an RMSE's interval not below 0."""
+    from shipradar.sim.studies.evaluate.registration import report_section, summarise_rows
+
+    rows = [{"sensor": "giraffe", "component": comp, "seed": seed, "tolerance": tol,
+             "warmup_s": 0.0, "rmse": rmse, "mean_error": -rmse, "converge_s": conv}
+            for comp, tol, values in (("range_bias_m", 20.0, (10.0, 30.0)),
+                                      ("range_scale_ppm", 100.0, (12_345.0, 23_456.0)),
+                                      ("azimuth_bias_rad", 8.7e-4, (1.2e-7, 3.4e-7)),
+                                      ("time_offset_s", 0.01, (2.5e-5, 7.5e-5)))
+            for seed, rmse, conv in zip((1, 2), values, (12.0, math.nan), strict=True)]
+    summary = summarise_rows(rows)
+    by_comp = {r["component"]: r for r in summary}
+    assert by_comp["range_bias_m"]["rmse_low"] == 0.0  # Student t alone: 20 - 127 m
+    assert by_comp["range_bias_m"]["mean_error_low"] < 0.0  # a mean error has either sign
+    page = report_section(tmp_path, summary, [])
+    assert not re.search(r"\d[eE][+-]?\d", page), page
+    assert "<td>20.0</td>" in page and "17,900.5" in page and "0.0000" in page

@@ -14,6 +14,7 @@ One module per role:
   differences for a comparison;
 - :mod:`~shipradar.sim.studies.evaluate.study`: the runs of a study on Dask, rescoring,
   comparison;
-- :mod:`~shipradar.sim.studies.evaluate.report`: ``index.html`` and its SVG figures;
+- :mod:`~shipradar.sim.studies.evaluate.report`: ``index.html`` and its SVG figures
+  (every number through :func:`~shipradar.sim.studies.evaluate.display.format_value`);
 - :mod:`~shipradar.sim.studies.evaluate.cli`: the ``shipradar evaluate`` sub-command.
 """

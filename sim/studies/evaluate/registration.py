@@ -378,6 +378,8 @@ def report_section(out: Any, summary_rows: Sequence[Mapping[str, Any]],
         return ""
     seed = series[0]["seed"] if series else None
     comps = [c for c in COMPONENTS if any(r["component"] == c for r in summary_rows)]
+    from shipradar.sim.studies.evaluate.display import Quantity, format_value
+
     scale = {"azimuth_bias_rad": (math.degrees(1.0), "deg"), "time_offset_s": (1e3, "ms"),
              "range_bias_m": (1.0, "m"), "range_scale_ppm": (1.0, "ppm")}
     decimals = {"deg": 4, "ms": 1, "m": 1, "ppm": 1, "s": 0}
@@ -410,10 +412,8 @@ def report_section(out: Any, summary_rows: Sequence[Mapping[str, Any]],
         plt.close(fig)
 
     def fmt(v: Any, f: float = 1.0, unit: str = "s") -> str:
-        """Fixed notation (never 1e-05), the unit's decimals."""
-        if not isinstance(v, float) or math.isnan(v):
-            return "–"
-        return f"{v * f:,.{decimals[unit]}f}"
+        """Fixed notation (never 1e-05), the unit's decimals: the report's format_value."""
+        return format_value(v, Quantity("", unit, decimals[unit], scale=f))
 
     head = ("<tr><th>sensor</th><th>component</th><th>unit</th><th>RMSE</th>"
             "<th>95 % interval</th><th>mean error</th><th>tolerance</th>"
