@@ -83,6 +83,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from shipradar.sensors import doppler_filters as df
+from shipradar.tables.blas import matmul_one_thread
 from shipradar.tables.store import Table, get_or_build
 
 BUILDER_NAME = "improvement_factor"
@@ -693,7 +694,8 @@ def _best_pick_db(table: Table, cells: tuple[NDArray, ...],
     w, energy, eps = _processor_of(table)
     n = np.arange(w.shape[-1])
     steer = np.exp(-2j * np.pi * np.mod(d_s[:, None] * n, 1.0))
-    signal_db = 10.0 * np.log10(np.abs(steer @ np.conj(w).T) ** 2 + eps * energy)  # (P, F)
+    signal_db = 10.0 * np.log10(np.abs(matmul_one_thread(steer, np.conj(w).T)) ** 2
+                                  + eps * energy)  # (P, F)
     outs = []
     for array in arrays:
         if array is None:
@@ -742,7 +744,8 @@ def _exact_response_db(table: Table, doppler: NDArray, node_filter: NDArray
     w, energy, eps = _processor_of(table)
     n = np.arange(w.shape[-1])
     steer = np.exp(-2j * np.pi * np.mod(doppler[:, None] * n, 1.0))
-    response = np.abs(steer @ np.conj(w).T) ** 2  # (points, filters)
+    # one BLAS thread: a revolution's few thousand points (shipradar.tables.blas)
+    response = np.abs(matmul_one_thread(steer, np.conj(w).T)) ** 2  # (points, filters)
     # the table's rule on the table's quantity, |H|²/E + ε (adding ε turns rounding-level
     # responses at a common null, an MTI's blind speed, into ties); ties within rounding
     # (symmetric points between two filters) go to the filter the table picked at the cell's
