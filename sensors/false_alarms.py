@@ -91,6 +91,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import special
 
+from shipradar.sensors import plot_columns as pc
 from shipradar.sensors.detection import (
     LN2_SEED,
     N_CHANNELS,
@@ -1193,13 +1194,13 @@ class ClutterFalseAlarms:
         snr_db = np.log10(si)
         snr_db *= 10.0
         return {
-            "time_s": t,
-            "range_m": slant,
-            "azimuth_rad": az,
-            "snr_db": snr_db,
-            "sigma_range_m": _divided(eps_r, SIGMAS_PER_ERROR, n),
-            "sigma_azimuth_rad": _divided(eps_t, SIGMAS_PER_ERROR, n),
-            "interference": np.full(n, Interference.CLUTTER, dtype=np.uint8),
+            pc.TIME_S: t,
+            pc.RANGE_M: slant,
+            pc.AZIMUTH_RAD: az,
+            pc.SNR_DB: snr_db,
+            pc.SIGMA_RANGE_M: _divided(eps_r, SIGMAS_PER_ERROR, n),
+            pc.SIGMA_AZIMUTH_RAD: _divided(eps_t, SIGMAS_PER_ERROR, n),
+            pc.INTERFERENCE: np.full(n, Interference.CLUTTER, dtype=np.uint8),
             "ground_range_m": ground,
             "revolution": revolution,
             "sector": sector,

@@ -25,6 +25,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from shipradar.sensors import plot_columns as pc
+
 #: Default constants H_r and H_θ of [84]-[85] (seed 6.5: the mean error equals the
 #: resolution at (S/I)_out = 12 dB).
 H_DEFAULT = 4.0
@@ -201,10 +203,10 @@ def measure(
         eps_t,
     )
     return {
-        "range_m": noisy_range(r, eps_r, rng),
-        "azimuth_rad": noisy_azimuth(a, eps_t, rng),
-        "sigma_range_m": eps_r / SIGMAS_PER_ERROR,
-        "sigma_azimuth_rad": eps_t / SIGMAS_PER_ERROR,
+        pc.RANGE_M: noisy_range(r, eps_r, rng),
+        pc.AZIMUTH_RAD: noisy_azimuth(a, eps_t, rng),
+        pc.SIGMA_RANGE_M: eps_r / SIGMAS_PER_ERROR,
+        pc.SIGMA_AZIMUTH_RAD: eps_t / SIGMAS_PER_ERROR,
     }
 
 

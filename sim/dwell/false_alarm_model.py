@@ -19,6 +19,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from shipradar.sensors import false_alarms, geometry, measurement, sea_clutter
+from shipradar.sensors import plot_columns as pc
 from shipradar.sensors.detection import Interference
 from shipradar.sensors.noise import db
 from shipradar.sim.world.scenario import Radar
@@ -122,8 +123,8 @@ class FalseAlarmModel:
         n = np.size(range_m)
         if not self.dwell.has_doppler_bank or n == 0:
             nan = np.full(n, np.nan)
-            return {"range_rate_mps": nan, "sigma_range_rate_mps": nan.copy(),
-                    "range_rate_reference_mps": nan.copy()}
+            return {pc.RANGE_RATE_MPS: nan, pc.SIGMA_RANGE_RATE_MPS: nan.copy(),
+                    pc.RANGE_RATE_REFERENCE_MPS: nan.copy()}
         draw = self._doppler_draw_rng(rng)
         if spectrum is not None:
             reference, spread = spectrum
@@ -138,9 +139,9 @@ class FalseAlarmModel:
             index = self.dwell.doppler_filter(doppler)
         else:
             index = draw.integers(0, self.dwell.n_doppler_filters, n)
-        return {"range_rate_mps": self.dwell.range_rate_from_filter(index, reference),
-                "sigma_range_rate_mps": np.full(n, self.dwell.range_rate_sigma_mps),
-                "range_rate_reference_mps": np.broadcast_to(
+        return {pc.RANGE_RATE_MPS: self.dwell.range_rate_from_filter(index, reference),
+                pc.SIGMA_RANGE_RATE_MPS: np.full(n, self.dwell.range_rate_sigma_mps),
+                pc.RANGE_RATE_REFERENCE_MPS: np.broadcast_to(
                     self.dwell.reference_mps(reference), (n,)).copy()}
 
     @functools.cached_property
@@ -275,11 +276,12 @@ class FalseAlarmModel:
         if revolutions is None:
             count = int(false_alarms.false_alarm_count(per_scan, channels, rng))
             r, az = false_alarms.uniform_positions(count, 0.0, r_max, 0.0, 2.0 * math.pi, rng)
-            return {"range_m": np.asarray(r, dtype=float),
-                    "azimuth_rad": np.asarray(az, dtype=float)}
+            return {pc.RANGE_M: np.asarray(r, dtype=float),
+                    pc.AZIMUTH_RAD: np.asarray(az, dtype=float)}
         counts = false_alarms.false_alarm_count(per_scan, channels, rng, size=revolutions)
         r, az = false_alarms.uniform_positions(counts, 0.0, r_max, 0.0, 2.0 * math.pi, rng)
-        return {"range_m": np.asarray(r, dtype=float), "azimuth_rad": np.asarray(az, dtype=float),
+        return {pc.RANGE_M: np.asarray(r, dtype=float),
+                pc.AZIMUTH_RAD: np.asarray(az, dtype=float),
                 "revolution": np.repeat(np.arange(revolutions), counts)}
 
     def false_alarm_plots(self, range_m, azimuth_rad, time_s, rng) -> dict:
@@ -301,13 +303,13 @@ class FalseAlarmModel:
                                            h_range=self.dwell.radar.h_range,
                                            h_azimuth=self.dwell.radar.h_azimuth)
         return {
-            "time_s": time_s,
-            "range_m": range_m,
-            "azimuth_rad": azimuth_rad,
-            "snr_db": db(si),
-            "sigma_range_m": errs[0] / measurement.SIGMAS_PER_ERROR,
-            "sigma_azimuth_rad": errs[1] / measurement.SIGMAS_PER_ERROR,
-            "interference": np.full(n, Interference.NOISE, dtype=np.uint8),
+            pc.TIME_S: time_s,
+            pc.RANGE_M: range_m,
+            pc.AZIMUTH_RAD: azimuth_rad,
+            pc.SNR_DB: db(si),
+            pc.SIGMA_RANGE_M: errs[0] / measurement.SIGMAS_PER_ERROR,
+            pc.SIGMA_AZIMUTH_RAD: errs[1] / measurement.SIGMAS_PER_ERROR,
+            pc.INTERFERENCE: np.full(n, Interference.NOISE, dtype=np.uint8),
             **self._false_alarm_range_rate(range_m, azimuth_rad, rng, clutter=False),
         }
 
@@ -329,7 +331,7 @@ class FalseAlarmModel:
             spectrum = None
             if self.dwell.has_doppler_bank:
                 spectrum = tuple(v.take(out["sector"]) for v in self.sector_spectrum)
-            out.update(self._false_alarm_range_rate(out["range_m"], out["azimuth_rad"], rng,
+            out.update(self._false_alarm_range_rate(out[pc.RANGE_M], out[pc.AZIMUTH_RAD], rng,
                                                     clutter=True, spectrum=spectrum))
         return out
 

@@ -54,6 +54,7 @@ from shipradar.sensors import (
     sea_clutter,
     weather_clutter,
 )
+from shipradar.sensors import plot_columns as pc
 from shipradar.sensors.detection import INTERFERENCE_NAMES, Interference
 from shipradar.sensors.noise import DB_FLOOR, db
 from shipradar.sensors.radar import (
@@ -865,13 +866,13 @@ class DwellModel:
             np.arange(c_off[-1]) - np.repeat(c_off[:-1], c_counts))
         batch = look.batch
         return {
-            "time_s": t_c[sel],
-            "range_m": meas["range_m"],
-            "azimuth_rad": meas["azimuth_rad"],
-            "snr_db": decision.si_db[sel],
-            "sigma_range_m": meas["sigma_range_m"],
-            "sigma_azimuth_rad": meas["sigma_azimuth_rad"],
-            "interference": code[sel],
+            pc.TIME_S: t_c[sel],
+            pc.RANGE_M: meas[pc.RANGE_M],
+            pc.AZIMUTH_RAD: meas[pc.AZIMUTH_RAD],
+            pc.SNR_DB: decision.si_db[sel],
+            pc.SIGMA_RANGE_M: meas[pc.SIGMA_RANGE_M],
+            pc.SIGMA_AZIMUTH_RAD: meas[pc.SIGMA_AZIMUTH_RAD],
+            pc.INTERFERENCE: code[sel],
             **self._range_rate_columns(geom, clutter, lead[sel], look.platform_vel),
             "target": rows[lead[sel]].astype(np.int32),
             "contrib_offsets": c_off,
@@ -911,14 +912,14 @@ class DwellModel:
         reference f_d - (f_d' - μ_c), which is published too."""
         if not self.has_doppler_bank:
             nan = np.full(lead.size, np.nan)
-            return {"range_rate_mps": nan, "sigma_range_rate_mps": nan.copy(),
-                    "range_rate_reference_mps": nan.copy()}
+            return {pc.RANGE_RATE_MPS: nan, pc.SIGMA_RANGE_RATE_MPS: nan.copy(),
+                    pc.RANGE_RATE_REFERENCE_MPS: nan.copy()}
         rel = self._relative_doppler_hz(geom, clutter, platform_vel)[lead]
         reference = -2.0 * geom.radial_velocity[lead] / self.wavelength - rel
-        return {"range_rate_mps": self.range_rate_from_filter(self.doppler_filter(rel),
+        return {pc.RANGE_RATE_MPS: self.range_rate_from_filter(self.doppler_filter(rel),
                                                               reference),
-                "sigma_range_rate_mps": np.full(lead.size, self.range_rate_sigma_mps),
-                "range_rate_reference_mps": self.reference_mps(reference)}
+                pc.SIGMA_RANGE_RATE_MPS: np.full(lead.size, self.range_rate_sigma_mps),
+                pc.RANGE_RATE_REFERENCE_MPS: self.reference_mps(reference)}
 
     def _resolution_groups(self, geom, clutter, batch=None, platform_vel=None, time_s=None,
                            power_w=None):

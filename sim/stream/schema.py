@@ -30,6 +30,8 @@ from typing import Any
 
 import numpy as np
 
+from shipradar.sensors import plot_columns as pc
+
 __all__ = [
     "END",
     "ENTITIES",
@@ -307,22 +309,22 @@ PLOTS = Payload(b"plots", None, (
     _SCAN,
     _f("plot_id", "int64[n]", "", "unique per sensor over the run, increasing; key into "
        "`truth`"),
-    _f("time_s", "float64[n]", "s", "time of the plot (when the beam crossed it), since "
+    _f(pc.TIME_S, "float64[n]", "s", "time of the plot (when the beam crossed it), since "
        "scenario start"),
-    _f("range_m", "float64[n]", "m", "measured slant range, noisy (DREV-R-9429 [84]-[89])"),
-    _f("azimuth_rad", "float64[n]", "rad", "measured azimuth, true north, noisy"),
-    _f("snr_db", "float64[n]", "dB",
+    _f(pc.RANGE_M, "float64[n]", "m", "measured slant range, noisy (DREV-R-9429 [84]-[89])"),
+    _f(pc.AZIMUTH_RAD, "float64[n]", "rad", "measured azimuth, true north, noisy"),
+    _f(pc.SNR_DB, "float64[n]", "dB",
        "signal to interference ratio S/I of the plot (DREV-R-9429 [66])"),
-    _f("sigma_range_m", "float64[n]", "m", "expected 1σ range error"),
-    _f("sigma_azimuth_rad", "float64[n]", "rad", "expected 1σ azimuth error"),
-    _f("interference", "uint8[n]", "", "dominant interference, index into "
+    _f(pc.SIGMA_RANGE_M, "float64[n]", "m", "expected 1σ range error"),
+    _f(pc.SIGMA_AZIMUTH_RAD, "float64[n]", "rad", "expected 1σ azimuth error"),
+    _f(pc.INTERFERENCE, "uint8[n]", "", "dominant interference, index into "
        "`meta.interference_codes`"),
-    _f("range_rate_mps", "float64[n]", "m/s", "measured radial velocity relative to the ship, "
+    _f(pc.RANGE_RATE_MPS, "float64[n]", "m/s", "measured radial velocity relative to the ship, "
        "positive receding (below); NaN for a radar without a Doppler bank (`processor.type` "
        "none or mti)", required=False),
-    _f("sigma_range_rate_mps", "float64[n]", "m/s", "its expected 1σ, (λ/2) f_r / (N √12) for "
+    _f(pc.SIGMA_RANGE_RATE_MPS, "float64[n]", "m/s", "its expected 1σ, (λ/2) f_r / (N √12) for "
        "N filters; NaN without a bank", required=False),
-    _f("range_rate_reference_mps", "float64[n]", "m/s", "the velocity the Doppler bank's "
+    _f(pc.RANGE_RATE_REFERENCE_MPS, "float64[n]", "m/s", "the velocity the Doppler bank's "
        "filters are indexed from at the plot (the clutter mean μ_c, plus f1 when "
        "motion-compensated, as a range rate): `range_rate_mps` lies in (reference − S/2, "
        "reference + S/2], S = `meta.range_rate_span_mps`, so the true rate is `range_rate_mps` "
