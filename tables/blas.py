@@ -4,7 +4,7 @@ numpy's bundled OpenBLAS splits a product of a few thousand rows (the dwell mode
 ``(points, pulses) @ (pulses, filters)`` responses, one revolution's looks at a time) over
 its threads.  On a loaded machine the calling thread then spins waiting for workers that
 are not scheduled: a 2,000 x 8 x 7 complex product took 2 µs of the caller's CPU per row
-instead of 0.02 (``docs/performance.md`` 13.2), a fixed cost per call that made one
+instead of 0.02 (``docs/performance.md`` 13.1), a fixed cost per call that made one
 revolution per block (a live source) ~1.4x the cost of blocks of revolutions.
 
 :func:`matmul_one_thread` runs the product with OpenBLAS set to one thread and restores the
