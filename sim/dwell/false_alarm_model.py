@@ -112,8 +112,10 @@ class FalseAlarmModel:
             self._doppler_rng = rng.spawn(1)[0]
         return self._doppler_rng
 
-    def _false_alarm_range_rate(self, range_m, azimuth_rad, rng, clutter: bool,
-                                spectrum=None) -> dict:
+    def _false_alarm_range_rate(self, range_m: Any, azimuth_rad: Any,
+                                rng: np.random.Generator, clutter: bool,
+                                spectrum: tuple[np.ndarray, np.ndarray] | None = None
+                                ) -> dict[str, np.ndarray]:
         """Range-rate columns of false alarms: the filter of a noise alarm is uniform over the
         bank; a sea-clutter alarm's Doppler is drawn from the clutter spectrum [33] (Gaussian
         about μ_c with σ_s), then reported as a target's would be.  The bank's reference and
@@ -145,7 +147,7 @@ class FalseAlarmModel:
                     self.dwell.reference_mps(reference), (n,)).copy()}
 
     @functools.cached_property
-    def generator(self):
+    def generator(self) -> false_alarms.ClutterFalseAlarms | None:
         """The P_fac map's per-scan generator
         (:func:`shipradar.tables.pfac.clutter_false_alarm_generator`), made at its first use; None
         without a P_fac map."""
@@ -223,6 +225,7 @@ class FalseAlarmModel:
                                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """:meth:`clutter_false_alarm_density`, computed."""
         gen = self.generator
+        assert gen is not None  # read with a P_fac map only
         az_edges = np.linspace(0.0, 2.0 * math.pi, n_az + 1)
         if gen.eta.size == 0:
             return np.zeros(1), az_edges, np.zeros((0, n_az))
@@ -257,6 +260,7 @@ class FalseAlarmModel:
                 sea is None if seen[1] is None else seen[1]() is sea):
             return seen[2]
         gen = self.generator
+        assert gen is not None  # read with a P_fac map only
         centre_r = 0.5 * (gen.r_min_m + gen.r_max_m)
         centre_az = np.mod(0.5 * (gen.az_min_rad + gen.az_max_rad), 2.0 * math.pi)
         spectrum = self.dwell.spectrum_reference(centre_r, centre_az)
@@ -284,7 +288,9 @@ class FalseAlarmModel:
                 pc.AZIMUTH_RAD: np.asarray(az, dtype=float),
                 "revolution": np.repeat(np.arange(revolutions), counts)}
 
-    def false_alarm_plots(self, range_m, azimuth_rad, time_s, rng) -> dict:
+    def false_alarm_plots(self, range_m: np.ndarray, azimuth_rad: np.ndarray,
+                          time_s: np.ndarray, rng: np.random.Generator
+                          ) -> dict[str, np.ndarray]:
         """Plot columns for noise false alarms at the given positions and times.
 
         The reported S/I is drawn consistently with a threshold crossing: the integrated
@@ -313,7 +319,8 @@ class FalseAlarmModel:
             **self._false_alarm_range_rate(range_m, azimuth_rad, rng, clutter=False),
         }
 
-    def clutter_false_alarms(self, t_a, t_b, beam_start, omega, rng):
+    def clutter_false_alarms(self, t_a: Any, t_b: Any, beam_start: Any, omega: float,
+                             rng: np.random.Generator) -> dict[str, np.ndarray] | None:
         """Sea-clutter-induced false alarms of one revolution [t_a, t_b) (seed 7.2, [94]-[96]),
         or of several drawn together when ``t_a``, ``t_b`` and ``beam_start`` are arrays (one
         element per revolution; the plots then carry their ``revolution`` index).
@@ -330,7 +337,8 @@ class FalseAlarmModel:
         if out is not None:
             spectrum = None
             if self.dwell.has_doppler_bank:
-                spectrum = tuple(v.take(out["sector"]) for v in self.sector_spectrum)
+                reference, spread = self.sector_spectrum
+                spectrum = (reference.take(out["sector"]), spread.take(out["sector"]))
             out.update(self._false_alarm_range_rate(out[pc.RANGE_M], out[pc.AZIMUTH_RAD], rng,
                                                     clutter=True, spectrum=spectrum))
         return out

@@ -32,6 +32,7 @@ import pickle
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import fields
+from multiprocessing.connection import Connection
 from typing import Any
 
 import numpy as np
@@ -72,7 +73,7 @@ class FrameCollector:
         """Nothing to hand on: the parent's bus flushes at each end of scan."""
 
 
-def _stats_dict(stats) -> dict[str, Any]:
+def _stats_dict(stats: Any) -> dict[str, Any]:
     return {f.name: getattr(stats, f.name) for f in fields(stats)}
 
 
@@ -114,7 +115,7 @@ def _unpack(data: bytes) -> dict[str, Any]:
     return out
 
 
-def _worker(indices: Sequence[int], conn) -> None:
+def _worker(indices: Sequence[int], conn: Connection) -> None:
     try:
         conn.send_bytes(_pack(_run_group(indices)))
     except BaseException as exc:  # reported by the parent
@@ -168,7 +169,7 @@ def groups(n_radars: int, processes: int) -> list[list[int]]:
     return [list(range(own)), *(rest[i::n - 1] for i in range(n - 1))]
 
 
-def run_parallel(sim) -> dict[str, Any]:
+def run_parallel(sim: Any) -> dict[str, Any]:  # the Simulation (it imports this module)
     """Run ``sim`` (a :class:`shipradar.sim.engine.simulation.Simulation` with ``processes`` > 1)
     with its radars
     in worker processes; publish and record the merged stream on ``shipradar.sim.stream.bus``.

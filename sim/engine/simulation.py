@@ -71,6 +71,7 @@ from shipradar.sim.stream.sink import (
 )
 from shipradar.sim.world.kinematics import (
     TWO_PI,
+    Geometry,
     LocalFrame,
     antenna_azimuth,
     antenna_geometry,
@@ -136,12 +137,12 @@ class Simulation:
         seed: int | None = None,
         duration_s: float | None = None,
         realtime: float | None = None,
-        tables=None,
+        tables: Any = None,
         progress: bool = False,
         processes: int = 1,
-        only_radars=None,
-        entities=None,
-    ):
+        only_radars: Sequence[int] | None = None,
+        entities: Any = None,
+    ) -> None:
         from shipradar.sim.dwell.model import DwellModel  # the on-line radar model
         from shipradar.tables.scene import load_scene_tables
 
@@ -396,7 +397,7 @@ class Simulation:
         yield (protocol.TOPIC_END.decode(), max(self.duration, self.last_publication),
                self._end_payload())
 
-    def _progress(self, env, bar):
+    def _progress(self, env: simpy.Environment, bar: Any) -> Generator[Any, Any, None]:
         step = max(self.duration / 200.0, 0.5)
         while True:
             yield env.timeout(step)
@@ -656,22 +657,23 @@ class RadarProcess:
             self._caps_of = (bus, frames, ahead)
         return frames, ahead
 
-    def beam_azimuth(self, t):
+    def beam_azimuth(self, t: Any) -> Any:
         """Beam azimuth at times ``t`` [rad], true north (scalar or array)."""
         return (self.beam0 + self.omega * t) % TWO_PI
 
-    def sector_end(self, k):
+    def sector_end(self, k: Any) -> Any:
         """End of sector(s) ``k`` (counted from the start of the run, an int or an int array)
         [s]: (k + 1) sector_s, the run's end at the latest; the same number the process loop
         computes."""
         return np.minimum((np.asarray(k) + 1) * self.sector_s, self.sim.duration)
 
-    def platform_state(self, t: np.ndarray):
+    def platform_state(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         rows = np.full(np.shape(t), self.p_index, dtype=int)
         pos, vel, _ = self.sim.platforms.state(t, rows)
         return pos, vel
 
-    def geometry(self, t: np.ndarray, rows: np.ndarray):
+    def geometry(self, t: np.ndarray, rows: np.ndarray
+                 ) -> tuple[Geometry, np.ndarray, np.ndarray]:
         """Antenna-to-target geometry for targets ``rows`` each at its own time ``t``."""
         tpos, tvel, active = self.sim.targets.state(t, rows)
         ppos, pvel = self.platform_state(t)
@@ -679,8 +681,9 @@ class RadarProcess:
                                 self.sim.frame)
         return geom, active, tpos
 
-    def jammer_geometry(self, t, ppos: np.ndarray | None = None,
-                        pvel: np.ndarray | None = None):
+    def jammer_geometry(self, t: Any, ppos: np.ndarray | None = None,
+                        pvel: np.ndarray | None = None
+                        ) -> tuple[Geometry, np.ndarray, np.ndarray] | None:
         """Geometry from the antenna to every jammer at each time of ``t`` (N,) [s], the
         jammers' positions (N M, 3) and the antenna's east/north (N M, 2), look after look,
         jammer after jammer (the layout
@@ -1169,8 +1172,9 @@ class RadarProcess:
         geom, scan_of = _take(geom, idx), scan_of[idx]
         jam_w = None
         if sim.jammers.n:
-            jam_w = self.model.jamming_power(
-                geom.azimuth, *self.jammer_geometry(tc[idx], ppos[idx], pvel[idx]))
+            jam = self.jammer_geometry(tc[idx], ppos[idx], pvel[idx])
+            assert jam is not None  # the scene has jammers
+            jam_w = self.model.jamming_power(geom.azimuth, *jam)
         res = self.model.process_targets(
             geom, rows[idx], tc[idx], tpos[idx], self.rng,
             antenna_en=ppos[idx, :2], jam_power_w=jam_w, batch=scan_of,
@@ -1297,7 +1301,8 @@ class RadarProcess:
         speed = _SPEED_MARGIN * (sim.targets.max_speed[rows]
                                  + sim.platforms.max_speed[self.p_index])
 
-        def look_at(t, i):
+        def look_at(t: np.ndarray, i: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             tpos, tvel, active = sim.targets.state(t, rows[i])
             ppos, pvel = self.platform_state(t)
             az, ground = antenna_azimuth(ppos, tpos, sim.frame)
@@ -1823,7 +1828,7 @@ def _slice_plots(part: dict, i0: int, i1: int) -> dict:
     return out
 
 
-def _take(geom, idx):
+def _take(geom: Geometry, idx: Any) -> Geometry:
     from dataclasses import fields, replace
 
     return replace(geom, **{f.name: getattr(geom, f.name)[idx] for f in fields(geom)})
