@@ -559,6 +559,60 @@ def test_harness_malformed_tracks_counted_not_trusted(tmp_path):
     assert s.run["gospa"] == 0.0 and s.run["tracks_messages"] == 6
 
 
+def test_collector_drain_waits_on_valid_tracks_only():
+    """The drain ends once ``last_time_s`` reaches the last scan; a malformed message of
+    that scan (here one lacking ``track_id``, which still has a finite ``time_s``) must not
+    move it, or the harness stops before the messages sent after it (the malformed tracker's
+    undecodable and valid ones) are read: under load that lost one ``undecodable``."""
+    import time
+
+    import zmq
+
+    from shipradar.sim.studies.evaluate.runner import _Collector, free_port
+
+    ep = f"tcp://127.0.0.1:{free_port()}"
+    ctx = zmq.Context()
+    pub = ctx.socket(zmq.PUB)
+    pub.bind(ep)
+    col = _Collector(ep, time.perf_counter())
+    col.start()
+    try:
+        assert col.connected.wait(10.0)
+        valid = {"sensor": "r", "scan": 0, "time_s": 1.0, "track_id": ["a"],
+                 "east_m": [0.0], "north_m": [0.0], "v_east_mps": [0.0],
+                 "v_north_mps": [0.0]}
+
+        def until(cond):
+            deadline = time.monotonic() + 10.0
+            while not cond():
+                assert time.monotonic() < deadline
+                time.sleep(0.01)
+
+        def sent_until(cond, msg):
+            # the subscription reaches the publisher some time after the handshake
+            deadline = time.monotonic() + 10.0
+            while not cond():
+                assert time.monotonic() < deadline
+                pub.send_multipart(msg)
+                time.sleep(0.05)
+
+        sent_until(lambda: col.last_time_s == 1.0, encode(b"tracks", 1.0, valid))
+        n = len(col.records)
+        bad = {k: v for k, v in valid.items() if k != "track_id"}
+        pub.send_multipart(encode(b"tracks", 6.0, dict(bad, time_s=6.0)))
+        pub.send_multipart([b"tracks", b"\xc1 not msgpack"])
+        until(lambda: len(col.records) == n + 2)
+        assert col.last_time_s == 1.0
+        pub.send_multipart(encode(b"tracks", 6.0, dict(valid, time_s=6.0)))
+        until(lambda: col.last_time_s == 6.0)
+        assert len(col.records) == n + 3
+    finally:
+        col.stop.set()
+        col.join()
+        pub.close(linger=0)
+        ctx.term()
+
+
 def test_harness_asterix_only_tracker(tmp_path):
     """A tracker fed by ASTERIX alone, decoded by asterix-decoder (PyPI, not ours): the
     harness sends CAT048/034 to ``{asterix}``, starts the run once ``{tracks}`` is bound and

@@ -15,9 +15,10 @@
 4. the run starts once the tracker has subscribed (``--wait-subscribers 1``; a tracker that
    only reads ASTERIX is ready when its ``{tracks}`` endpoint is up) or fails with a clear
    timeout; it stops early, at an end of scan, if the tracker dies;
-5. after the last message, the harness waits until the tracker has published tracks for the
-   last scan, has exited, or has been quiet for ``drain_s``; then stops it (SIGTERM to its
-   process group, SIGKILL 5 s later).
+5. after the last message, the harness waits until the tracker has published valid tracks
+   for the last scan (a malformed message does not count), has exited, or has been quiet
+   for ``drain_s``; then stops it (SIGTERM to its process group, SIGKILL 5 s later) and
+   reads what is still arriving until ``POLL_S`` of quiet.
 
 A tracker that exits by itself with a non-zero code fails the run (its exit code and the
 tail of its stderr in ``run.json``); one that exits with 0 is scored on what it published.
@@ -51,7 +52,14 @@ from shipradar.sim.stream.bus import Bus, Publisher, PublisherStalledError, RunI
 from shipradar.sim.stream.protocol import ProtocolError, decode, encode
 from shipradar.sim.stream.recording import Recorder
 from shipradar.sim.stream.schema import EOS, META, PLOTS, TOPIC_REGISTRATION, TRUTH_TARGETS
-from shipradar.sim.studies.evaluate.data import TOPIC_TRACKS, Collect, RunData, add_tracks
+from shipradar.sim.studies.evaluate.data import (
+    TOPIC_TRACKS,
+    Collect,
+    MalformedTracks,
+    RunData,
+    add_tracks,
+    tracks_from_payload,
+)
 from shipradar.sim.studies.evaluate.registration import TRUTH_SENSORS_KIND
 
 __all__ = ["RunSpec", "fill_placeholders", "free_port", "run_and_collect",
@@ -64,6 +72,10 @@ KILL_GRACE_S = 5.0
 #: How often the collector thread looks at its stop flag, and the drain at its three
 #: conditions [s]: the harness's delay in stopping after a run.
 POLL_S = 0.01
+
+#: Longest the collector reads what is still arriving once told to stop [s] (it stops
+#: sooner, after POLL_S of quiet).
+FINAL_READ_S = 1.0
 
 
 @dataclass(frozen=True)
@@ -253,23 +265,39 @@ class _Collector(threading.Thread):
                         if event["event"] == zmq.EVENT_HANDSHAKE_SUCCEEDED:
                             self.connected.set()
                         continue
-                    frames = self.sock.recv_multipart()
-                    now = time.perf_counter()
-                    try:
-                        topic, t, p = decode(frames)
-                        ts = p.get("time_s", t) if isinstance(p, dict) else t
-                        if (topic == TOPIC_TRACKS and isinstance(ts, (int, float))
-                                and math.isfinite(ts)):
-                            self.last_time_s = max(self.last_time_s, float(ts))
-                    except ProtocolError:
-                        t = math.nan
-                    self.records.append((t, now - self.t0, frames))
-                    self.last_recv = now
+                    self._receive(self.sock.recv_multipart())
+            # what the tracker sent before it stopped and the harness has not read yet
+            # (the stop flag is looked at between messages): read until quiet for POLL_S
+            deadline = time.perf_counter() + FINAL_READ_S
+            while time.perf_counter() < deadline and self.sock.poll(int(POLL_S * 1000)):
+                self._receive(self.sock.recv_multipart())
         finally:
             self.sock.disable_monitor()
             self.monitor.close(linger=0)
             self.sock.close(linger=0)
             self.ctx.term()
+
+    def _receive(self, frames: list[bytes]) -> None:
+        """Keep one message with its wall time; a valid ``tracks`` message moves
+        ``last_time_s`` (what the drain waits on), once it is kept. A malformed one does
+        not: the messages a tracker sends before its last valid one (in order, on one
+        connection) are then all kept when the drain ends."""
+        now = time.perf_counter()
+        ts = None
+        try:
+            topic, t, p = decode(frames)
+        except ProtocolError:
+            t = math.nan
+        else:
+            if topic == TOPIC_TRACKS:
+                try:
+                    ts = tracks_from_payload(p).time_s
+                except MalformedTracks:
+                    pass
+        self.records.append((t, now - self.t0, frames))
+        self.last_recv = now
+        if ts is not None:
+            self.last_time_s = max(self.last_time_s, ts)
 
 
 def _tail(path: Path, lines: int = STDERR_TAIL_LINES) -> str:
