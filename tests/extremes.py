@@ -1026,12 +1026,16 @@ def variant_groups() -> list[list[Variant]]:
 
 def _draw_number(draw: Any, st: Any, leaf: Leaf) -> float | int:
     """A value inside a field's bounds: a bound itself, uniform, or log-uniform when the
-    range spans decades above 0 (so that 1e-3 and 1e6 are both drawn), never a subnormal."""
+    range spans decades above 0 (so that 1e-3 and 1e6 are both drawn), never a subnormal;
+    an unbounded float is drawn in [−1e6, 1e6] as an unbounded int is."""
     if leaf.kind == "int":
         lo = int(leaf.lo) + (1 if leaf.lo_open else 0) if leaf.lo is not None else -10**6
         hi = int(leaf.hi) - (1 if leaf.hi_open else 0) if leaf.hi is not None else 10**6
         return draw(st.integers(lo, hi))
-    bounds = [v for _, v in bound_values(leaf)]
+    # a field bounded by its container's rule instead of its own (ErrorTerm.mean: each
+    # sensor-error field sets its limit), drawn in the ints' default span; _repair puts
+    # back what the container refuses
+    bounds = [v for _, v in bound_values(leaf)] or [-1.0e6, 0.0, 1.0e6]
     lo, hi = min(bounds), max(bounds)
     options = [st.sampled_from(bounds), st.floats(lo, hi, allow_nan=False)]
     if lo > 0 and hi / lo > 100:
@@ -1219,11 +1223,18 @@ TRUE_PLOT_COLUMNS = ("true_range_m", "true_azimuth_rad", "true_range_rate_mps")
 STATE_COLUMNS = ("east_m", "north_m", "up_m", "v_east_mps", "v_north_mps", "v_up_mps",
                  "a_east_mps2", "a_north_mps2", "a_up_mps2")
 LOOK_COLUMNS = ("look_time_s", "pd", "snr_db")
+#: truth[sensors] keys that are NaN by design: the latency of a scan that sent no ``plots``
+#: message (docs/protocol.md §4.4).
+SENSOR_NAN_KEYS = ("latency_s",)
 
 
 def _truth_problems(body: dict[str, Any]) -> list[str]:
     """Non-finite truth values, except where the protocol makes them NaN: a false alarm's
-    true geometry, an inactive target's state, a target's last look before it had one."""
+    true geometry, an inactive target's state, a target's last look before it had one, the
+    latency of a scan that sent no plots."""
+    if body.get("kind") == "sensors":
+        return [p for key, v in body.items() if key not in SENSOR_NAN_KEYS
+                for p in _nonfinite_numbers(v, f".{key}")]
     if body.get("kind") == "plots":
         target = np.asarray(body["origin"]) == 0
         out = []
