@@ -2,15 +2,20 @@
 
     python benchmarks/crossings.py [--scenarios raid stress] [--duration 300] [--repeat 10]
 
-Runs each scene once (seed 7) keeping the inputs of every block's crossing search
-(``_RadarProcess._crossings``) and of every look's grouping
-(``DwellModel._resolution_groups``), then times both again on the largest block's inputs:
-process CPU, best of ``--repeat`` runs of 20 calls (the process CPU, not the wall clock: on a
-loaded machine other processes only stretch the wall clock).
+Finds, for each scene (seed 7), the block of revolutions with the most (target, revolution)
+pairs to search and times its crossing search again
+(:meth:`shipradar.sim.engine.simulation.RadarProcess.crossings`, on the pairs of
+``plan_scans`` for the revolutions of ``block_bounds``: the engine's public methods, the same
+calls a run makes); then runs the scene keeping the inputs of every look's processing step
+(:meth:`shipradar.sim.dwell.model.DwellModel.processing`: the unresolved-target grouping 2.2.1,
+and the contacts' sums and leads; the look chain's public step, wrapped on each radar's model)
+and times the largest again. Process CPU, best of ``--repeat`` runs of 20 calls (the process
+CPU, not the wall clock: on a loaded machine other processes only stretch the wall clock).
 
 Measured on the 2-core machine when issue 37 landed, on the same inputs, process CPU per
 block: crossings, raid 1.82 ms (the old fixed-point iteration, 7fe6d38) -> 1.16 ms, stress
-15.3 -> 14.6 ms; grouping a stress block of 10,560 looks, the grid 0.44 ms -> 2.9 ms.
+15.3 -> 14.6 ms; grouping a stress block of 10,560 looks, the grid 0.44 ms -> 2.9 ms (the
+grouping alone, before the processing step was timed as a whole).
 """
 
 from __future__ import annotations
@@ -18,30 +23,49 @@ from __future__ import annotations
 import argparse
 import time
 import timeit
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
-from shipradar.sim.dwell import model as dwell_model
-from shipradar.sim.engine import simulation as engine
+from shipradar.sim.engine.simulation import RadarProcess, Simulation
 from shipradar.sim.world.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def _capture(cls, name: str, store: list):
-    """Wrap ``cls.name`` to keep its inputs; returns the original."""
-    orig = getattr(cls, name)
-
-    def keep(self, *args, **kw):
-        # the block's first revolution (the crossing search reads it) as it was at the call
-        store.append((self, args, {**kw, "_scan0": getattr(self, "_block_scan0", None)}))
-        return orig(self, *args, **kw)
-
-    setattr(cls, name, keep)
-    return orig
-
-
-def _best_ms(f, repeat: int) -> float:
+def _best_ms(f: Callable[[], Any], repeat: int) -> float:
     return min(timeit.Timer(f, timer=time.process_time).repeat(number=20, repeat=repeat)) / 20e-3
+
+
+def largest_crossing_block(sim: Simulation) -> tuple[RadarProcess, tuple[Any, ...]]:
+    """The radar and the arguments of :meth:`RadarProcess.crossings` of the run's block with
+    the most (target, revolution) pairs: the blocks a run computes, revolution ``0``,
+    ``scans_per_block``, ... (nothing is run)."""
+    best: tuple[RadarProcess, tuple[Any, ...]] | None = None
+    for proc in sim.radars:
+        for scan0 in range(0, proc.scans_in_run, proc.scans_per_block):
+            t_as = [t_a for t_a, _ in proc.block_bounds(scan0)]
+            rows, scan_of = proc.plan_scans(t_as)
+            if best is None or rows.size > best[1][0].size:
+                best = (proc, (rows, scan_of, t_as, scan0))
+    assert best is not None
+    return best
+
+
+def processing_inputs(sim: Simulation) -> list[tuple[Callable[..., Any], tuple[Any, ...]]]:
+    """Run ``sim`` keeping every call of each radar's processing step: the step (bound to its
+    model) and its arguments (the public step wrapped on each model instance)."""
+    store: list[tuple[Callable[..., Any], tuple[Any, ...]]] = []
+    for proc in sim.radars:
+        step = proc.model.processing
+
+        def keep(*args: Any, _step: Callable[..., Any] = step) -> Any:
+            store.append((_step, args))
+            return _step(*args)
+
+        proc.model.processing = keep  # type: ignore[method-assign]
+    sim.run()
+    return store
 
 
 def main() -> None:
@@ -51,34 +75,17 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=10)
     args = ap.parse_args()
     for name in args.scenarios:
-        crossings: list = []
-        groups: list = []
-        cross = _capture(engine._RadarProcess, "_crossings", crossings)
-        group = _capture(dwell_model.DwellModel, "_resolution_groups", groups)
-        try:
-            sc = load_scenario(ROOT / "scenarios" / f"{name}.yaml")
-            engine.Simulation(sc, seed=7, duration_s=args.duration).run()
-        finally:
-            engine._RadarProcess._crossings = cross
-            dwell_model.DwellModel._resolution_groups = group
-        proc, c_args, c_kw = max(crossings, key=lambda c: c[1][0].size)
-        model, g_args, g_kw = max(groups, key=lambda g: g[1][0].slant_range.size)
-        g_kw.pop("_scan0")
-        solve = _solver(cross, proc, c_args, c_kw["_scan0"])
-        print(f"{name}: crossings {_best_ms(solve, args.repeat):.2f} "
-              f"ms per block ({c_args[0].size} target-revolution pairs), grouping "
-              f"{_best_ms(lambda: group(model, *g_args, **g_kw), args.repeat):.2f} ms "  # noqa: B023
-              f"({g_args[0].slant_range.size} looks)")
+        sc = load_scenario(ROOT / "scenarios" / f"{name}.yaml")
+        sim = Simulation(sc, seed=7, duration_s=args.duration)
+        proc, c_args = largest_crossing_block(sim)
+        crossings_ms = _best_ms(lambda: proc.crossings(*c_args), args.repeat)  # noqa: B023
+        calls = processing_inputs(Simulation(sc, seed=7, duration_s=args.duration))
+        step, g_args = max(calls, key=lambda g: g[1][0].size)
+        grouping_ms = _best_ms(lambda: step(*g_args), args.repeat)  # noqa: B023
+        print(f"{name}: crossings {crossings_ms:.2f} ms per block ({c_args[0].size} "
+              f"target-revolution pairs), processing (grouping) {grouping_ms:.2f} ms "
+              f"({g_args[0].size} looks)")
 
-
-def _solver(cross, proc, c_args, scan0: int):
-    """One block's crossing search again, with the block's first revolution restored."""
-
-    def solve():
-        proc._block_scan0 = scan0
-        return cross(proc, *c_args)
-
-    return solve
 
 if __name__ == "__main__":
     main()

@@ -7,7 +7,9 @@
    uniform positions, beam times, spike S/I, errors [84]-[85]) on the scenario's P_fac map, and
    noise false alarms per second of the model's noise path (count, positions, plot columns).
 2. In a run (fast mode, no bus): the time spent inside the model's false-alarm generators
-   (timed by wrapping them) as a share of the run's wall time, and the end-to-end cost (also
+   (timed by wrapping the public methods of each radar's ``model.false_alarms``:
+   ``clutter_false_alarms``, ``noise_false_alarms`` and ``false_alarm_plots``) as a
+   share of the run's wall time, and the end-to-end cost (also
    merging, sorting and emitting those plots): the same run with the clutter false alarms
    switched off.
 3. The same two runs with every message encoded (msgpack frames, as a publisher or recorder
@@ -100,12 +102,14 @@ def run_share(scenario, tables, duration: float, clutter_fa: bool = True,
                      tables=tables)
     t_clutter, t_noise = [0.0], [0.0]
     for rp in sim.radars:
+        # the model's public generators, timed on each radar's instance
+        fam = rp.model.false_alarms
         if clutter_fa:
-            fam = rp.model.false_alarms
             fam.clutter_false_alarms = _timed(fam.clutter_false_alarms, t_clutter)
         else:
-            rp.model.false_alarms.clutter_false_alarms = lambda *a, **k: None
-        rp._scan_false_alarms = _timed(rp._scan_false_alarms, t_noise)
+            fam.clutter_false_alarms = lambda *a, **k: None
+        fam.noise_false_alarms = _timed(fam.noise_false_alarms, t_noise)
+        fam.false_alarm_plots = _timed(fam.false_alarm_plots, t_noise)
     t0 = time.perf_counter()
     summary = sim.run()
     wall = time.perf_counter() - t0

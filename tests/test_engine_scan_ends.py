@@ -10,6 +10,7 @@ import hashlib
 import numpy as np
 import pytest
 
+from shipradar.sim.engine.plot_blocks import ABSENT, PLOT_DTYPES, merge_plot_batches
 from shipradar.sim.engine.simulation import Simulation
 from shipradar.sim.stream.bus import Bus
 from shipradar.sim.stream.recording import Recorder
@@ -86,10 +87,8 @@ def test_a_radar_alone_resumes_per_revolution_with_simpys_bytes(tmp_path, durati
 
 def _reference_merge(parts):
     """The merge written plainly: concatenate, then a stable sort by (revolution, time)."""
-    from shipradar.sim.engine.simulation import _ABSENT, _PLOT_DTYPES
-
-    cat = {c: np.concatenate([p[c] if c in p else np.full(p["range_m"].size, _ABSENT[c])
-                              for p in parts]).astype(dt) for c, dt in _PLOT_DTYPES.items()}
+    cat = {c: np.concatenate([p[c] if c in p else np.full(p["range_m"].size, ABSENT[c])
+                              for p in parts]).astype(dt) for c, dt in PLOT_DTYPES.items()}
     rev = np.concatenate([p["revolution"] for p in parts])
     order = np.lexsort((cat["time_s"], rev))
     counts = np.concatenate([np.diff(p["contrib_offsets"]) if "contrib_offsets" in p
@@ -108,14 +107,12 @@ def _reference_merge(parts):
 
 
 @pytest.mark.parametrize("seed", range(6))
-def test_merge_parts_is_a_stable_sort_by_revolution_and_time(seed):
-    from shipradar.sim.engine.simulation import _PLOT_DTYPES, _merge_parts
-
+def test_merge_plot_batches_is_a_stable_sort_by_revolution_and_time(seed):
     rng = np.random.default_rng(seed)
 
     def part(n, targets):
         rev = np.sort(rng.integers(0, 3, n))
-        p = {c: rng.normal(size=n).astype(dt) for c, dt in _PLOT_DTYPES.items()}
+        p = {c: rng.normal(size=n).astype(dt) for c, dt in PLOT_DTYPES.items()}
         # times on a coarse grid (ties between and within batches); a plot may sort a hair
         # before its revolution's start (below the previous revolution's last ones)
         p["time_s"] = rev + rng.integers(0, 8, n) / 8.0 - (seed % 2) * 0.2
@@ -129,11 +126,11 @@ def test_merge_parts_is_a_stable_sort_by_revolution_and_time(seed):
         return p
 
     parts = [part(40, True), part(300, False), part(7, False)]
-    got, want = _merge_parts(parts), _reference_merge(parts)
+    got, want = merge_plot_batches(parts), _reference_merge(parts)
     assert got.keys() == want.keys()
     for c in got:
         np.testing.assert_array_equal(got[c], want[c])
-        assert got[c].dtype == (_PLOT_DTYPES.get(c) or got[c].dtype)
+        assert got[c].dtype == (PLOT_DTYPES.get(c) or got[c].dtype)
 
 
 @pytest.mark.parametrize("dip", [False, True])
@@ -158,7 +155,7 @@ def test_sector_cuts_of_a_block_are_each_revolutions_own(dip):
         edges.append(edges[-1] + t.size)
     block = np.concatenate(times)
     assert bool(np.all(np.diff(block) >= 0)) is not dip
-    cuts = radar._sector_cuts(scan0, block, edges)
+    cuts = radar.sector_cuts(scan0, block, edges)
     for r, t in enumerate(times):
         ends = radar.sector_end((scan0 + r) * n + np.arange(n - 1))
         want = edges[r] + np.append(np.searchsorted(t, ends, side="left"), t.size)

@@ -48,18 +48,15 @@ import simpy.rt
 
 from shipradar.sensors.geometry import K_FACTOR, sweep_time
 from shipradar.sim.engine.order import EventOrder
+from shipradar.sim.engine.plot_blocks import merge_plot_batches, slice_plots
 from shipradar.sim.stream import protocol
 from shipradar.sim.stream.framing import Slices, sector_columns, target_columns
 from shipradar.sim.stream.schema import (
     END,
     EOS,
     META,
-    PLOT_COLUMNS,
-    PLOT_TRUTH_COLUMNS,
-    TRUTH_PLOTS,
     TRUTH_SENSORS,
     SchemaError,
-    empty_plots,
 )
 from shipradar.sim.stream.sink import (
     CallbackSink,
@@ -887,7 +884,7 @@ class RadarProcess:
             if ahead is not None:  # ASTERIX: CAT048 ahead
                 assert self._block_plots is not None
                 ahead.plots_ahead(self.radar.id, rev.plots,
-                                  _slice_plots(self._block_plots[1], *rows), rev.starts,
+                                  slice_plots(self._block_plots[1], *rows), rev.starts,
                                   rev.stops)
         return rev
 
@@ -1126,7 +1123,7 @@ class RadarProcess:
                if self.model.has_doppler_bank else {}),
         )
 
-    def _plan_scans(self, t_scans: list[float]) -> tuple[np.ndarray, np.ndarray]:
+    def plan_scans(self, t_scans: list[float]) -> tuple[np.ndarray, np.ndarray]:
         """The targets the beam may meet in each revolution starting at ``t_scans``: their
         rows and the index in ``t_scans`` of their revolution, revolution after revolution
         (rows ascending within one).
@@ -1226,6 +1223,19 @@ class RadarProcess:
             parts.append(clutter)
         return parts
 
+    def block_bounds(self, scan0: int) -> list[tuple[float, float]]:
+        """The revolutions of the block that starts with revolution ``scan0`` (at most
+        :attr:`scans_per_block`, those that start before the run's end): [start, end) [s] of
+        each, as the process counts them (the run's end at the latest)."""
+        period, duration = self.radar.scan_period_s, self.sim.duration
+        bounds = []
+        for j in range(self.scans_per_block):
+            t_a = (scan0 + j) * self.n_sectors * self.sector_s
+            if t_a >= duration:
+                break
+            bounds.append((t_a, min(t_a + period, duration)))
+        return bounds
+
     def _compute_block(self, scan0: int) -> list[tuple[int, int]]:
         """Every plot of the next revolutions from ``scan0``, kept in :attr:`_block_plots`
         revolution after revolution, each sorted by time (emitted sector by sector); the
@@ -1239,24 +1249,18 @@ class RadarProcess:
         the block (only the order of the random draws depends on it).
         """
         sim = self.sim
-        period = self.radar.scan_period_s
         self._block_scan0 = scan0  # the revolution of a look's batch 0 (_on_look)
         if self.errors is not None:  # nothing before the block is asked again
             self.errors.forget_before(scan0 * self.n_sectors * self.sector_s - 1.0)
-        bounds = []
-        for j in range(self.scans_per_block):
-            t_a = (scan0 + j) * self.n_sectors * self.sector_s
-            if t_a >= sim.duration:
-                break
-            bounds.append((t_a, min(t_a + period, sim.duration)))
+        bounds = self.block_bounds(scan0)
         self._scan_end_states(scan0, len(bounds))
         # beam crossings of every (revolution, target) pair, solved at once
         target_part = None
         t_as = [t_a for t_a, _ in bounds]
-        rows, scan_of = (self._plan_scans(t_as) if sim.targets.n
+        rows, scan_of = (self.plan_scans(t_as) if sim.targets.n
                          else (np.zeros(0, np.int64), np.zeros(0, np.int64)))
         if rows.size:
-            idx, tc = self._crossings(rows, scan_of, t_as)
+            idx, tc = self.crossings(rows, scan_of, t_as, scan0)
             if idx.size:
                 target_part = self._dwell(rows[idx], tc, scan_of[idx])
                 if target_part is not None:
@@ -1268,7 +1272,7 @@ class RadarProcess:
         if self._ends.columns is not None:
             self._ends.columns.update(zip(("look_time_s", "pd", "snr_db", "interference"),
                                           looks, strict=True))
-        merged = _merge_parts(parts)
+        merged = merge_plot_batches(parts)
         self._block_true_t = None
         if self.errors is not None and self.errors.touches_plots:
             # issue 33: the reported range, azimuth and time; the sectors still hold the
@@ -1279,11 +1283,14 @@ class RadarProcess:
         self._block_plots = (scan0, merged, edges)  # for _frame_block
         return list(zip(edges[:-1], edges[1:], strict=True))
 
-    def _crossings(self, rows: np.ndarray, scan_of: np.ndarray, t_as: list[float]
-                   ) -> tuple[np.ndarray, np.ndarray]:
+    def crossings(self, rows: np.ndarray, scan_of: np.ndarray, t_as: list[float], scan0: int
+                  ) -> tuple[np.ndarray, np.ndarray]:
         """Every beam crossing of the (target ``rows``, revolution ``scan_of``) pairs: the
         pair of each and its time [s], by pair then time
-        (:func:`shipradar.sim.world.kinematics.beam_crossings`).
+        (:func:`shipradar.sim.world.kinematics.beam_crossings`); ``t_as`` the starts [s] of
+        the block's revolutions (from :meth:`block_bounds`), the first one revolution
+        ``scan0``, and the pairs from :meth:`plan_scans`.  Reads the scene and the radar only
+        (``benchmarks/crossings.py`` times it on a run's blocks).
 
         Revolution j, starting at t_j as the process counts it, owns the crossings in
         [t_j - ε, t_j+1 - ε) (the run's end for the last): every crossing is counted once,
@@ -1292,7 +1299,7 @@ class RadarProcess:
         a dwell θ_b/ω apart (a target keeping pace with the beam) are one look.
         """
         sim = self.sim
-        starts = np.array(t_as + [(self._block_scan0 + len(t_as)) * self.n_sectors
+        starts = np.array(t_as + [(scan0 + len(t_as)) * self.n_sectors
                                   * self.sector_s]) - _CROSSING_EPS_S
         if starts[-1] >= sim.duration - _CROSSING_EPS_S:
             starts[-1] = sim.duration
@@ -1334,7 +1341,7 @@ class RadarProcess:
         # (met at -2e-15 s by rounding) is met at the start, where it exists
         return pair, np.maximum(tc, 0.0)
 
-    def _sector_cuts(self, scan0: int, times: np.ndarray, edges: list[int]) -> np.ndarray:
+    def sector_cuts(self, scan0: int, times: np.ndarray, edges: list[int]) -> np.ndarray:
         """Where each sector's plots end in a block's plot ``times`` (revolution ``scan0 +
         r`` in rows ``edges[r]:edges[r + 1]``, sorted by time within each): the revolution's
         times before the sector's end (:meth:`sector_end`), everything left in the last
@@ -1368,7 +1375,7 @@ class RadarProcess:
         scan0, merged, edges = self._block_plots
         n = self.n_sectors
         true_t = self._block_true_t
-        cuts = self._sector_cuts(scan0, merged["time_s"] if true_t is None else true_t, edges)
+        cuts = self.sector_cuts(scan0, merged["time_s"] if true_t is None else true_t, edges)
         i1 = cuts.ravel()
         i0 = np.concatenate([np.asarray(edges[:-1], dtype=np.int64)[:, None], cuts[:, :-1]],
                             axis=1).ravel()
@@ -1741,91 +1748,6 @@ class _Revolution:
     stops: list[int]
     #: each message's publication time [s] (its end, or later with latency: issue 33)
     pub: list[float]
-
-
-# every per-plot column the engine carries, with its dtype; a batch without ``target`` (false
-# alarms) has -1
-_PLOT_DTYPES = {c: a.dtype for c, a in empty_plots().items()
-                if c in PLOT_COLUMNS or c in PLOT_TRUTH_COLUMNS}
-_ABSENT = {"target": -1, "true_range_m": np.nan, "true_azimuth_rad": np.nan,
-           "true_range_rate_mps": np.nan}
-_CONTRIB_DTYPES = (TRUTH_PLOTS["contrib_offsets"].dtype, TRUTH_PLOTS["contrib_targets"].dtype)
-
-
-def _merge_parts(parts: list[dict]) -> dict:
-    """Concatenate plot batches (targets, noise and clutter false alarms) sorted by
-    revolution and by time within each (every batch carries the ``revolution`` index of each
-    plot, kept in the result); ties keep the batches' order.
-
-    Each batch may carry the targets merged into each plot as ``contrib_offsets`` (one more
-    than its plots) and ``contrib_targets``; batches without them have no contributors, nor a
-    ``target`` (-1).  The columns and their dtypes are the schema's
-    (:mod:`shipradar.sim.stream.schema`); no batch gives an empty block of plots.
-    """
-    if not parts:
-        parts = [{**empty_plots(), "revolution": np.zeros(0, dtype=np.int64)}]
-    sizes = [p["range_m"].size for p in parts]
-    first = np.cumsum([0, *sizes])
-    time_s = np.concatenate([p["time_s"] for p in parts])
-    order = np.argsort(time_s)  # introsort: a stable sort only when two times are equal
-    t_sorted = time_s.take(order)
-    if np.any(t_sorted[1:] == t_sorted[:-1]):
-        order = np.argsort(time_s, kind="stable")
-        t_sorted = time_s.take(order)
-    rev = np.concatenate([p["revolution"] for p in parts])
-    rev_sorted = rev.take(order)
-    if np.any(rev_sorted[1:] < rev_sorted[:-1]):
-        # a plot a hair before its revolution's start (a target crossing the start
-        # azimuth) sorts before the previous revolution's last plots: by revolution first
-        order = np.lexsort((time_s, rev))
-        t_sorted, rev_sorted = time_s.take(order), rev.take(order)
-    # every other column gathered through one buffer per dtype (not a new array per
-    # concatenation); the schema's dtypes whatever a batch's (as astype)
-    out = {}
-    buffers: dict[np.dtype, np.ndarray] = {}
-    for c, dtype in _PLOT_DTYPES.items():
-        if c == "time_s":
-            out[c] = t_sorted.astype(dtype, copy=False)
-            continue
-        buf = buffers.get(dtype)
-        if buf is None:
-            buf = buffers[dtype] = np.empty(time_s.size, dtype)
-        np.concatenate([p[c] if c in p else np.full(p["range_m"].size, _ABSENT[c], dtype)
-                        for p in parts], out=buf, casting="unsafe")
-        out[c] = buf.take(order)
-    out["revolution"] = rev_sorted
-    # contributors: only some batches have them (the targets'); the others count none
-    counts = np.zeros(time_s.size, dtype=np.int64)
-    starts = np.zeros(time_s.size, dtype=np.int64)
-    pool, base = [], 0
-    for p, a, b in zip(parts, first[:-1], first[1:], strict=True):
-        off = p.get("contrib_offsets")
-        if off is None:
-            continue
-        starts[a:b] = off[:-1] + base
-        counts[a:b] = np.diff(off)
-        pool.append(p["contrib_targets"])
-        base += p["contrib_targets"].size
-    c_sorted = counts[order]
-    new_off = np.concatenate([[0], np.cumsum(c_sorted)]).astype(_CONTRIB_DTYPES[0])
-    if base:
-        s_sorted = starts[order]
-        gather = np.repeat(s_sorted, c_sorted) + (np.arange(new_off[-1])
-                                                  - np.repeat(new_off[:-1], c_sorted))
-        contrib = np.concatenate(pool)[gather].astype(_CONTRIB_DTYPES[1])
-    else:
-        contrib = np.zeros(0, dtype=_CONTRIB_DTYPES[1])
-    out.update(contrib_offsets=new_off, contrib_targets=contrib)
-    return out
-
-
-def _slice_plots(part: dict, i0: int, i1: int) -> dict:
-    """Plots ``i0:i1`` of a batch, with their contributors."""
-    off = part["contrib_offsets"]
-    out = {c: part[c][i0:i1] for c in (*PLOT_COLUMNS, *PLOT_TRUTH_COLUMNS)}
-    out["contrib_offsets"] = off[i0:i1 + 1] - off[i0]
-    out["contrib_targets"] = part["contrib_targets"][off[i0]:off[i1]]
-    return out
 
 
 def _take(geom: Geometry, idx: Any) -> Geometry:
