@@ -14,7 +14,7 @@ import functools
 import hashlib
 import math
 import weakref
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
@@ -24,6 +24,9 @@ from shipradar.sensors.detection import Interference
 from shipradar.sensors.noise import db
 from shipradar.sim.world.scenario import Radar
 
+if TYPE_CHECKING:
+    from shipradar.tables.scene import RadarTables
+
 
 class DwellConstants(Protocol):
     """What the false alarms read of their radar's
@@ -31,7 +34,7 @@ class DwellConstants(Protocol):
     module)."""
 
     radar: Radar
-    tables: Any
+    tables: RadarTables
     pfa: float
     n_pulses: float
     range_cell: float

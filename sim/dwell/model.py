@@ -38,8 +38,10 @@ import math
 import weakref
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from shipradar.sensors import (
     antenna,
@@ -72,10 +74,18 @@ from shipradar.sim.dwell.look import (
     Propagation,
     TargetPower,
 )
-from shipradar.sim.world.kinematics import wrap_pi
-from shipradar.sim.world.scenario import Platform, Radar, Scenario
+from shipradar.sim.world.kinematics import Geometry, wrap_pi
+from shipradar.sim.world.scenario import Platform, Radar, Rain, Scenario
 from shipradar.tables.sky import rain_attenuation_db_per_km, scene_radar_constants
 from shipradar.tables.store import StackedLookup2D, Table
+
+if TYPE_CHECKING:
+    from shipradar.sim.world.live import LiveTargets
+    from shipradar.sim.world.traffic import SceneTargets
+    from shipradar.tables.scene import SceneTables
+
+#: The clutter at each target's cell (:meth:`DwellModel.clutter_at`): arrays by name.
+Clutter = dict[str, np.ndarray]
 
 _RCS_CONSTANT, _RCS_MISSILE, _RCS_TABLE = 0, 1, 2
 #: Resolution of the common aspect grid on which RCS tables are resampled [deg].
@@ -131,8 +141,9 @@ class DwellModel:
 
     INTERFERENCE_NAMES = INTERFERENCE_NAMES
 
-    def __init__(self, scenario: Scenario, platform: Platform, radar: Radar, tables,
-                 targets=None):
+    def __init__(self, scenario: Scenario, platform: Platform, radar: Radar,
+                 tables: SceneTables, targets: SceneTargets | LiveTargets | None = None
+                 ) -> None:
         from shipradar.sim.world.traffic import scene_targets
 
         self.scenario = scenario
@@ -165,6 +176,25 @@ class DwellModel:
         self.elevation_pattern = k.elevation_pattern(radar)
         self.high_resolution = bool(sea_clutter.is_medium_high_resolution(
             self.theta_b, radar.pulse_width_s))
+        self._prepare_detection(radar)
+        self._prepare_targets()
+        self._prepare_jammers(scenario)
+        self._prepare_propagation(scenario)
+        self._prepare_compensation(platform, radar)
+        self._prepare_clutter_readers(scenario)
+        #: the noise and sea-clutter false alarms and their density
+        #: (:class:`shipradar.sim.dwell.false_alarm_model.FalseAlarmModel`)
+        self.false_alarms = FalseAlarmModel(self)
+        self.rain_gamma_db_per_km = 0.0
+        if env.rain is not None and fid.atmosphere:
+            # P.838 through itur, kept in the table store (itur's import: 0.6 s of start-up)
+            self.rain_gamma_db_per_km = rain_attenuation_db_per_km(
+                radar.frequency_hz, _rain_equivalent_rate(env.rain), radar.polarization)
+
+    # ------------------------------------------------------------------ set-up
+    def _prepare_detection(self, radar: Radar) -> None:
+        """P_fa, pulses per beam, resolution cells, the noise false alarms' rate, and the
+        P_d tables when the fidelity reads them."""
         # false alarms and pulses [68]-[73], [90]: P_fa for one reported false alarm per
         # t_fa and the count over the same decisions, so the noise false alarms come at 1/t_fa
         # (the seed's [68] and [90] disagree; detection and false_alarms module notes)
@@ -182,10 +212,9 @@ class DwellModel:
             cases = (self.targets.swerling_cases() if hasattr(self.targets, "swerling_cases")
                      else [int(c) for c in self.targets.swerling])  # live: any case it may get
             self._pd_tables = PdTables(self.pfa, self.n_pulses, cases)
-        self._prepare_targets()
-        self._prepare_jammers(scenario)
-        self._prepare_propagation(scenario)
-        self._prepare_compensation(platform, radar)
+
+    def _prepare_clutter_readers(self, scenario: Scenario) -> None:
+        """The readers of the clutter maps (None where the scene has no map)."""
         spectrum = (None, "doppler_mean_hz", "doppler_spread_hz")
         # the sea clutter's mean μ_c is the bank's reference, computed (_sea_clutter_mean_hz)
         # whether the map exists or not: its power, spread and Weibull a are read
@@ -206,16 +235,7 @@ class DwellModel:
         self._sea_spectrum_reader = (None if self.tables.sea_clutter is None else
                                      _stacked_reader(self.tables.sea_clutter, spectrum[2:],
                                                      periodic1=True))
-        #: the noise and sea-clutter false alarms and their density
-        #: (:class:`shipradar.sim.dwell.false_alarm_model.FalseAlarmModel`)
-        self.false_alarms = FalseAlarmModel(self)
-        self.rain_gamma_db_per_km = 0.0
-        if env.rain is not None and fid.atmosphere:
-            # P.838 through itur, kept in the table store (itur's import: 0.6 s of start-up)
-            self.rain_gamma_db_per_km = rain_attenuation_db_per_km(
-                radar.frequency_hz, _rain_equivalent_rate(env.rain), radar.polarization)
 
-    # ------------------------------------------------------------------ set-up
     def refresh_targets(self) -> None:
         """Take the scene's target list again (a live source's grew)."""
         self._prepare_targets()
@@ -277,7 +297,9 @@ class DwellModel:
         self.compensation = (speed, course) if (
             radar.processor.motion_compensated and speed > 0.0) else None
 
-    def _platform_doppler_hz(self, speed, course, azimuth, ground_range=None):
+    def _platform_doppler_hz(self, speed: float | np.ndarray, course: float | np.ndarray,
+                             azimuth: np.ndarray, ground_range: np.ndarray | None = None
+                             ) -> np.ndarray:
         """f1 [34] of the clutter patch along each beam [Hz] for a ship at ``speed`` [m/s] on
         ``course`` [rad]; at the sea patch's depression angle at ``ground_range`` [m], or
         horizontal (the weather map's convention) when None."""
@@ -286,7 +308,8 @@ class DwellModel:
         return sea_clutter.platform_doppler_hz(speed, azimuth - course, depression,
                                                self.wavelength)
 
-    def _instantaneous_f1(self, geom, platform_vel, sea=True):
+    def _instantaneous_f1(self, geom: Geometry, platform_vel: np.ndarray, sea: bool = True
+                          ) -> tuple[np.ndarray, np.ndarray]:
         """f1 [34] from the platform's instantaneous velocity (N, 3) [m/s] (a turning or
         accelerating ship), and the same from the clutter tables' motion, to swap one for
         the other in the clutter mean [35] and in the motion compensation."""
@@ -296,7 +319,8 @@ class DwellModel:
         return (self._platform_doppler_hz(speed, course, geom.azimuth, rng),
                 self._platform_doppler_hz(*self._table_motion, geom.azimuth, rng))
 
-    def _sea_clutter_mean_hz(self, ground_range, azimuth, platform_vel=None):
+    def _sea_clutter_mean_hz(self, ground_range: np.ndarray, azimuth: np.ndarray,
+                             platform_vel: np.ndarray | None = None) -> np.ndarray:
         """μ_c [35] of the sea patch at ``ground_range`` [m] and ``azimuth`` [rad] [Hz]: f1
         [34] plus the waves' drift, 0 when motion-compensated; f1 from the platform's
         instantaneous velocity ``platform_vel`` (N, 3) [m/s] when given, else from the
@@ -319,7 +343,8 @@ class DwellModel:
         wind = math.radians(self.scenario.environment.wind_direction_deg)
         return sea_clutter.mean_clutter_doppler_hz(f1, azimuth - wind, self.wavelength)
 
-    def _relative_doppler_hz(self, geom, clutter, platform_vel=None):
+    def _relative_doppler_hz(self, geom: Geometry, clutter: Clutter | None,
+                             platform_vel: np.ndarray | None = None) -> np.ndarray:
         """Each target's Doppler relative to the bank's reference [Hz], which picks its filter:
         ``clutter["doppler_relative_hz"]`` (:meth:`clutter_at`: relative to the dominant
         clutter's mean) or, without modelled clutter (``clutter`` None), f_d' - μ_c of the sea
@@ -364,7 +389,8 @@ class DwellModel:
             return math.nan
         return 0.5 * self.wavelength * self.radar.prf_hz
 
-    def range_rate_from_filter(self, filter_index, reference_hz):
+    def range_rate_from_filter(self, filter_index: np.ndarray,
+                               reference_hz: float | np.ndarray) -> np.ndarray:
         """Measured range rate [m/s] (positive receding) of contacts detected in bank filters
         ``filter_index``: the filter centre i f_r/N [60], folded into [-f_r/2, f_r/2) (the
         Doppler ambiguity: blind and ambiguous speeds beyond ±f_r λ/4), plus the bank's
@@ -391,7 +417,7 @@ class DwellModel:
         centre = self._filter_centre_hz(index)
         return -0.5 * self.wavelength * (centre + reference_hz) + 0.0
 
-    def _filter_centre_hz(self, filter_index):
+    def _filter_centre_hz(self, filter_index: np.ndarray) -> np.ndarray:
         """Centre of filters ``filter_index`` folded into [-f_r/2, f_r/2) [Hz]."""
         n = self.n_doppler_filters
         return (np.mod(np.asarray(filter_index) / n + 0.5, 1.0) - 0.5) * self.radar.prf_hz
@@ -401,12 +427,13 @@ class DwellModel:
         """:meth:`_filter_centre_hz` of every filter of the bank."""
         return self._filter_centre_hz(np.arange(self.n_doppler_filters, dtype=np.int64))
 
-    def reference_mps(self, reference_hz):
+    def reference_mps(self, reference_hz: float | np.ndarray) -> np.ndarray:
         """The bank's reference as a range rate [m/s], -λ f/2 (the rate of filter 0: docs/
         protocol.md 4.2), +0.0 rather than -0.0 at a zero reference."""
         return -0.5 * self.wavelength * np.asarray(reference_hz) + 0.0
 
-    def spectrum_reference(self, range_m, azimuth_rad):
+    def spectrum_reference(self, range_m: np.ndarray, azimuth_rad: np.ndarray
+                           ) -> tuple[np.ndarray, np.ndarray]:
         """The Doppler bank's reference (the sea-clutter mean μ_c, plus f1 [34] when
         motion-compensated) and the clutter spread σ_s at ground ranges and azimuths [Hz];
         a spread of 0 without a sea-clutter map."""
@@ -432,7 +459,7 @@ class DwellModel:
             remember_bounded(_TWO_RAY, key, two_ray)
         self._two_ray = two_ray
 
-    def azimuth_pattern(self, offset_rad, envelope=False):
+    def azimuth_pattern(self, offset_rad: np.ndarray, envelope: bool = False) -> np.ndarray:
         """Azimuth directivity factor g_az (field) at an angle from the beam axis [8]-[13].
 
         ``envelope``: beyond the first null, the sidelobe peak envelope instead of the sinc.
@@ -442,7 +469,8 @@ class DwellModel:
                                    envelope=envelope)
 
     # ------------------------------------------------------------------ physics pieces
-    def cross_section(self, rows: np.ndarray, los_enu: np.ndarray, vel_enu: np.ndarray):
+    def cross_section(self, rows: np.ndarray, los_enu: np.ndarray, vel_enu: np.ndarray
+                      ) -> np.ndarray:
         """σ [m²] of targets ``rows`` seen along ``los_enu`` (radar to target)."""
         kind = self.rcs_kind[rows]
         sigma = self.rcs_const[rows].copy()
@@ -462,7 +490,8 @@ class DwellModel:
                 sigma[tab] = (1 - w) * self.rcs_tables[tr, i] + w * self.rcs_tables[tr, i + 1]
         return sigma
 
-    def propagation_factor(self, ground_range, target_height, elevation):
+    def propagation_factor(self, ground_range: np.ndarray, target_height: np.ndarray,
+                           elevation: np.ndarray) -> tuple[np.ndarray, int]:
         """F (field ratio, includes g_el) and the number of points that fell back [4]-[7]."""
         mode = self.propagation_mode
         if mode == "free_space":
@@ -479,7 +508,9 @@ class DwellModel:
             f[bad] = two_ray(ground_range[bad], target_height[bad])
         return f, int(np.count_nonzero(bad))
 
-    def atmospheric_loss(self, slant_range, elevation, radar_en, target_en, target_up):
+    def atmospheric_loss(self, slant_range: np.ndarray, elevation: np.ndarray,
+                         radar_en: np.ndarray, target_en: np.ndarray, target_up: np.ndarray
+                         ) -> np.ndarray:
         """One-way atmospheric loss L_atm [16] (power ratio >= 1).
 
         Held at :data:`MAX_ATMOSPHERIC_LOSS_DB`: a path through more is opaque (a jammer
@@ -502,7 +533,9 @@ class DwellModel:
             loss_db = loss_db + rain_loss_db(self.rain_gamma_db_per_km, length)
         return noise.power_ratio(np.minimum(loss_db, MAX_ATMOSPHERIC_LOSS_DB))
 
-    def jamming_power(self, beam_azimuth, jam_geom, jam_pos=None, antenna_en=None):
+    def jamming_power(self, beam_azimuth: np.ndarray, jam_geom: Geometry | None,
+                      jam_pos: np.ndarray | None = None, antenna_en: np.ndarray | None = None
+                      ) -> np.ndarray:
         """Total jamming power P_j [W] at each beam azimuth [47] (0 without jammers).
 
         One-way to each jammer: the propagation factor F_j of the scene's model (PE table,
@@ -547,7 +580,8 @@ class DwellModel:
             l_atm=l_atm.reshape(-1, m), sidelobe_floor=self.jam_sidelobe_floor)
         return p.sum(axis=1)
 
-    def target_doppler_hz(self, geom, platform_vel=None):
+    def target_doppler_hz(self, geom: Geometry, platform_vel: np.ndarray | None = None
+                          ) -> np.ndarray:
         """Target Doppler after the processor [Hz]: f_d = -2 v_r/λ, minus f1 when compensated.
 
         A motion-compensated processor ([35]: μ_c = 0) shifts everything it receives in the
@@ -574,7 +608,8 @@ class DwellModel:
         return fd - self._platform_doppler_hz(*self.compensation, geom.azimuth,
                                               geom.ground_range)
 
-    def clutter_at(self, geom, tpos, antenna_en, platform_vel=None):
+    def clutter_at(self, geom: Geometry, tpos: np.ndarray, antenna_en: np.ndarray,
+                   platform_vel: np.ndarray | None = None) -> Clutter | None:
         """Clutter at each target's cell and what the processor does to it.
 
         Returns None when the scene has no clutter tables; otherwise a dict of arrays:
@@ -634,7 +669,7 @@ class DwellModel:
             "coherent_gain": noise.power_ratio(cg_db),
         }
 
-    def _folded_rain_power(self, geom, antenna_en):
+    def _folded_rain_power(self, geom: Geometry, antenna_en: np.ndarray) -> np.ndarray:
         """Weather clutter P_wc at each target's delay with a rain region [W], [39]-[41].
 
         The rain of every pulse in flight, at ground ranges r + k R_u along the target's
@@ -659,7 +694,7 @@ class DwellModel:
         gamma = self.rain_gamma_db_per_km
         centre = np.array([region.east_m, region.north_m])
 
-        def one_trip(x):
+        def one_trip(x: np.ndarray) -> np.ndarray:
             inside = np.hypot(east0 + x * sin_az - region.east_m,
                               north0 + x * cos_az - region.north_m) <= region.radius_m
             p = np.where(inside, np.nan_to_num(reader(x, az)[:, 0]), 0.0)
@@ -674,8 +709,11 @@ class DwellModel:
             one_trip, geom.ground_range, self.radar.prf_hz, self.radar.instrumented_range_m)
 
     # ------------------------------------------------------------------ dwell
-    def signal_to_interference(self, p_r, clutter_w, jam_w, improvement, dist_loss,
-                               coherent_gain=1.0):
+    def signal_to_interference(self, p_r: np.ndarray, clutter_w: np.ndarray,
+                               jam_w: np.ndarray, improvement: np.ndarray | float,
+                               dist_loss: np.ndarray | float,
+                               coherent_gain: np.ndarray | float = 1.0
+                               ) -> tuple[np.ndarray, np.ndarray]:
         """Per-pulse S/I [linear] and the dominant interference code [66]-[67].
 
         Clutter dominant: [67] gives the clutter residue after the processor, S/C G_p; the
@@ -697,9 +735,11 @@ class DwellModel:
         si = np.where(code == Interference.CLUTTER, clutter_si, noise_like)
         return si, code
 
-    def process_targets(self, geom, rows, t, tpos, rng: np.random.Generator, *,
-                        antenna_en=None, jam_geom=None, jam_power_w=None, batch=None,
-                        platform_vel=None) -> dict:
+    def process_targets(self, geom: Geometry, rows: np.ndarray, t: np.ndarray,
+                        tpos: np.ndarray, rng: np.random.Generator, *,
+                        antenna_en: np.ndarray | None = None, jam_geom: Geometry | None = None,
+                        jam_power_w: np.ndarray | None = None, batch: np.ndarray | None = None,
+                        platform_vel: np.ndarray | None = None) -> dict:
         """Plots of the targets ``rows`` crossed by the beam at times ``t`` [s].
 
         ``geom`` is their :class:`shipradar.sim.world.kinematics.Geometry`, ``tpos`` their
@@ -749,8 +789,10 @@ class DwellModel:
                                 fallbacks=prop.fallbacks)
 
     # ------------------------------------------------------------------ the look's steps
-    def look_geometry(self, geom, rows, t, tpos, *, antenna_en=None, batch=None,
-                      platform_vel=None) -> Look:
+    def look_geometry(self, geom: Geometry, rows: np.ndarray, t: np.ndarray,
+                      tpos: np.ndarray, *, antenna_en: np.ndarray | None = None,
+                      batch: np.ndarray | None = None,
+                      platform_vel: np.ndarray | None = None) -> Look:
         """The geometry step: the look's targets and where the antenna is (default: at the
         origin), as one :class:`~shipradar.sim.dwell.look.Look`."""
         radar_en = np.zeros((rows.size, 2)) if antenna_en is None else antenna_en
@@ -774,7 +816,8 @@ class DwellModel:
                                    geom.slant_range)
         return TargetPower(sigma, p_r)
 
-    def look_jamming(self, look: Look, jam_geom=None, jam_power_w=None) -> np.ndarray:
+    def look_jamming(self, look: Look, jam_geom: Geometry | None = None,
+                     jam_power_w: np.ndarray | None = None) -> np.ndarray:
         """The jamming step: P_j [W] at each target's beam azimuth [47]; ``jam_power_w`` when
         the caller computed it (the engine: the jammers at each look's time), else
         :meth:`jamming_power` from ``jam_geom``."""
@@ -782,7 +825,7 @@ class DwellModel:
             return self.jamming_power(look.geom.azimuth, jam_geom)
         return np.asarray(jam_power_w, dtype=float)
 
-    def processing(self, look: Look, power: TargetPower, clutter: dict | None) -> Contacts:
+    def processing(self, look: Look, power: TargetPower, clutter: Clutter | None) -> Contacts:
         """The processing step: unresolved targets (2.2.1, :meth:`_resolution_groups`: looks
         of one dwell, within a range cell, a beamwidth and one Doppler filter of each other),
         each contact led by its strongest target, whose Doppler sets the processor's I_F
@@ -798,7 +841,7 @@ class DwellModel:
         return Contacts(group, n_groups, lead, p_sum, clutter["improvement"][lead],
                         clutter["distribution_loss"][lead], clutter["coherent_gain"][lead])
 
-    def effective_pulses(self, clutter: dict | None, lead: np.ndarray,
+    def effective_pulses(self, clutter: Clutter | None, lead: np.ndarray,
                          code: np.ndarray) -> np.ndarray:
         """The N_e step: effective number of pulses [73]-[77] of each contact
         (:func:`shipradar.sensors.detection.effective_pulses`), clutter-dominated where the
@@ -827,7 +870,7 @@ class DwellModel:
             return rng.random(pd.size) < pd
         return self.look_uniforms(look.rows[lead], look.time_s[lead]) < pd
 
-    def measurement(self, look: Look, power: TargetPower, clutter: dict | None,
+    def measurement(self, look: Look, power: TargetPower, clutter: Clutter | None,
                     contacts: Contacts, decision: Decision, rng: np.random.Generator, *,
                     fallbacks: int = 0) -> dict:
         """The measurement step: the plot columns of the detected contacts [84]-[89].
@@ -904,7 +947,8 @@ class DwellModel:
             merged=np.bincount(group, minlength=contacts.n_groups)[group] > 1,
             batch=None if look.batch is None else np.asarray(look.batch))
 
-    def _range_rate_columns(self, geom, clutter, lead, platform_vel=None) -> dict:
+    def _range_rate_columns(self, geom: Geometry, clutter: Clutter | None, lead: np.ndarray,
+                            platform_vel: np.ndarray | None = None) -> dict[str, np.ndarray]:
         """``range_rate_mps``, ``sigma_range_rate_mps`` and ``range_rate_reference_mps`` of
         the contacts led by targets ``lead`` (NaN without a Doppler bank): the filter the
         model picks for the lead target (:meth:`doppler_filter` of its Doppler relative to
@@ -921,8 +965,11 @@ class DwellModel:
                 pc.SIGMA_RANGE_RATE_MPS: np.full(lead.size, self.range_rate_sigma_mps),
                 pc.RANGE_RATE_REFERENCE_MPS: self.reference_mps(reference)}
 
-    def _resolution_groups(self, geom, clutter, batch=None, platform_vel=None, time_s=None,
-                           power_w=None):
+    def _resolution_groups(self, geom: Geometry, clutter: Clutter | None,
+                           batch: np.ndarray | None = None,
+                           platform_vel: np.ndarray | None = None,
+                           time_s: np.ndarray | float | None = None,
+                           power_w: np.ndarray | None = None) -> tuple[np.ndarray, int]:
         """Contact index of each look and the number of contacts (seed 2.2.1).
 
         Two looks are unresolved when the beam makes them together and nothing tells them
@@ -967,7 +1014,9 @@ class DwellModel:
         rank[order] = np.arange(n_groups)
         return rank[group], n_groups
 
-    def _unresolved_pairs(self, range_m, azimuth_rad, filt, t, batch):
+    def _unresolved_pairs(self, range_m: np.ndarray, azimuth_rad: np.ndarray,
+                          filt: np.ndarray, t: np.ndarray, batch: np.ndarray
+                          ) -> tuple[np.ndarray, np.ndarray]:
         """The pairs (i, j), i < j, of looks the radar cannot tell apart (see
         :meth:`_resolution_groups`): found among the looks within a dwell of each other in
         time, sorted."""
@@ -991,7 +1040,7 @@ class DwellModel:
         i, j = i[near], j[near]
         return np.minimum(i, j), np.maximum(i, j)
 
-    def doppler_filter(self, doppler_hz):
+    def doppler_filter(self, doppler_hz: np.ndarray) -> np.ndarray:
         """Doppler filter index of each target (0 for a radar without a filter bank).
 
         The bank has ``n_filters`` filters, by default as many as it has taps: N_c for a DFT
@@ -1005,7 +1054,7 @@ class DwellModel:
         return np.asarray(doppler_filters.doppler_filter_index(
             doppler_hz, self.radar.prf_hz, self.n_doppler_filters), dtype=np.int64)
 
-    def _pulse_args(self, clutter, lead):
+    def _pulse_args(self, clutter: Clutter | None, lead: np.ndarray) -> dict[str, Any]:
         """Keyword arguments of :func:`shipradar.sensors.detection.effective_pulses` for [74]-[77]:
         ``mti_order`` N_pc for an MTI (alone or feeding a bank), ``n_coherent`` N_c for a
         bank (an ``mti_bank``'s N_c counts the whole cascade, N_pc + its bank's taps, as
@@ -1041,7 +1090,8 @@ class _TwoRayFallback:
     #: Most heights remembered (a climbing target gives a new height at every dwell).
     MAX_HEIGHTS = 4096
 
-    def __init__(self, radar: Radar, wave_height_m: float, elevation_pattern):
+    def __init__(self, radar: Radar, wave_height_m: float,
+                 elevation_pattern: Callable[[ArrayLike], np.ndarray]) -> None:
         from shipradar.sensors import propagation as prop
 
         self._prop = prop
@@ -1057,7 +1107,7 @@ class _TwoRayFallback:
             -np.arccos(np.array([a_e / (a_e + self.h1)]))))[0])
         self._cache: dict[float, tuple[float, float, float, float]] = {}
 
-    def _terms(self, d, h2):
+    def _terms(self, d: np.ndarray, h2: np.ndarray) -> np.ndarray:
         gd, refl, _ = self._prop.two_ray_terms(
             d, np.full(d.shape, self.h1), h2, self.freq, self.pol, self.wave, self.pattern, 0.0,
             self.k_factor, self.eps, "miller-brown")
@@ -1169,6 +1219,6 @@ def _argmax_by_group(group: np.ndarray, value: np.ndarray, n_groups: int) -> np.
     return out
 
 
-def _rain_equivalent_rate(rain) -> float:
+def _rain_equivalent_rate(rain: Rain) -> float:
     """Rain-equivalent precipitation rate [mm/h] (seed 4.1.4: dry snow ÷10, wet snow ÷5)."""
     return rain.rate_mm_h / {"rain": 1.0, "dry_snow": 10.0, "wet_snow": 5.0}[rain.kind]
