@@ -1,4 +1,5 @@
-"""Helpers of the ASTERIX and export tests: a small moving-ship scene, tshark on demand."""
+"""Helpers of the ASTERIX and export tests: a small moving-ship scene, an in-memory sender,
+tshark on demand."""
 
 from __future__ import annotations
 
@@ -63,3 +64,24 @@ def tshark_asterix(pcap, port: int) -> list[dict]:
             out.append({"category": int(a["asterix.category"]),
                         "records": msgs if isinstance(msgs, list) else [msgs]})
     return out
+
+
+class MemorySender:
+    """An :class:`~shipradar.sim.adapters.asterix.udp.UdpSender` that keeps the datagrams
+    (``sent``, in order) instead of sending them: what an ``AsterixBus`` would put on the
+    wire."""
+
+    url = "memory"
+
+    def __init__(self) -> None:
+        self.sent: list[bytes] = []
+        self.datagrams = 0
+        self.bytes = 0
+
+    def send(self, block: bytes) -> None:
+        self.sent.append(block)
+        self.datagrams += 1
+        self.bytes += len(block)
+
+    def close(self) -> None:
+        pass

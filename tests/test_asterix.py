@@ -20,6 +20,7 @@ import yaml
 
 from shipradar.sim.adapters.asterix import AsterixError, AsterixStream, encode_cat048
 from shipradar.sim.adapters.asterix.encode import (
+    Cat048Source,
     cat048_records,
     encode_cat034_north_marker,
     encode_cat034_sector_crossings,
@@ -29,15 +30,17 @@ from shipradar.sim.adapters.asterix.encode import (
 )
 from shipradar.sim.adapters.asterix.stream import datagrams
 from shipradar.sim.adapters.asterix.udp import parse_udp_url
-from shipradar.sim.adapters.export import _write_pcap
+from shipradar.sim.adapters.export import write_pcap
 from shipradar.sim.engine.simulation import Simulation
 from shipradar.sim.world.scenario import ScenarioError, parse_scenario
 
-from .asterix_helpers import scene, scene_dict, tshark_asterix
+from .asterix_helpers import MemorySender, scene, scene_dict, tshark_asterix
 from .helpers import ROOT, quiet_radar
 
 NM = 1852.0
 PORT = 8600
+#: The data source of the records written by hand: SAC 1, SIC 2, PRL 1°, N0' -100 dBm.
+SOURCE = Cat048Source(sac=1, sic=2, start_sod_s=0.0, prl_deg=1.0, noise_power_dbm=-100.0)
 
 
 # ----------------------------------------------------------------- bytes by hand
@@ -47,8 +50,7 @@ def test_cat048_record_bytes_by_hand():
     plots = {"sensor": "r", "time_s": np.array([1.5, 1.5]),
              "range_m": np.array([10 * NM, 10 * NM]), "azimuth_rad": np.array([math.pi / 2] * 2),
              "snr_db": np.array([20.0, 20.0]), "interference": np.array([0, 1], np.uint8)}
-    blocks = encode_cat048(plots, sac=1, sic=2, start_sod_s=0.0, prl_deg=1.0,
-                           noise_power_dbm=-100.0)
+    blocks = encode_cat048(plots, SOURCE)
     record = bytes.fromhex(
         "f308"  # FSPEC: 010 140 020 040 130 FX | 042
         "0102"  # I048/010 SAC 1 SIC 2
@@ -70,8 +72,7 @@ def test_cat048_i048_120_and_the_four_record_layouts_by_hand():
              "azimuth_rad": np.full(5, math.pi / 2), "snr_db": np.full(5, 20.0),
              "interference": np.array([0, 1, 0, 1, 0], np.uint8),
              "range_rate_mps": np.array([np.nan, np.nan, -3.4, 600.0, 2.5])}
-    blocks = encode_cat048(plots, sac=1, sic=2, start_sod_s=0.0, prl_deg=1.0,
-                           noise_power_dbm=-100.0)
+    blocks = encode_cat048(plots, SOURCE)
     body = "01020000c0300a0040001817b005000000"  # I048/010 ... I048/042 as above
     records = [
         "f308" + body,  # neither
@@ -83,14 +84,13 @@ def test_cat048_i048_120_and_the_four_record_layouts_by_hand():
     rec = bytes.fromhex("".join(records))
     assert blocks == [bytes((48, 0, len(rec) + 3)) + rec]
     buf, offsets = cat048_records(
-        plots["time_s"], plots["range_m"], plots["azimuth_rad"], sac=1, sic=2,
-        start_sod_s=0.0, snr_db=plots["snr_db"], clutter=plots["interference"] == 1,
-        prl_deg=1.0, noise_power_dbm=-100.0, range_rate_mps=plots["range_rate_mps"])
+        plots["time_s"], plots["range_m"], plots["azimuth_rad"], source=SOURCE,
+        snr_db=plots["snr_db"], clutter=plots["interference"] == 1,
+        range_rate_mps=plots["range_rate_mps"])
     assert buf.tobytes() == rec
     assert np.diff(offsets).tolist() == [len(bytes.fromhex(r)) for r in records]
     # and the slices of a revolution give the same bytes
-    assert encode_cat048_slices(plots, [0, 2], [2, 5], sac=1, sic=2, start_sod_s=0.0,
-                                prl_deg=1.0, noise_power_dbm=-100.0) == [
+    assert encode_cat048_slices(plots, [0, 2], [2, 5], SOURCE) == [
         [bytes((48, 0, 3 + len(bytes.fromhex("".join(records[:2]))))) + bytes.fromhex(
             "".join(records[:2]))],
         [bytes((48, 0, 3 + len(bytes.fromhex("".join(records[2:]))))) + bytes.fromhex(
@@ -120,15 +120,15 @@ def test_time_of_day_wraps_at_midnight():
 
 
 def test_rho_beyond_256_nm_is_refused_not_wrapped():
-    ok = cat048_records(np.array([0.0]), np.array([255.99 * NM]), np.array([0.0]), sac=0,
-                        sic=1, start_sod_s=0.0)[0]
+    src = Cat048Source(sac=0, sic=1, start_sod_s=0.0)
+    ok = cat048_records(np.array([0.0]), np.array([255.99 * NM]), np.array([0.0]),
+                        source=src)[0]
     assert ok[8:10].tobytes() == (65533).to_bytes(2, "big")  # after FSPEC, 010, 140, 020
     with pytest.raises(AsterixError, match=r"47596\d m \(257.00 NM\).*\[0, 256\) NM"):
         cat048_records(np.array([0.0, 0.0]), np.array([1000.0, 257 * NM]), np.zeros(2),
-                       sac=0, sic=1, start_sod_s=0.0, sensor="far")
+                       source=src, sensor="far")
     with pytest.raises(AsterixError, match="non-finite"):
-        cat048_records(np.array([0.0]), np.array([np.nan]), np.zeros(1), sac=0, sic=1,
-                       start_sod_s=0.0)
+        cat048_records(np.array([0.0]), np.array([np.nan]), np.zeros(1), source=src)
 
 
 def test_sac_sic_defaults_unique_and_duplicates_refused():
@@ -139,6 +139,11 @@ def test_sac_sic_defaults_unique_and_duplicates_refused():
     with pytest.raises(ScenarioError, match=r"platforms\[0\]\.radars\[1\]\.sic: SAC/SIC 3/5 is "
                                             r"already radar 'a'"):
         parse_scenario(d)
+    # the record of a radar's CAT048 constants refuses a code outside the octet, in one line
+    with pytest.raises(AsterixError, match=r"^I048/010, I034/010: SIC must be an integer in "
+                                           r"\[0, 255\], got 256$"):
+        Cat048Source(sac=0, sic=256, start_sod_s=0.0)
+    assert Cat048Source(sac=np.uint8(3), sic=4, start_sod_s=0.0).sac.__class__ is int
     # a stream whose metadata repeats a code (hand-made messages) is refused too
     stream = AsterixStream()
     meta = {"sensor": "x", "radar": {}, "sac_sic": [1, 1], "start_time": "2026-01-01T00:00:00Z",
@@ -306,7 +311,7 @@ def test_two_independent_decoders_agree_with_the_stream(run, tmp_path):
 
     # Wireshark's dissector, on a pcap of the same blocks
     pcap = tmp_path / "run.pcap"
-    _write_pcap(pcap, datagrams(blocks, 1400), stream.start_epoch_s, PORT)
+    write_pcap(pcap, datagrams(blocks, 1400), stream.start_epoch_s, PORT)
     recs048, recs034 = [], []
     for blk in tshark_asterix(pcap, PORT):
         for m in blk["records"]:
@@ -379,11 +384,11 @@ def test_revolution_at_once_equals_message_by_message():
     cuts = [0, 0, 1, 17, 17, 100, 150, 151, 200]
     starts, stops = cuts[:-1], cuts[1:]
     for kw in ({"prl_deg": 1.2, "noise_power_dbm": -95.0}, {}):
+        src = Cat048Source(sac=7, sic=9, start_sod_s=86000.0, **kw)
         for mb in (64, 200, 1400):
-            got = encode_cat048_slices(cols, starts, stops, sac=7, sic=9, start_sod_s=86000.0,
-                                       max_block_bytes=mb, **kw)
-            want = [encode_cat048({k: v[a:b] for k, v in cols.items()}, sac=7, sic=9,
-                                  start_sod_s=86000.0, max_block_bytes=mb, **kw)
+            got = encode_cat048_slices(cols, starts, stops, src, max_block_bytes=mb)
+            want = [encode_cat048({k: v[a:b] for k, v in cols.items()}, src,
+                                  max_block_bytes=mb)
                     for a, b in zip(starts, stops, strict=True)]
             assert got == want
     # the CAT034 crossings: plain integers up to 64 records, numpy beyond, same blocks
@@ -402,17 +407,7 @@ def test_run_encoding_ahead_sends_what_the_stream_gives(run):
     from shipradar.sim.adapters.asterix.udp import AsterixBus
 
     s, msgs, _, _ = run
-
-    class Sender:
-        url, datagrams, bytes, sent = "memory", 0, 0, []
-
-        def send(self, b):
-            self.sent.append(b)
-
-        def close(self):
-            pass
-
-    sender = Sender()
+    sender = MemorySender()
     bus = AsterixBus(None, sender)
     made = []
     encode_ahead = bus.stream.encode_ahead

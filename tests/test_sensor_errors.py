@@ -501,7 +501,7 @@ def test_asterix_bus_encoding_ahead_with_errors_and_latency():
     from shipradar.sim.adapters.asterix.stream import datagrams
     from shipradar.sim.adapters.asterix.udp import AsterixBus
 
-    from .asterix_helpers import scene_dict
+    from .asterix_helpers import MemorySender, scene_dict
 
     d = scene_dict()
     d["platforms"][0]["radars"][0]["errors"] = {
@@ -511,20 +511,7 @@ def test_asterix_bus_encoding_ahead_with_errors_and_latency():
     d["platforms"][0]["navigation"] = {"east_error_m": 500.0}
     s = parse_scenario(d)
     msgs = list(Simulation(s).messages())
-
-    class Sender:
-        url, datagrams, bytes = "memory", 0, 0
-
-        def __init__(self):
-            self.sent = []
-
-        def send(self, b):
-            self.sent.append(b)
-
-        def close(self):
-            pass
-
-    sender = Sender()
+    sender = MemorySender()
     bus = AsterixBus(None, sender)
     sim = Simulation(s, bus=bus)
     assert sim.encodes_ahead

@@ -37,7 +37,7 @@ from shipradar.sim.stream.schema import (
     Field,
 )
 
-__all__ = ["FORMATS", "ExportError", "export", "plot_tables", "targets_path"]
+__all__ = ["FORMATS", "ExportError", "export", "plot_tables", "targets_path", "write_pcap"]
 
 FORMATS = ("asterix", "pcap", "csv", "parquet")
 #: Wireshark's registered ASTERIX UDP port, used in the pcap by default.
@@ -70,7 +70,28 @@ def _blocks(path, max_block_bytes: int) -> tuple[list[tuple[float, bytes]], Aste
     return blocks, stream
 
 
-def _write_pcap(out: Path, blocks: list[tuple[float, bytes]], epoch0: float, port: int) -> None:
+def write_pcap(out: str | os.PathLike[str], blocks: list[tuple[float, bytes]],
+               epoch0: float, port: int = DEFAULT_PORT) -> None:
+    """Write datagrams as a pcap: 127.0.0.1 -> 127.0.0.1:``port`` over UDP, Ethernet framing.
+
+    Parameters
+    ----------
+    out : path
+        The pcap file (replaced).
+    blocks : list[tuple[float, bytes]]
+        ``(t_sim, datagram)`` pairs (:func:`shipradar.sim.adapters.asterix.stream.datagrams`):
+        simulated time [s since scenario start] and UDP payload.
+    epoch0 : float
+        POSIX time of the scenario start [s]; a packet is stamped ``epoch0 + t_sim``, to the
+        microsecond.
+    port : int, optional
+        UDP source and destination port (Wireshark's ASTERIX port 8600 by default).
+
+    Raises
+    ------
+    ExportError
+        ``dpkt`` is not installed.
+    """
     try:
         import dpkt
     except ImportError:
@@ -247,7 +268,7 @@ def export(recording: str | os.PathLike[str], fmt: str, out: str | os.PathLike[s
                 for _, block in blocks:
                     f.write(block)
         else:
-            _write_pcap(out, blocks, stream.start_epoch_s or 0.0, port)
+            write_pcap(out, blocks, stream.start_epoch_s or 0.0, port)
             summary.update(port=port, datagrams=len(blocks))
         summary.update(stream.stats)
         return summary

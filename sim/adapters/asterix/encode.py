@@ -26,6 +26,7 @@ import datetime as dt
 import functools
 import math
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -39,6 +40,7 @@ __all__ = [
     "NM_M",
     "RHO_MAX_NM",
     "AsterixError",
+    "Cat048Source",
     "cat048_records",
     "encode_cat034_north_marker",
     "encode_cat034_sector_crossings",
@@ -163,6 +165,44 @@ def check_sac_sic(sac: int, sic: int) -> None:
                                f"got {v!r}")
 
 
+@dataclass(frozen=True)
+class Cat048Source:
+    """What every CAT048 record of one radar carries besides its plot: the radar's constants.
+
+    Parameters
+    ----------
+    sac, sic : int
+        System Area Code and System Identification Code -> I048/010, each in [0, 255]
+        (checked here: AsterixError naming the code).
+    start_sod_s : float
+        UTC seconds of day of the scenario start [s] (:func:`seconds_of_day`), the origin of
+        I048/140.
+    prl_deg : float or None, optional
+        Azimuth extent of a plot [deg] -> I048/130 PRL (360°/2^13, at most 11.2°).
+    noise_power_dbm : float or None, optional
+        Receiver noise power N0' [dBm], the reference of I048/130 PAM.
+    """
+
+    sac: int
+    sic: int
+    start_sod_s: float
+    prl_deg: float | None = None
+    noise_power_dbm: float | None = None
+
+    def __post_init__(self) -> None:
+        check_sac_sic(self.sac, self.sic)
+        # numpy integers accepted, kept as int (the layout cache's key, the record's bytes)
+        object.__setattr__(self, "sac", int(self.sac))
+        object.__setattr__(self, "sic", int(self.sic))
+
+    @functools.cached_property
+    def prl_counts(self) -> int | None:
+        """I048/130 PRL in counts of 360°/2^13, clipped to the item's 8 bits (None: absent)."""
+        if self.prl_deg is None:
+            return None
+        return int(min(max(round(float(self.prl_deg) * PRL_PER_DEG), 0), 255))
+
+
 # ----------------------------------------------------------------- CAT048 record layout
 # Every plot field is computed into one float64 matrix (one row per plot, one column per
 # field), rounded once, converted once to big-endian int64, and its bytes picked by one
@@ -229,23 +269,73 @@ def _cat048_layout(sac: int, sic: int, prl: int | None, has_pam: bool):
     return int.from_bytes(const, "big", signed=True), plain, full, keep, width
 
 
-def _cat048_bytes(time_s, range_m, azimuth_rad, *, sac, sic, start_sod_s, snr_db=None,
-                  clutter=None, prl_deg=None, noise_power_dbm=None, range_rate_mps=None,
-                  sensor="?"):
+def _cat048_bytes(source: Cat048Source, time_s: Any, range_m: Any, azimuth_rad: Any,
+                  snr_db: Any = None, clutter: Any = None, range_rate_mps: Any = None,
+                  sensor: str = "?") -> tuple[np.ndarray, np.ndarray | None, int]:
     """The records of :func:`cat048_records` back to back, the per-record variant codes
     (clutter + 2 doppler, :func:`_cat048_layout`; None: every record is plain, without
     FSPEC octet 3) and the width of a plain record."""
-    if not (type(sac) is int and type(sic) is int and 0 <= sac <= 255 and 0 <= sic <= 255):
-        check_sac_sic(sac, sic)
-        sac, sic = int(sac), int(sic)
     r = np.asarray(range_m, dtype=float)
     az = np.asarray(azimuth_rad, dtype=float)
     t = np.asarray(time_s, dtype=float)
-    n = r.size
-    has_pam = noise_power_dbm is not None and snr_db is not None
-    prl = None if prl_deg is None else int(min(max(round(float(prl_deg) * PRL_PER_DEG), 0),
-                                              255))
-    const, plain, full, keep, w = _cat048_layout(sac, sic, prl, has_pam)
+    n0_dbm = source.noise_power_dbm
+    has_pam = n0_dbm is not None and snr_db is not None
+    const, plain, full, keep, w = _cat048_layout(source.sac, source.sic, source.prl_counts,
+                                                 has_pam)
+    # one contiguous row per field (fast whatever n), transposed by the integer conversion
+    v = np.empty((_NCOL, r.size))
+    _position_columns(v, t, r, az, source.start_sod_s, sensor)
+    if n0_dbm is not None and snr_db is not None:
+        _pam_column(v[_COL_PAM], snr_db, n0_dbm)
+    else:
+        v[_COL_PAM] = 0.0
+    variant = _variant_columns(v, clutter, range_rate_mps)
+    b = _record_bytes(v, const)
+    if variant is None:
+        return b.take(plain, axis=1).reshape(-1), None, w
+    # FSPEC octet 3 and, in FRN order, I048/030 code 13 (clutter-dominated plots) and
+    # I048/120 CAL (plots with a range rate) at the end: one of four layouts per record
+    rows = b.take(full, axis=1)
+    return rows[keep[variant]], variant, w
+
+
+def _position_columns(v: np.ndarray, t: np.ndarray, r: np.ndarray, az: np.ndarray,
+                      start_sod_s: float, sensor: str) -> None:
+    """Fill I048/140 (time of day), I048/040 (RHO, THETA) and I048/042 (X, Y) of ``v`` in
+    counts, unrounded; refuse (AsterixError) a plot those items cannot carry."""
+    tod = v[_COL_TOD]
+    np.add(t, start_sod_s, out=tod)
+    tod *= TOD_PER_S
+    rho = v[_COL_RHO]
+    np.multiply(r, 256.0 / NM_M, out=rho)
+    np.multiply(az, THETA_COUNTS / (2.0 * math.pi), out=v[_COL_THETA])
+    # one test, before anything else is computed from them, for NaN, inf and out of range:
+    # NaN compares False and a NaN or inf among times, ranges and azimuths makes the sum so
+    # (rint(x) is in [0, 2^16) exactly when x is in [-0.5, 65535.5)); the rare bad plot is
+    # then found and named
+    if r.size and not (np.minimum.reduce(rho) >= -0.5 and np.maximum.reduce(rho) < 65535.5
+                       and math.isfinite(np.add.reduce(v[:_COL_THETA + 1], axis=None))):
+        _cat048_refuse(t, r, az, sensor)
+    # I048/042 in the radar's own frame: X east, Y north of the antenna, from the slant
+    # range (the radar measures no elevation); |X|, |Y| < 256 NM, so at most 32767 counts
+    xy = v[_COL_X:_COL_Y + 1]
+    np.sin(az, out=v[_COL_X])
+    np.cos(az, out=v[_COL_Y])
+    xy *= r * (XY_PER_NM / NM_M)
+
+
+def _pam_column(pam: np.ndarray, snr_db: Any, noise_power_dbm: float) -> None:
+    """I048/130 PAM [dBm] = S/I + N0' into ``pam``: S/I of -inf (no signal) or NaN reads as
+    the item's floor, +inf as its ceiling."""
+    np.add(np.asarray(snr_db, dtype=float), float(noise_power_dbm), out=pam)
+    np.fmax(pam, -128.0, out=pam)
+    np.fmin(pam, 127.0, out=pam)
+
+
+def _variant_columns(v: np.ndarray, clutter: Any,
+                     range_rate_mps: Any) -> np.ndarray | None:
+    """Fill FSPEC octet 2 and the EXT column (FSPEC octet 3, I048/120 CAL) of ``v``; return
+    each record's variant code (clutter + 2 doppler), None when every record is plain."""
     in_clutter = None
     if clutter is not None:
         in_clutter = np.asarray(clutter, dtype=bool)
@@ -257,73 +347,50 @@ def _cat048_bytes(time_s, range_m, azimuth_rad, *, sac, sic, start_sod_s, snr_db
         doppler = np.isfinite(rr)  # NaN: a radar without a Doppler bank, no I048/120
         if not np.count_nonzero(doppler):
             doppler = None
-    # one contiguous row per field (fast whatever n), transposed by the integer conversion
-    v = np.empty((_NCOL, n))
-    tod = v[_COL_TOD]
-    np.add(t, start_sod_s, out=tod)
-    tod *= TOD_PER_S
-    rho = v[_COL_RHO]
-    np.multiply(r, 256.0 / NM_M, out=rho)
-    np.multiply(az, THETA_COUNTS / (2.0 * math.pi), out=v[_COL_THETA])
-    # one test, before anything else is computed from them, for NaN, inf and out of range:
-    # NaN compares False and a NaN or inf among times, ranges and azimuths makes the sum so
-    # (rint(x) is in [0, 2^16) exactly when x is in [-0.5, 65535.5)); the rare bad plot is
-    # then found and named
-    if n and not (np.minimum.reduce(rho) >= -0.5 and np.maximum.reduce(rho) < 65535.5
-                  and math.isfinite(np.add.reduce(v[:_COL_THETA + 1], axis=None))):
-        _cat048_refuse(t, r, az, sensor)
-    if has_pam:
-        # S/I of -inf (no signal) or NaN reads as the item's floor, +inf as its ceiling
-        pam = v[_COL_PAM]
-        np.add(np.asarray(snr_db, dtype=float), float(noise_power_dbm), out=pam)
-        np.fmax(pam, -128.0, out=pam)
-        np.fmin(pam, 127.0, out=pam)
-    else:
-        v[_COL_PAM] = 0.0
-    # I048/042 in the radar's own frame: X east, Y north of the antenna, from the slant
-    # range (the radar measures no elevation); |X|, |Y| < 256 NM, so at most 32767 counts
-    xy = v[_COL_X:_COL_Y + 1]
-    np.sin(az, out=v[_COL_X])
-    np.cos(az, out=v[_COL_Y])
-    xy *= r * (XY_PER_NM / NM_M)
     if in_clutter is None and doppler is None:
         v[_COL_FS2] = _FS2_042
         v[_COL_EXT] = 0.0
-        variant = None
-    else:
-        variant = np.zeros(n, dtype=np.uint8)
-        if in_clutter is not None:
-            variant += in_clutter.view(np.uint8)
-        if doppler is not None:
-            variant += 2 * doppler.view(np.uint8)
-        # FX of FSPEC octet 2 when octet 3 follows
-        np.add(variant != 0, float(_FS2_042), out=v[_COL_FS2])
-        ext = v[_COL_EXT]
-        ext[:] = 0.0
-        if in_clutter is not None:
-            ext += in_clutter * float(_FS3_030 << 16)
-        if doppler is not None:
-            # I048/120 CAL: the range rate (positive receding) to 1 m/s, two's complement in
-            # 10 bits; beyond [-512, 511] m/s clipped and marked doubtful (D)
-            cal = np.rint(np.where(doppler, rr, 0.0))
-            doubtful = (cal < CAL_MIN_MPS) | (cal > CAL_MAX_MPS)
-            np.clip(cal, CAL_MIN_MPS, CAL_MAX_MPS, out=cal)
-            np.mod(cal, 1024.0, out=cal)
-            cal += doubtful * float(_CAL_DOUBTFUL)
-            ext += doppler * (cal + float(_FS3_120 << 16))
+        return None
+    variant = np.zeros(v.shape[1], dtype=np.uint8)
+    if in_clutter is not None:
+        variant += in_clutter.view(np.uint8)
+    if doppler is not None:
+        variant += 2 * doppler.view(np.uint8)
+    # FX of FSPEC octet 2 when octet 3 follows
+    np.add(variant != 0, float(_FS2_042), out=v[_COL_FS2])
+    ext = v[_COL_EXT]
+    ext[:] = 0.0
+    if in_clutter is not None:
+        ext += in_clutter * float(_FS3_030 << 16)
+    if doppler is not None:
+        ext += doppler * (_cal_counts(rr, doppler) + float(_FS3_120 << 16))
+    return variant
+
+
+def _cal_counts(rr: np.ndarray, doppler: np.ndarray) -> np.ndarray:
+    """I048/120 CAL: the range rate (positive receding) to 1 m/s, two's complement in 10
+    bits; beyond [-512, 511] m/s clipped and marked doubtful (D); 0 where not ``doppler``."""
+    cal = np.rint(np.where(doppler, rr, 0.0))
+    doubtful = (cal < CAL_MIN_MPS) | (cal > CAL_MAX_MPS)
+    np.clip(cal, CAL_MIN_MPS, CAL_MAX_MPS, out=cal)
+    np.mod(cal, 1024.0, out=cal)
+    cal += doubtful * float(_CAL_DOUBTFUL)
+    return cal
+
+
+def _record_bytes(v: np.ndarray, const: int) -> np.ndarray:
+    """The fields of ``v`` rounded once and wrapped to their items, as the big-endian bytes
+    of one int64 per field and plot (``(n, 8 * _NCOL)`` uint8), the constant bytes in
+    column :data:`_COL_CONST`."""
     v[_COL_CONST] = 0.0
     np.rint(v, out=v)
+    xy = v[_COL_X:_COL_Y + 1]
     np.minimum(xy, 32767.0, out=xy)
+    tod = v[_COL_TOD]
     np.mod(tod, TOD_PER_DAY, out=tod)
     vi = v.T.astype(">i8", order="C")
     vi[:, _COL_CONST] = const
-    b = vi.view(np.uint8)
-    if variant is None:
-        return b.take(plain, axis=1).reshape(-1), None, w
-    # FSPEC octet 3 and, in FRN order, I048/030 code 13 (clutter-dominated plots) and
-    # I048/120 CAL (plots with a range rate) at the end: one of four layouts per record
-    rows = b.take(full, axis=1)
-    return rows[keep[variant]], variant, w
+    return vi.view(np.uint8)
 
 
 def _cat048_refuse(t, r, az, sensor) -> None:
@@ -358,13 +425,9 @@ def cat048_records(
     range_m: np.ndarray,
     azimuth_rad: np.ndarray,
     *,
-    sac: int,
-    sic: int,
-    start_sod_s: float,
+    source: Cat048Source,
     snr_db: np.ndarray | None = None,
     clutter: np.ndarray | None = None,
-    prl_deg: float | None = None,
-    noise_power_dbm: float | None = None,
     range_rate_mps: np.ndarray | None = None,
     sensor: str = "?",
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -379,20 +442,15 @@ def cat048_records(
     azimuth_rad : numpy.ndarray
         Measured azimuths from true north, clockwise [rad] -> I048/040 THETA (360°/2^16);
         with the range also -> I048/042 X (east), Y (north) in the radar's frame (1/128 NM).
-    sac, sic : int
-        Data source -> I048/010.
-    start_sod_s : float
-        UTC seconds of day of the scenario start [s].
+    source : Cat048Source
+        The radar's constants: SAC/SIC -> I048/010, the scenario start's UTC second of day,
+        the plot's azimuth extent -> I048/130 PRL, the noise power (PAM's reference).
     snr_db : numpy.ndarray or None, optional
-        S/I of each plot [dB]; with ``noise_power_dbm`` -> I048/130 PAM = S/I + N0' [dBm]
-        (1 dBm, clipped to the item's [-128, 127] dBm).
+        S/I of each plot [dB]; with ``source.noise_power_dbm`` -> I048/130 PAM = S/I + N0'
+        [dBm] (1 dBm, clipped to the item's [-128, 127] dBm).
     clutter : numpy.ndarray of bool or None, optional
         Plots whose dominant interference is clutter -> I048/030 code 13 "target in clutter
         area" (the item is absent for the others).
-    prl_deg : float or None, optional
-        Azimuth extent of a plot [deg] -> I048/130 PRL (360°/2^13, at most 11.2°).
-    noise_power_dbm : float or None, optional
-        Receiver noise power N0' [dBm], the reference of PAM.
     range_rate_mps : numpy.ndarray or None, optional
         Measured range rate of each plot, positive receding [m/s] (the stream's
         ``range_rate_mps``) -> I048/120 subfield CAL (10-bit two's complement, LSB 1 m/s,
@@ -412,22 +470,20 @@ def cat048_records(
     ------
     AsterixError
         A range or azimuth that is not finite, a negative range, or a range at or beyond
-        256 NM (RHO's bound; such a plot is refused, never wrapped), or a bad SAC/SIC.
+        256 NM (RHO's bound; such a plot is refused, never wrapped).
 
     Notes
     -----
     Every record has I048/010, I048/140, I048/020 (single PSR detection, SIM set),
-    I048/040 and I048/042; I048/130 when ``prl_deg`` or PAM is known; I048/030 on
+    I048/040 and I048/042; I048/130 when ``source.prl_deg`` or PAM is known; I048/030 on
     clutter-dominated plots; I048/120 on plots with a finite range rate. So four record
     layouts (FSPEC ``F3 08``, with I048/030 ``F3 09 40``, with I048/120 ``F3 09 04``, with
     both ``F3 09 44``). I048/170 and the other track items are absent: these are plots.
     The standard does not state the sign of CAL; shipradar sends the range rate as it is,
     positive for a receding target.
     """
-    buf, variant, w = _cat048_bytes(
-        time_s, range_m, azimuth_rad, sac=sac, sic=sic, start_sod_s=start_sod_s,
-        snr_db=snr_db, clutter=clutter, prl_deg=prl_deg, noise_power_dbm=noise_power_dbm,
-        range_rate_mps=range_rate_mps, sensor=sensor)
+    buf, variant, w = _cat048_bytes(source, time_s, range_m, azimuth_rad, snr_db, clutter,
+                                    range_rate_mps, sensor)
     return buf, _offsets(int(np.size(range_m)), variant, w)
 
 
@@ -475,8 +531,7 @@ def pack_blocks(category: int, buf: np.ndarray, offsets: np.ndarray,
     return blocks
 
 
-def encode_cat048(plots: Mapping[str, Any], *, sac: int, sic: int, start_sod_s: float,
-                  prl_deg: float | None = None, noise_power_dbm: float | None = None,
+def encode_cat048(plots: Mapping[str, Any], source: Cat048Source, *,
                   max_block_bytes: int = DEFAULT_MAX_BLOCK_BYTES,
                   clutter_code: int = 1) -> list[bytes]:
     """CAT048 data blocks of one ``plots`` message.
@@ -487,14 +542,9 @@ def encode_cat048(plots: Mapping[str, Any], *, sac: int, sic: int, start_sod_s: 
         The payload of a ``plots`` message (docs/protocol.md 4.2): ``time_s``, ``range_m``,
         ``azimuth_rad``, ``snr_db``, ``interference``, ``range_rate_mps`` (optional: NaN or
         absent, no I048/120) columns and ``sensor``.
-    sac, sic : int
-        Data source (I048/010).
-    start_sod_s : float
-        UTC seconds of day of the scenario start [s].
-    prl_deg : float or None, optional
-        Plot azimuth extent [deg] (I048/130 PRL).
-    noise_power_dbm : float or None, optional
-        Receiver noise power [dBm], reference of I048/130 PAM.
+    source : Cat048Source
+        The radar's constants (I048/010, the start's second of day, I048/130 PRL, PAM's
+        reference).
     max_block_bytes : int, optional
         Largest data block [bytes].
     clutter_code : int, optional
@@ -507,11 +557,9 @@ def encode_cat048(plots: Mapping[str, Any], *, sac: int, sic: int, start_sod_s: 
     """
     interference = plots.get("interference")
     buf, variant, w = _cat048_bytes(
-        plots["time_s"], plots["range_m"], plots["azimuth_rad"], sac=sac, sic=sic,
-        start_sod_s=start_sod_s, snr_db=plots.get("snr_db"),
-        clutter=None if interference is None else np.asarray(interference) == clutter_code,
-        prl_deg=prl_deg, noise_power_dbm=noise_power_dbm,
-        range_rate_mps=plots.get("range_rate_mps"), sensor=str(plots.get("sensor", "?")))
+        source, plots["time_s"], plots["range_m"], plots["azimuth_rad"], plots.get("snr_db"),
+        None if interference is None else np.asarray(interference) == clutter_code,
+        plots.get("range_rate_mps"), str(plots.get("sensor", "?")))
     total = buf.size
     if 0 < total <= max_block_bytes - 3 and max_block_bytes <= MAX_BLOCK_BYTES:
         # the usual sector: one block
@@ -521,8 +569,7 @@ def encode_cat048(plots: Mapping[str, Any], *, sac: int, sic: int, start_sod_s: 
 
 
 def encode_cat048_slices(plots: Mapping[str, Any], starts: Sequence[int],
-                         stops: Sequence[int], *, sac: int, sic: int, start_sod_s: float,
-                         prl_deg: float | None = None, noise_power_dbm: float | None = None,
+                         stops: Sequence[int], source: Cat048Source, *,
                          max_block_bytes: int = DEFAULT_MAX_BLOCK_BYTES,
                          clutter_code: int = 1) -> list[list[bytes]]:
     """CAT048 data blocks of many ``plots`` messages that slice the same columns at once.
@@ -540,7 +587,7 @@ def encode_cat048_slices(plots: Mapping[str, Any], starts: Sequence[int],
         :func:`encode_cat048`.
     starts, stops : Sequence[int]
         The slice of each message (ascending, not overlapping).
-    sac, sic, start_sod_s, prl_deg, noise_power_dbm, max_block_bytes, clutter_code
+    source, max_block_bytes, clutter_code
         As :func:`encode_cat048`.
 
     Returns
@@ -566,11 +613,9 @@ def encode_cat048_slices(plots: Mapping[str, Any], starts: Sequence[int],
 
     interference = span("interference")
     buf, variant, w = _cat048_bytes(
-        span("time_s"), span("range_m"), span("azimuth_rad"), sac=sac, sic=sic,
-        start_sod_s=start_sod_s, snr_db=span("snr_db"),
-        clutter=None if interference is None else interference == clutter_code,
-        prl_deg=prl_deg, noise_power_dbm=noise_power_dbm,
-        range_rate_mps=span("range_rate_mps"), sensor=str(plots.get("sensor", "?")))
+        source, span("time_s"), span("range_m"), span("azimuth_rad"), span("snr_db"),
+        None if interference is None else interference == clutter_code,
+        span("range_rate_mps"), str(plots.get("sensor", "?")))
     data = buf.tobytes()
     if variant is None:
         bounds = None

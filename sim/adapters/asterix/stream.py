@@ -36,6 +36,7 @@ from shipradar.sim.adapters.asterix.encode import (
     TOD_PER_DAY,
     TOD_PER_S,
     AsterixError,
+    Cat048Source,
     check_sac_sic,
     encode_cat034_north_marker,
     encode_cat034_sector_crossings,
@@ -66,15 +67,11 @@ _CROSSING_BLOCK_HEAD = bytes((CAT034, 0, 11))
 @dataclass
 class _Source:
     sensor: str
-    sac: int
-    sic: int
-    start_sod_s: float
+    cat048: Cat048Source  # SAC/SIC (CAT034's too), the start's second of day, PRL, PAM's N0'
     start_epoch_s: float
     period_s: float
     n_sectors: int
     beam0_rad: float
-    prl_deg: float | None
-    noise_power_dbm: float | None
     clutter_code: int
     circular: bool
     next_sector: int = 0
@@ -88,7 +85,8 @@ class _Source:
         frac = ((2.0 * math.pi - self.beam0_rad) % (2.0 * math.pi)) / (2.0 * math.pi)
         self.first_north_s = (frac if frac > 0.0 else 1.0) * self.period_s
         # I034/010 + I034/000 of a sector crossing record, after its FSPEC
-        self.crossing_head = bytes((0xF0, self.sac, self.sic, MSG_SECTOR_CROSSING))
+        self.crossing_head = bytes((0xF0, self.cat048.sac, self.cat048.sic,
+                                    MSG_SECTOR_CROSSING))
 
 
 class AsterixStream:
@@ -159,10 +157,7 @@ class AsterixStream:
             if src is None:
                 self.stats["plots_without_meta"] += len(payload["range_m"])
                 return out
-            blocks = encode_cat048(payload, sac=src.sac, sic=src.sic,
-                                   start_sod_s=src.start_sod_s, prl_deg=src.prl_deg,
-                                   noise_power_dbm=src.noise_power_dbm,
-                                   max_block_bytes=self.max_block_bytes,
+            blocks = encode_cat048(payload, src.cat048, max_block_bytes=self.max_block_bytes,
                                    clutter_code=src.clutter_code)
             return self._plots(src, t_sim, len(payload["range_m"]), blocks)
         elif topic == "eos":
@@ -206,10 +201,8 @@ class AsterixStream:
         if src is None:
             return None
         return encode_cat048_slices(
-            {**plots, "sensor": sensor}, starts, stops, sac=src.sac, sic=src.sic,
-            start_sod_s=src.start_sod_s, prl_deg=src.prl_deg,
-            noise_power_dbm=src.noise_power_dbm, max_block_bytes=self.max_block_bytes,
-            clutter_code=src.clutter_code)
+            {**plots, "sensor": sensor}, starts, stops, src.cat048,
+            max_block_bytes=self.max_block_bytes, clutter_code=src.clutter_code)
 
     def feed_encoded(self, sensor: str, t_sim: float, n_plots: int,
                      blocks: list[bytes]) -> list[tuple[float, bytes]]:
@@ -276,14 +269,16 @@ class AsterixStream:
             self.start_epoch_s = start.timestamp()
         codes = list(m.get("interference_codes") or ["noise", "clutter", "jamming"])
         self._sources[sensor] = _Source(
-            sensor=sensor, sac=sac, sic=sic, start_sod_s=seconds_of_day(start),
+            sensor=sensor,
+            cat048=Cat048Source(
+                sac=sac, sic=sic, start_sod_s=seconds_of_day(start),
+                # a plot's azimuth extent is the 3 dB beamwidth: the dwell integrates the
+                # pulses of one beamwidth (seed [73]-[77])
+                prl_deg=radar.get("beamwidth_az_deg"),
+                noise_power_dbm=m.get("noise_power_dbm")),
             start_epoch_s=start.timestamp(), period_s=float(m["scan_period_s"]),
             n_sectors=int(m["sectors_per_scan"]),
             beam0_rad=math.radians(float(radar.get("start_azimuth_deg", 0.0))),
-            # a plot's azimuth extent is the 3 dB beamwidth: the dwell integrates the pulses
-            # of one beamwidth (seed [73]-[77])
-            prl_deg=radar.get("beamwidth_az_deg"),
-            noise_power_dbm=m.get("noise_power_dbm"),
             clutter_code=codes.index("clutter") if "clutter" in codes else -1,
             circular=False,
         )
@@ -322,7 +317,7 @@ class AsterixStream:
             # the usual case, one crossing: plain integers (numpy's per-call overhead is
             # the whole cost here); the same arithmetic as encode_cat034_sector_crossings
             az = (src.beam0_rad + 2.0 * math.pi * t0 / src.period_s) % (2.0 * math.pi)
-            c = round((src.start_sod_s + t0) * TOD_PER_S) % TOD_PER_DAY
+            c = round((src.cat048.start_sod_s + t0) * TOD_PER_S) % TOD_PER_DAY
             sector = (round(az * (THETA_COUNTS / (2.0 * math.pi))) % THETA_COUNTS) >> 8
             out.append((t0, _CROSSING_BLOCK_HEAD + src.crossing_head
                         + bytes((c >> 16, (c >> 8) & 0xFF, c & 0xFF, sector))))
@@ -332,7 +327,8 @@ class AsterixStream:
             turn = 2.0 * math.pi
             azimuths = [(src.beam0_rad + turn * tj / src.period_s) % turn for tj in times]
             blocks = encode_cat034_sector_crossings(
-                times, azimuths, sac=src.sac, sic=src.sic, start_sod_s=src.start_sod_s,
+                times, azimuths, sac=src.cat048.sac, sic=src.cat048.sic,
+                start_sod_s=src.cat048.start_sod_s,
                 max_block_bytes=self.max_block_bytes)
             out.extend((times[-1], b) for b in blocks)
             self.stats["sector_crossings"] += len(times)
@@ -361,7 +357,7 @@ class AsterixStream:
         # (shipradar.sim.world.kinematics.LocalFrame), so the antenna's height above the sea is its
         # ellipsoidal height
         return encode_cat034_north_marker(
-            t, sac=src.sac, sic=src.sic, start_sod_s=src.start_sod_s,
+            t, sac=src.cat048.sac, sic=src.cat048.sic, start_sod_s=src.cat048.start_sod_s,
             rotation_period_s=src.period_s, lat_deg=lat, lon_deg=lon,
             height_m=float(pos["alt_m"]), circular_polarization=src.circular)
 
