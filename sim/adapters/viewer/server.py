@@ -811,9 +811,9 @@ class ViewerServer:
         except OSError:
             await self.stop()
             raise
-        server = site._server  # an asyncio.Server once started (aiohttp types it abstract)
-        sockets = server.sockets if isinstance(server, asyncio.Server) else []
-        port = sockets[0].getsockname()[1] if sockets else self.port
+        # the bound port (port 0: the kernel's choice), from the runner's public socket list
+        addresses = self._runner.addresses
+        port = addresses[0][1] if addresses else self.port
         host = f"[{self.host}]" if ":" in self.host else self.host
         self.url = f"http://{host}:{port}/"
         return self.url

@@ -21,7 +21,7 @@ from __future__ import annotations
 import json
 import math
 import struct
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -138,70 +138,93 @@ def to_view(topic: bytes, t: float, p: Mapping[str, Any]) -> dict[str, Any] | No
         If a field the page needs is missing or of the wrong type or length (the message is
         then skipped and counted, never drawn half-read).
     """
-    base: dict[str, Any] = {"t": float(t)}
-    if topic == b"plots":
+    fields = _VIEW_FIELDS.get(topic)
+    if fields is None:
+        return None
+    item = fields(p)
+    if item is None:
+        return None
+    return {"t": float(t), **item}
+
+
+def _plots_fields(p: Mapping[str, Any]) -> dict[str, Any]:
+    """A ``plots`` message: the plots' ids, times, ranges, azimuths and S/I."""
+    ids = _col(p, "plot_id", "f8")
+    n = ids.size
+    return dict(k="plots", sensor=_str(p, "sensor"), scan=_int(p, "scan"), id=ids,
+                ts=_col(p, "time_s", "f8", n), r=_col(p, "range_m", "f4", n),
+                az=_col(p, "azimuth_rad", "f4", n), snr=_col(p, "snr_db", "f4", n))
+
+
+def _truth_fields(p: Mapping[str, Any]) -> dict[str, Any] | None:
+    """``truth[plots]`` (each plot's origin and target) or ``truth[targets]`` (positions,
+    activity); None for the other truth kinds."""
+    kind = p.get("kind")
+    if kind == "plots":
         ids = _col(p, "plot_id", "f8")
         n = ids.size
-        base.update(k="plots", sensor=_str(p, "sensor"), scan=_int(p, "scan"), id=ids,
-                    ts=_col(p, "time_s", "f8", n), r=_col(p, "range_m", "f4", n),
-                    az=_col(p, "azimuth_rad", "f4", n), snr=_col(p, "snr_db", "f4", n))
-        return base
-    if topic == b"truth":
-        kind = p.get("kind")
-        if kind == "plots":
-            ids = _col(p, "plot_id", "f8")
-            n = ids.size
-            base.update(k="origin", sensor=_str(p, "sensor"), scan=_int(p, "scan"),
-                        id0=float(ids[0]) if n else -1.0, n=n,
-                        o=_col(p, "origin", "u1", n), tg=_col(p, "target", "i4", n))
-            return base
-        if kind == "targets":
-            e = _col(p, "east_m", "f8")
-            n = e.size
-            base.update(k="targets", sensor=_str(p, "sensor"), e=e,
-                        n=_col(p, "north_m", "f8", n), a=_col(p, "active", "u1", n))
-            return base
-        return None
-    if topic == b"eos":
-        pos = p.get("position")
-        if not isinstance(pos, Mapping):
-            raise ViewError("'position' must be a map")
-        vel = p.get("velocity_enu_mps", [0.0, 0.0, 0.0])
-        if not isinstance(vel, (list, tuple)) or len(vel) < 2:
-            raise ViewError("'velocity_enu_mps' must be a list of 3 numbers")
-        base.update(k="eos", sensor=_str(p, "sensor"), scan=_int(p, "scan"),
-                    e=_num(pos, "east_m"), n=_num(pos, "north_m"),
-                    hd=_num(p, "heading_deg"),
-                    ve=_num({"v": vel[0]}, "v"), vn=_num({"v": vel[1]}, "v"))
-        return base
-    if topic == b"meta":
-        radar = p.get("radar")
-        if not isinstance(radar, Mapping):
-            raise ViewError("'radar' must be a map")
-        base.update(k="meta", sensor=_str(p, "sensor"), platform=_str(p, "platform"),
-                    scan=_int(p, "scan"), period=_num(p, "scan_period_s"),
-                    range_m=_num(radar, "instrumented_range_m"),
-                    beam_deg=_num(radar, "beamwidth_az_deg", 1.0),
-                    az0_deg=_num(radar, "start_azimuth_deg", 0.0),
-                    target_ids=_str_list(p, "target_ids"),
-                    origin_codes=_str_list(p, "origin_codes"),
-                    nfa=_num(p, "noise_false_alarms_per_scan", 0.0),
-                    cfa=_num(p, "clutter_false_alarms_per_scan", 0.0))
-        if base["period"] <= 0 or base["range_m"] <= 0:
-            raise ViewError("'scan_period_s' and 'instrumented_range_m' must be > 0")
-        return base
-    if topic == TOPIC_TRACKS:
+        return dict(k="origin", sensor=_str(p, "sensor"), scan=_int(p, "scan"),
+                    id0=float(ids[0]) if n else -1.0, n=n,
+                    o=_col(p, "origin", "u1", n), tg=_col(p, "target", "i4", n))
+    if kind == "targets":
         e = _col(p, "east_m", "f8")
         n = e.size
-        track_ids = _str_list(p, "track_id", MAX_PLOTS_PER_MESSAGE)
-        if len(track_ids) != n:
-            raise ViewError(f"'track_id' holds {len(track_ids)} ids, expected {n}")
-        base.update(k="tracks", sensor=_str(p, "sensor"), ids=track_ids, e=e,
-                    n=_col(p, "north_m", "f8", n), ve=_col(p, "v_east_mps", "f4", n),
-                    vn=_col(p, "v_north_mps", "f4", n),
-                    se=_col(p, "sigma_east_m", "f4", n), sn=_col(p, "sigma_north_m", "f4", n))
-        return base
+        return dict(k="targets", sensor=_str(p, "sensor"), e=e,
+                    n=_col(p, "north_m", "f8", n), a=_col(p, "active", "u1", n))
     return None
+
+
+def _eos_fields(p: Mapping[str, Any]) -> dict[str, Any]:
+    """An ``eos`` message: the platform's position, heading and horizontal velocity."""
+    pos = p.get("position")
+    if not isinstance(pos, Mapping):
+        raise ViewError("'position' must be a map")
+    vel = p.get("velocity_enu_mps", [0.0, 0.0, 0.0])
+    if not isinstance(vel, (list, tuple)) or len(vel) < 2:
+        raise ViewError("'velocity_enu_mps' must be a list of 3 numbers")
+    return dict(k="eos", sensor=_str(p, "sensor"), scan=_int(p, "scan"),
+                e=_num(pos, "east_m"), n=_num(pos, "north_m"),
+                hd=_num(p, "heading_deg"),
+                ve=_num({"v": vel[0]}, "v"), vn=_num({"v": vel[1]}, "v"))
+
+
+def _meta_fields(p: Mapping[str, Any]) -> dict[str, Any]:
+    """A ``meta`` message: the radar's period, range, beam and the code lists."""
+    radar = p.get("radar")
+    if not isinstance(radar, Mapping):
+        raise ViewError("'radar' must be a map")
+    item: dict[str, Any] = dict(
+        k="meta", sensor=_str(p, "sensor"), platform=_str(p, "platform"),
+        scan=_int(p, "scan"), period=_num(p, "scan_period_s"),
+        range_m=_num(radar, "instrumented_range_m"),
+        beam_deg=_num(radar, "beamwidth_az_deg", 1.0),
+        az0_deg=_num(radar, "start_azimuth_deg", 0.0),
+        target_ids=_str_list(p, "target_ids"),
+        origin_codes=_str_list(p, "origin_codes"),
+        nfa=_num(p, "noise_false_alarms_per_scan", 0.0),
+        cfa=_num(p, "clutter_false_alarms_per_scan", 0.0))
+    if item["period"] <= 0 or item["range_m"] <= 0:
+        raise ViewError("'scan_period_s' and 'instrumented_range_m' must be > 0")
+    return item
+
+
+def _tracks_fields(p: Mapping[str, Any]) -> dict[str, Any]:
+    """A ``tracks`` message of a tracker: ids, positions, velocities and their sigmas."""
+    e = _col(p, "east_m", "f8")
+    n = e.size
+    track_ids = _str_list(p, "track_id", MAX_PLOTS_PER_MESSAGE)
+    if len(track_ids) != n:
+        raise ViewError(f"'track_id' holds {len(track_ids)} ids, expected {n}")
+    return dict(k="tracks", sensor=_str(p, "sensor"), ids=track_ids, e=e,
+                n=_col(p, "north_m", "f8", n), ve=_col(p, "v_east_mps", "f4", n),
+                vn=_col(p, "v_north_mps", "f4", n),
+                se=_col(p, "sigma_east_m", "f4", n), sn=_col(p, "sigma_north_m", "f4", n))
+
+
+# the view fields of each topic the page draws
+_VIEW_FIELDS: dict[bytes, Callable[[Mapping[str, Any]], dict[str, Any] | None]] = {
+    b"plots": _plots_fields, b"truth": _truth_fields, b"eos": _eos_fields,
+    b"meta": _meta_fields, TOPIC_TRACKS: _tracks_fields}
 
 
 def item_weight(item: Mapping[str, Any]) -> int:

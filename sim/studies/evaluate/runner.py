@@ -41,7 +41,7 @@ import traceback
 from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any
+from typing import IO, Any
 
 import msgpack
 import numpy as np
@@ -383,9 +383,35 @@ def run_and_collect(spec: RunSpec) -> tuple[dict[str, Any], RunData | None]:
     return info, data
 
 
-def _run_command(spec: RunSpec, collect: Collect | None) -> dict[str, Any]:
-    from shipradar.sim.engine.simulation import Simulation
+@dataclass
+class _Run:
+    """One run of a tracker command while it goes: the tracker's process, the harness's
+    sockets, the tracker's output files, what the run gave and the times of its phases [s]."""
 
+    spec: RunSpec
+    run_dir: Path
+    wall0: float  # perf_counter at the start [s]
+    info: dict[str, Any]  # becomes run.json
+    stdout: IO[bytes]
+    stderr: IO[bytes]
+    proc: subprocess.Popen | None = None
+    publisher: _TimedPublisher | None = None
+    collector: _Collector | None = None
+    bus: Any = None  # the simulator's bus while the simulation runs
+    summary: Any = None
+    startup_s: float = 0.0
+    run_s: float = 0.0
+    drain_s: float = 0.0
+    stop_s: float = 0.0
+
+    def tracker_alive(self) -> bool:
+        return self.proc is not None and self.proc.poll() is None
+
+
+def _run_command(spec: RunSpec, collect: Collect | None) -> dict[str, Any]:
+    """The steps of :func:`run_tracker_command`: start the tracker, run the simulation, wait
+    for the last tracks, stop everything, write the run directory; a failure of any step is
+    reported in the run's ``status`` and ``error``, never raised."""
     wall0 = time.perf_counter()
     run_dir = Path(spec.run_dir)
     run_dir.mkdir(parents=True, exist_ok=True)
@@ -395,62 +421,16 @@ def _run_command(spec: RunSpec, collect: Collect | None) -> dict[str, Any]:
                             "scenario": scenario.name, "duration_s": duration,
                             "tracker": spec.tracker, "exit_code": None, "stderr_tail": "",
                             "stopped_by_harness": False, "spec": asdict(spec)}
-    proc: subprocess.Popen | None = None
-    collector = publisher = bus = None
-    stdout = open(run_dir / "tracker.stdout", "wb")  # noqa: SIM115 - closed below
-    stderr = open(run_dir / "tracker.stderr", "wb")  # noqa: SIM115
-    run_s = drain_s = startup_s = 0.0
-    summary = None
+    run = _Run(spec, run_dir, wall0, info,
+               open(run_dir / "tracker.stdout", "wb"),  # noqa: SIM115 - closed by _stop_run
+               open(run_dir / "tracker.stderr", "wb"))  # noqa: SIM115
     try:
-        publisher = _TimedPublisher("tcp://127.0.0.1:*", on_slow="pace",
-                                    stall_timeout_s=spec.stall_timeout_s, t0=wall0,
-                                    proc_alive=lambda: proc is not None and proc.poll() is None)
-        tracks_ep = f"tcp://127.0.0.1:{free_port()}"
-        asterix_ep = f"udp://127.0.0.1:{free_port(socket.SOCK_DGRAM)}"
-        values = {"plots": publisher.endpoint, "tracks": tracks_ep, "asterix": asterix_ep,
-                  "seed": str(spec.seed), "run_dir": str(run_dir)}
-        info["endpoints"] = {"plots": publisher.endpoint, "tracks": tracks_ep,
-                             "asterix": asterix_ep}
-        collector = _Collector(tracks_ep, wall0)
-        collector.start()
-        argv = fill_placeholders(spec.tracker, values)
-        info["argv"] = argv
-        try:
-            proc = subprocess.Popen(argv, stdout=stdout, stderr=stderr, stdin=subprocess.DEVNULL,
-                                    start_new_session=True)
-        except OSError as exc:
-            raise _RunFailed(f"cannot start the tracker: {exc}") from None
-        _wait_ready(spec, proc, publisher, collector, uses_plots="{plots}" in spec.tracker,
-                    uses_tracks="{tracks}" in spec.tracker)
-        # built after the tracker is ready: the milliseconds it takes also let the tracker's
-        # publisher take in the harness's subscription before its first message
-        recorder = Recorder(run_dir / "stream.rec", overwrite=True)
-        bus = (Bus(publisher, recorder) if collect is None
-               else _CollectingBus(publisher, recorder, collect))
-        publisher.bus = bus
-        sim_bus: Any = bus
-        if "{asterix}" in spec.tracker:
-            from shipradar.sim.adapters.asterix.udp import AsterixBus, UdpSender
-
-            sim_bus = AsterixBus(bus, UdpSender(asterix_ep), 1400)
-        sim = Simulation(scenario, bus=sim_bus, seed=spec.seed, duration_s=duration,
-                         realtime=spec.realtime, tables=tables,
-                         entities=_entities(spec.entities))
-        t_run = time.perf_counter()
-        startup_s = t_run - wall0  # the tracker until it subscribed, the simulation built
-        try:
-            summary = sim.run()
-        except RunInterrupted:
-            summary = sim.summary(time.perf_counter() - t_run)
-        except PublisherStalledError as exc:
-            raise _RunFailed(f"the tracker stopped reading: {exc}") from None
-        finally:
-            (sim_bus if sim_bus is not bus else bus).close()
-            bus = None
-        run_s = time.perf_counter() - t_run
+        _start_tracker(run)
+        _simulate(run, scenario, tables, duration, collect)
         t_drain = time.perf_counter()
-        _drain(spec, proc, collector, duration)
-        drain_s = time.perf_counter() - t_drain
+        assert run.proc is not None and run.collector is not None  # started above
+        _drain(spec, run.proc, run.collector, duration)
+        run.drain_s = time.perf_counter() - t_drain
     except _RunFailed as exc:
         info["status"], info["error"] = "failed", str(exc)
     except Exception as exc:  # the harness's own failure: reported on the run, not raised
@@ -458,40 +438,115 @@ def _run_command(spec: RunSpec, collect: Collect | None) -> dict[str, Any]:
         info["error"] = f"harness error: {exc!r}"
         info["traceback"] = traceback.format_exc(limit=8)
     finally:
-        t_stop = time.perf_counter()
-        if bus is not None:
-            bus.close(linger_ms=0)
-        elif publisher is not None:  # close is idempotent
-            publisher.close(linger_ms=0)
-        if proc is not None:
-            exited = proc.poll()
-            code = _stop(proc)
-            info["exit_code"] = code
-            info["stopped_by_harness"] = exited is None
-            if exited is not None and exited != 0:
-                info["status"] = "failed"
-                info["error"] = info["error"] or f"the tracker exited with code {exited}"
-        if collector is not None:
-            collector.stop.set()
-            collector.join()
-        stdout.close()
-        stderr.close()
-        stop_s = time.perf_counter() - t_stop
+        _stop_run(run)
+    return _write_run(run, keep_records=collect is not None)
+
+
+def _start_tracker(run: _Run) -> None:
+    """Bind the stream's publisher, connect the collector to ``{tracks}``, start the
+    tracker with its placeholders filled in and wait until it is ready."""
+    spec, info = run.spec, run.info
+    run.publisher = publisher = _TimedPublisher(
+        "tcp://127.0.0.1:*", on_slow="pace", stall_timeout_s=spec.stall_timeout_s,
+        t0=run.wall0, proc_alive=run.tracker_alive)
+    tracks_ep = f"tcp://127.0.0.1:{free_port()}"
+    asterix_ep = f"udp://127.0.0.1:{free_port(socket.SOCK_DGRAM)}"
+    values = {"plots": publisher.endpoint, "tracks": tracks_ep, "asterix": asterix_ep,
+              "seed": str(spec.seed), "run_dir": str(run.run_dir)}
+    info["endpoints"] = {"plots": publisher.endpoint, "tracks": tracks_ep,
+                         "asterix": asterix_ep}
+    run.collector = collector = _Collector(tracks_ep, run.wall0)
+    collector.start()
+    argv = fill_placeholders(spec.tracker, values)
+    info["argv"] = argv
+    try:
+        run.proc = subprocess.Popen(argv, stdout=run.stdout, stderr=run.stderr,
+                                    stdin=subprocess.DEVNULL, start_new_session=True)
+    except OSError as exc:
+        raise _RunFailed(f"cannot start the tracker: {exc}") from None
+    _wait_ready(spec, run.proc, publisher, collector, uses_plots="{plots}" in spec.tracker,
+                uses_tracks="{tracks}" in spec.tracker)
+
+
+def _simulate(run: _Run, scenario: Any, tables: Any, duration: float,
+              collect: Collect | None) -> None:
+    """The simulation, its stream recorded and published (and sent as ASTERIX when the
+    tracker reads ``{asterix}``); its summary, ``startup_s`` and ``run_s`` kept on ``run``."""
+    from shipradar.sim.engine.simulation import Simulation
+
+    spec, publisher = run.spec, run.publisher
+    assert publisher is not None  # bound by _start_tracker
+    # built after the tracker is ready: the milliseconds it takes also let the tracker's
+    # publisher take in the harness's subscription before its first message
+    recorder = Recorder(run.run_dir / "stream.rec", overwrite=True)
+    bus = run.bus = (Bus(publisher, recorder) if collect is None
+                     else _CollectingBus(publisher, recorder, collect))
+    publisher.bus = bus
+    sim_bus: Any = bus
+    if "{asterix}" in spec.tracker:
+        from shipradar.sim.adapters.asterix.udp import AsterixBus, UdpSender
+
+        sim_bus = AsterixBus(bus, UdpSender(run.info["endpoints"]["asterix"]), 1400)
+    sim = Simulation(scenario, bus=sim_bus, seed=spec.seed, duration_s=duration,
+                     realtime=spec.realtime, tables=tables, entities=_entities(spec.entities))
+    t_run = time.perf_counter()
+    run.startup_s = t_run - run.wall0  # the tracker until it subscribed, the simulation built
+    try:
+        run.summary = sim.run()
+    except RunInterrupted:
+        run.summary = sim.summary(time.perf_counter() - t_run)
+    except PublisherStalledError as exc:
+        raise _RunFailed(f"the tracker stopped reading: {exc}") from None
+    finally:
+        (sim_bus if sim_bus is not bus else bus).close()
+        run.bus = None
+    run.run_s = time.perf_counter() - t_run
+
+
+def _stop_run(run: _Run) -> None:
+    """Close the stream, stop the tracker (its exit code on the run; a non-zero exit of its
+    own fails the run) and the collector, close the output files; ``stop_s`` on ``run``."""
+    t_stop = time.perf_counter()
+    info = run.info
+    if run.bus is not None:
+        run.bus.close(linger_ms=0)
+    elif run.publisher is not None:  # close is idempotent
+        run.publisher.close(linger_ms=0)
+    if run.proc is not None:
+        exited = run.proc.poll()
+        code = _stop(run.proc)
+        info["exit_code"] = code
+        info["stopped_by_harness"] = exited is None
+        if exited is not None and exited != 0:
+            info["status"] = "failed"
+            info["error"] = info["error"] or f"the tracker exited with code {exited}"
+    if run.collector is not None:
+        run.collector.stop.set()
+        run.collector.join()
+    run.stdout.close()
+    run.stderr.close()
+    run.stop_s = time.perf_counter() - t_stop
+
+
+def _write_run(run: _Run, keep_records: bool) -> dict[str, Any]:
+    """Write the run directory (``tracks``, ``timing.npz``, ``run.json``) and return
+    ``run.json``'s content (with ``_records``, the tracks as received, if ``keep_records``)."""
     t_write = time.perf_counter()
+    info, run_dir = run.info, run.run_dir
     if info["status"] != "ok":
         info["stderr_tail"] = _tail(run_dir / "tracker.stderr")
-    records = collector.records if collector is not None else []
+    records = run.collector.records if run.collector is not None else []
     _write_tracks(run_dir, records)
-    sent = publisher.sent_s if publisher is not None else []
+    sent = run.publisher.sent_s if run.publisher is not None else []
     np.savez(run_dir / "timing.npz", stream_sent_s=np.array(sent, float),
              tracks_recv_s=np.array([r[1] for r in records], float))
-    info["summary"] = summary
-    wall = time.perf_counter() - wall0
-    info.update(wall_s=wall, startup_s=startup_s, run_s=run_s, drain_s=drain_s,
-                harness_s=max(wall - startup_s - run_s - drain_s, 0.0), stop_s=stop_s,
-                write_s=time.perf_counter() - t_write)
+    info["summary"] = run.summary
+    wall = time.perf_counter() - run.wall0
+    info.update(wall_s=wall, startup_s=run.startup_s, run_s=run.run_s, drain_s=run.drain_s,
+                harness_s=max(wall - run.startup_s - run.run_s - run.drain_s, 0.0),
+                stop_s=run.stop_s, write_s=time.perf_counter() - t_write)
     (run_dir / "run.json").write_text(json.dumps(info, indent=1, default=_json_default))
-    if collect is not None:
+    if keep_records:
         info["_records"] = records
     return info
 
