@@ -346,13 +346,14 @@ def _propagation_figures(out: Path, scenario, radar, table, notes: list[str]) ->
     """F against range for the standard and ducted atmospheres (two-ray and PE reference
     curves), and, with a PE table in the scene, F against range from it and its coverage."""
     from shipradar.sim.studies.figures import propagation as prop_fig
+    from shipradar.sim.studies.figures.case import SeaCase
 
     duct, target_h = _scene_heights(scenario)
     figs = []
     prop_fig.plot_factor_vs_range(
-        out / "propagation_factor_vs_range.png", freq_hz=radar.frequency_hz,
-        polarization=radar.polarization, antenna_height_m=radar.antenna_height_m,
-        target_height_m=target_h, wave_height_m=scenario.wave_height)
+        out / "propagation_factor_vs_range.png",
+        SeaCase.of_radar(radar, scenario, prop_fig.SEED_FIG4.max_range_m),
+        target_height_m=target_h)
     figs.append({"file": "propagation_factor_vs_range.png",
                  "caption": _summary(prop_fig.plot_factor_vs_range.__doc__)})
     if table is None:
@@ -373,13 +374,12 @@ def _clutter_figures(out: Path, scenario, radar, sea_map, notes: list[str]) -> l
     """σ0* against range with and without the scene's duct (seed Fig. 6), and the scene's
     sea-clutter map when it has one."""
     from shipradar.sim.studies.figures import clutter as clutter_fig
+    from shipradar.sim.studies.figures.case import SeaCase
 
     duct, _ = _scene_heights(scenario)
     clutter_fig.plot_ducting_reflectivity(
-        out / "sigma0_range.png", freq_hz=radar.frequency_hz, polarization=radar.polarization,
-        antenna_height_m=radar.antenna_height_m, duct_height_m=duct,
-        wind_speed_mps=scenario.environment.wind_speed_mps, wave_height_m=scenario.wave_height,
-        max_range_m=radar.instrumented_range_m)
+        out / "sigma0_range.png", SeaCase.of_radar(radar, scenario, radar.instrumented_range_m),
+        duct_height_m=duct, wind_speed_mps=scenario.environment.wind_speed_mps)
     figs = [{"file": "sigma0_range.png",
              "caption": "σ0* against range, standard atmosphere and with the scene's duct "
                         "(seed Fig. 6), at the radar's frequency and polarization"}]

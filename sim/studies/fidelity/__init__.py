@@ -36,7 +36,7 @@ expected false alarms per scan of each radar and origin within ``--tolerance-fa`
 sectors per scan (one sector, the scan period over ``sectors_per_scan``) ≤
 ``--max-latency-s`` (default: the scene's own).
 
-Recommendation (:func:`shipradar.sim.studies.fidelity.trade._recommend`): it minimises one
+Recommendation (the last step of :func:`run_fidelity_study`): it minimises one
 stated cost, ``--optimise per-run`` (default) or ``first-run``. A value is taken only when
 it is inside the tolerances and its cost ratio's whole interval lies below
 1 - :data:`shipradar.sim.studies.timing.SAVING_MIN`;

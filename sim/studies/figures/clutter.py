@@ -15,44 +15,45 @@ import numpy as np  # noqa: E402
 from matplotlib.projections.polar import PolarAxes  # noqa: E402
 
 from shipradar.sensors import sea_clutter as sc  # noqa: E402
+from shipradar.sim.studies.figures.case import SeaCase  # noqa: E402
 from shipradar.tables.store import Table  # noqa: E402
 
 #: Lowest clutter-to-noise ratio drawn by :func:`plot_clutter_ppi` [dB].
 PPI_CNR_FLOOR_DB = -10.0
 
 
+#: The seed's Fig. 6 case: 9.8 GHz VP, antenna 25 m, waves 1 m, to 60 km.
+SEED_FIG6 = SeaCase(freq_hz=9.8e9, polarization="V", antenna_height_m=25.0, wave_height_m=1.0,
+                    max_range_m=60e3)
+
+
 def plot_ducting_reflectivity(
     path: str | os.PathLike[str],
+    case: SeaCase = SEED_FIG6,
     *,
-    freq_hz: float = 9.8e9,
-    polarization: str = "V",
-    antenna_height_m: float = 25.0,
     duct_height_m: float = 10.0,
     wind_speed_mps: float = 4.5,
-    wave_height_m: float = 1.0,
-    max_range_m: float = 60e3,
 ) -> Path:
     """σ0* [dB] against ground range, standard atmosphere and with a duct (seed Fig. 6, [22]).
 
-    Defaults are the seed's Fig. 6 case: 9.8 GHz VP, antenna 25 m, duct 10 m, wind 4.5 m/s
-    (looking upwind), waves 1 m.  Marks the transition ranges used.
+    Defaults are the seed's Fig. 6 case (:data:`SEED_FIG6`), with a 10 m duct and a 4.5 m/s
+    wind (looking upwind).  Marks the transition ranges used.
 
     Parameters
     ----------
     path : path-like
         Output PNG.
-    freq_hz : float
-        [Hz].
-    polarization : {"H", "V"}
-    antenna_height_m, duct_height_m, wave_height_m : float
-        [m].
+    case : SeaCase
+        The radar and the sea (default :data:`SEED_FIG6`).
+    duct_height_m : float
+        Evaporation duct height [m] (seed [7]).
     wind_speed_mps : float
         [m/s].
-    max_range_m : float
-        [m].
     """
     path = Path(path)
-    d = np.linspace(200.0, max_range_m, 1200)
+    freq_hz, polarization = case.freq_hz, case.polarization
+    antenna_height_m, wave_height_m = case.antenna_height_m, case.wave_height_m
+    d = np.linspace(200.0, case.max_range_m, 1200)
     common: dict[str, Any] = dict(
         antenna_height_m=antenna_height_m,
         freq_hz=freq_hz,

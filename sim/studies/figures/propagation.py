@@ -15,6 +15,7 @@ import numpy as np  # noqa: E402
 
 from shipradar.sensors import parabolic_equation as pe  # noqa: E402
 from shipradar.sensors import propagation as prop  # noqa: E402
+from shipradar.sim.studies.figures.case import SeaCase  # noqa: E402
 from shipradar.tables import propagation as tp  # noqa: E402
 from shipradar.tables.store import Table  # noqa: E402
 
@@ -27,33 +28,33 @@ def _db(f: np.ndarray) -> np.ndarray:
         return np.maximum(20 * np.log10(f), FLOOR_DB)
 
 
+#: The seed's Fig. 4 case: 10 GHz HP, antenna 20 m, a calm sea, to 60 km.
+SEED_FIG4 = SeaCase(freq_hz=10e9, polarization="H", antenna_height_m=20.0, wave_height_m=0.0,
+                    max_range_m=60e3)
+
+
 def plot_factor_vs_range(
     path: str | os.PathLike[str],
+    case: SeaCase = SEED_FIG4,
     *,
-    freq_hz: float = 10e9,
-    polarization: str = "H",
-    antenna_height_m: float = 20.0,
     target_height_m: float = 25.0,
     duct_heights_m: Sequence[float] = (0.0, 5.0, 10.0, 15.0),
-    wave_height_m: float = 0.0,
-    max_range_m: float = 60e3,
     fidelity: str = "coarse",
     with_two_ray: bool = True,
 ) -> Path:
     """F [dB] against range at one height, one PE curve per evaporation-duct height.
 
-    Defaults are the seed's Fig. 4 case (10 GHz, HP, antenna 20 m, target 25 m, ducts
-    0/5/10/15 m; the seed's caption swaps the two heights, its text does not).  The two-ray
-    fallback for the standard atmosphere is drawn dashed for comparison.
+    Defaults are the seed's Fig. 4 case (:data:`SEED_FIG4`, target 25 m, ducts 0/5/10/15 m;
+    the seed's caption swaps the two heights, its text does not).  The two-ray fallback for
+    the standard atmosphere is drawn dashed for comparison.
 
     Parameters
     ----------
     path : path-like
         Output PNG.
-    freq_hz : float
-        [Hz].
-    polarization : {"H", "V"}
-    antenna_height_m, target_height_m, wave_height_m, max_range_m : float
+    case : SeaCase
+        The radar and the sea (default :data:`SEED_FIG4`).
+    target_height_m : float
         [m].
     duct_heights_m : sequence of float
         Evaporation duct heights [m] (seed [7]).
@@ -63,6 +64,9 @@ def plot_factor_vs_range(
         Also draw :func:`shipradar.sensors.propagation.two_ray_factor`.
     """
     path = Path(path)
+    freq_hz, polarization = case.freq_hz, case.polarization
+    antenna_height_m, wave_height_m = case.antenna_height_m, case.wave_height_m
+    max_range_m = case.max_range_m
     top = max(3 * target_height_m, 2 * antenna_height_m, 100.0)
     fig, ax = plt.subplots(figsize=(7.5, 4.5), dpi=110)
     for duct in duct_heights_m:

@@ -50,6 +50,7 @@ def _radars(scenario: Scenario, radar_id: str | None):
 
 def _clutter(scenario: Scenario, out: Path, radar_id: str | None) -> list[Path]:
     from shipradar.sensors import sea_clutter as sc
+    from shipradar.sim.studies.figures.case import SeaCase
     from shipradar.sim.studies.figures.clutter import plot_clutter_ppi, plot_ducting_reflectivity
     from shipradar.tables.scene import duct_height_m
 
@@ -61,13 +62,9 @@ def _clutter(scenario: Scenario, out: Path, radar_id: str | None) -> list[Path]:
             continue
         written.append(plot_ducting_reflectivity(
             out / f"{radar.id}_ducting_reflectivity.png",
-            freq_hz=radar.frequency_hz,
-            polarization=radar.polarization,
-            antenna_height_m=radar.antenna_height_m,
+            SeaCase.of_radar(radar, scenario, min(radar.instrumented_range_m, 100e3)),
             duct_height_m=duct if duct >= sc.MIN_DUCT_HEIGHT_M else 10.0,
             wind_speed_mps=env.wind_speed_mps,
-            wave_height_m=scenario.wave_height,
-            max_range_m=min(radar.instrumented_range_m, 100e3),
         ))
     if not scenario.fidelity.clutter:
         return written
@@ -102,6 +99,7 @@ def _improvement(scenario: Scenario, out: Path, radar_id: str | None) -> list[Pa
 
 def _propagation(scenario: Scenario, out: Path, radar_id: str | None,
                  height_m: float) -> list[Path]:
+    from shipradar.sim.studies.figures.case import SeaCase
     from shipradar.sim.studies.figures.propagation import plot_factor_vs_range
     from shipradar.tables.scene import duct_height_m
 
@@ -111,13 +109,9 @@ def _propagation(scenario: Scenario, out: Path, radar_id: str | None,
     for radar in _radars(scenario, radar_id):
         written.append(plot_factor_vs_range(
             out / f"{radar.id}_factor_vs_range.png",
-            freq_hz=radar.frequency_hz,
-            polarization=radar.polarization,
-            antenna_height_m=radar.antenna_height_m,
+            SeaCase.of_radar(radar, scenario, min(radar.instrumented_range_m, 60e3)),
             target_height_m=height_m,
             duct_heights_m=ducts,
-            wave_height_m=scenario.wave_height,
-            max_range_m=min(radar.instrumented_range_m, 60e3),
         ))
     return written
 
