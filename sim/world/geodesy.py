@@ -32,7 +32,8 @@ WGS84_A_M = 6378137.0
 WGS84_B_M = 6356752.31424518
 
 
-def geodetic2ecef(lat_deg: Floats, lon_deg: Floats, alt_m: Floats):
+def geodetic2ecef(lat_deg: Floats, lon_deg: Floats, alt_m: Floats
+                  ) -> tuple[Floats, Floats, Floats]:
     """ECEF x, y, z [m] of a geodetic latitude, longitude [deg] and height [m] (WGS-84).
 
     Parameters
@@ -58,7 +59,8 @@ def geodetic2ecef(lat_deg: Floats, lon_deg: Floats, alt_m: Floats):
     return x, y, z
 
 
-def ecef2geodetic(x: Floats, y: Floats, z: Floats):
+def ecef2geodetic(x: Floats, y: Floats, z: Floats
+                  ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Geodetic latitude, longitude [deg] and height [m] (WGS-84) of ECEF points [m].
 
     Parameters

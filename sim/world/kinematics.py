@@ -18,6 +18,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -67,7 +68,7 @@ class LocalFrame:
         scale = (self.radius + alt) / (self.radius * stretch)
         return v * scale[:, None] / stretch[:, None] + vel[:, 2:3] * u
 
-    def en_of_geodetic(self, lat_deg, lon_deg) -> tuple[float, float]:
+    def en_of_geodetic(self, lat_deg: float, lon_deg: float) -> tuple[float, float]:
         """East/north [m] of a latitude/longitude (inverse of the projection)."""
         x = np.array(geodesy.geodetic2ecef(lat_deg, lon_deg, 0.0), dtype=float) - self.centre
         u = x / np.linalg.norm(x)
@@ -89,8 +90,10 @@ def waypoint_enu(waypoints: Sequence[Waypoint], frame: LocalFrame | Origin) -> n
     for i, w in enumerate(waypoints):
         if w.east_m is not None and w.north_m is not None:
             e, n = w.east_m, w.north_m
-        else:  # the schema gives exactly one of the two forms
+        elif w.lat_deg is not None and w.lon_deg is not None:
             e, n = frame.en_of_geodetic(w.lat_deg, w.lon_deg)
+        else:  # the schema gives exactly one of the two forms
+            raise ValueError(f"waypoints[{i}]: give east_m and north_m or lat_deg and lon_deg")
         out[i] = (w.time_s, e, n, w.altitude_m)
     return out
 
@@ -150,7 +153,9 @@ class Piece:
         return pos[0], vel[0]
 
 
-def piece_state(p0, vel0, kind, par, tau, accel=True):
+def piece_state(p0: np.ndarray, vel0: np.ndarray, kind: np.ndarray, par: np.ndarray,
+                tau: ArrayLike, accel: bool = True
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """Closed-form position, velocity and acceleration of M pieces at times ``tau`` [s] into
     them (no numerical integration).
 
@@ -327,7 +332,8 @@ class Trajectories:
         pos, vel, _, active = self.state_acc(t, rows, accel=False)
         return pos, vel, active
 
-    def state_acc(self, t, rows=None, accel: bool = True):
+    def state_acc(self, t: ArrayLike, rows: ArrayLike | None = None, accel: bool = True
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray]:
         """:meth:`state` with the accelerations ``(M, 3)`` [m/s²] (third item; None unless
         ``accel``): positions, velocities, accelerations, activity."""
         rows = np.arange(self.n) if rows is None else np.asarray(rows, dtype=int)
@@ -348,14 +354,15 @@ class Trajectories:
         inside = (t >= self.t_first[rows]) & (t <= self.t_last[rows])
         if self.hold:
             vel = vel * inside[:, None]
-            if accel:
+            if acc is not None:
                 acc = acc * inside[:, None]
             active = np.ones(rows.shape, dtype=bool)
         else:
             active = inside
         return pos, vel, acc, active
 
-    def _state_one_segment(self, t, rows):
+    def _state_one_segment(self, t: ArrayLike, rows: ArrayLike | None
+                           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """:meth:`state` when every object has one linear piece (same arithmetic)."""
         if rows is None:
             t0, p0, v0, dt0 = self._t0, self._pos0, self._vel0, self._dt0
@@ -512,22 +519,45 @@ CROSSING_VERTICAL_M = 1.0
 CROSSING_RESOLUTION_S = 1e-6
 
 
-def beam_crossings(
-    look_at: Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]],
-    t_a: np.ndarray,
-    t_b: np.ndarray,
-    beam_a: np.ndarray,
-    beam_b: np.ndarray,
-    rate_rad_s: float,
-    speed_m_s: np.ndarray,
-    rate_slack_rad_s: float = 0.0,
-    min_separation_s: float = 0.0,
-    tol_s: float = CROSSING_TOL_S,
-    resolution_s: float = CROSSING_RESOLUTION_S,
-    ends: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None,
-    vertical_m: float = CROSSING_VERTICAL_M,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Every time in ``[t_a, t_b)`` at which a clockwise beam meets each of N objects.
+#: The crossing search's view of the objects: ``look_at(t (M,) [s], idx (M,) object indices)``
+#: -> azimuth [rad], its rate [rad/s] (an estimate: it only speeds the Newton steps up) and
+#: ground range [m].
+LookAt = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]]
+
+
+class _Intervals(NamedTuple):
+    """Intervals of the crossing search, one row each: the object, the ends t0, t1 [s], and at
+    the ends the object's azimuth [rad], its ground range [m] and the beam's lead over it
+    (:func:`_beam_lead`) [rad]."""
+
+    obj: np.ndarray
+    t0: np.ndarray
+    t1: np.ndarray
+    az0: np.ndarray
+    az1: np.ndarray
+    rho0: np.ndarray
+    rho1: np.ndarray
+    d0: np.ndarray
+    d1: np.ndarray
+
+
+class _Brackets(NamedTuple):
+    """Brackets [lo, hi] [s] of the roots of D - 2πk, one row each: the object; a reference
+    time [s], the azimuth there [rad] and D - 2πk there [rad] (D's unwrapping); ``sign`` 1
+    where D increases through the root, -1 where it decreases."""
+
+    obj: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+    ref_t: np.ndarray
+    ref_az: np.ndarray
+    ref_d: np.ndarray
+    sign: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class CrossingSearch:
+    """The inputs of one beam-crossing search (:func:`beam_crossings`) and its steps.
 
     The beam turns as β(t) = β_a + ω (t - t_a); object i's true-north azimuth az_i(t) from
     the antenna has a rate |az_i'| ≤ A = v_i/ρ_min + slack on any interval, with v_i a bound
@@ -535,7 +565,8 @@ def beam_crossings(
     least ground range the interval's end ranges allow.  A crossing is a root of
     D(t) = β(t) - az(t) - 2πk, the beam's lead over the object, unwrapped; D' = ω - az'.
 
-    The search works on intervals, all objects at once, every interval a revolution at first:
+    The search works on intervals, all objects at once, every interval a revolution at first
+    (:meth:`_pass`, once per halving):
 
     * ``A h < π`` unwraps the azimuth over the interval (D at its end is known, not only
       modulo 2π); else the interval is split;
@@ -552,10 +583,181 @@ def beam_crossings(
 
     Each bracketed root is then solved by Newton's method with the object's own angular rate
     in the step, t ← t - D/(ω - az'), bisecting whenever a step leaves the bracket, to
-    ``tol_s``.  A root lies in [t0, t1) of the interval holding it, and a revolution owns
-    the crossings in its half-open [t_a, t_b): β and az at a shared boundary are the same
-    numbers for both revolutions (``beam_b`` of one is ``beam_a`` of the next), so a
-    crossing on the boundary is counted once, by the later revolution.
+    ``tol_s`` (:meth:`_solve`).  A root lies in [t0, t1) of the interval holding it, and a
+    revolution owns the crossings in its half-open [t_a, t_b): β and az at a shared boundary
+    are the same numbers for both revolutions (``beam_b`` of one is ``beam_a`` of the next),
+    so a crossing on the boundary is counted once, by the later revolution.
+
+    The fields are the parameters of :func:`beam_crossings` (the arrays float64), with the
+    solver's tolerances ``tol_s``, ``resolution_s`` (:data:`CROSSING_TOL_S`,
+    :data:`CROSSING_RESOLUTION_S`) and ``vertical_m`` (:data:`CROSSING_VERTICAL_M`) [m].
+    """
+
+    look_at: LookAt
+    t_a: np.ndarray
+    t_b: np.ndarray
+    beam_a: np.ndarray
+    beam_b: np.ndarray
+    rate_rad_s: float
+    speed_m_s: np.ndarray
+    rate_slack_rad_s: float = 0.0
+    min_separation_s: float = 0.0
+    ends: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
+    tol_s: float = CROSSING_TOL_S
+    resolution_s: float = CROSSING_RESOLUTION_S
+    vertical_m: float = CROSSING_VERTICAL_M
+
+    def crossings(self) -> tuple[np.ndarray, np.ndarray]:
+        """The object index and time [s] of every crossing, sorted by object then time."""
+        found: list[_Brackets] = []
+        iv: _Intervals | None = self._revolutions()
+        while iv is not None and iv.obj.size:
+            iv = self._pass(iv, found)
+        if not found:
+            return np.zeros(0, np.int64), np.zeros(0)
+        brackets = _Brackets(*(np.concatenate(c) for c in zip(*found, strict=True)))
+        t = self._solve(brackets)
+        order = np.lexsort((t, brackets.obj))
+        b_i, t = _first_of_close(brackets.obj[order], t[order], self.min_separation_s)
+        return b_i.astype(np.int64), t
+
+    def _revolutions(self) -> _Intervals:
+        """The first intervals: each object's whole search [t_a, t_b)."""
+        ids = np.arange(self.t_a.size)
+        if self.ends is None:
+            az_a, _, rho_a = self.look_at(self.t_a, ids)
+            az_b, _, rho_b = self.look_at(self.t_b, ids)
+        else:
+            az_a, rho_a, az_b, rho_b = self.ends
+        return _Intervals(ids, self.t_a, self.t_b, az_a, az_b, rho_a, rho_b,
+                          _beam_lead(self.beam_a - az_a), _beam_lead(self.beam_b - az_b))
+
+    def _pass(self, iv: _Intervals, found: list[_Brackets]) -> _Intervals | None:
+        """One pass over the intervals: the brackets it finds appended to ``found``; returns
+        the halves of the intervals it cannot decide (None when there are none)."""
+        w = self.rate_rad_s
+        h = iv.t1 - iv.t0
+        v = self.speed_m_s[iv.obj]
+        bound = self._rate_bound(iv, v, h)
+        unwraps = bound * h < np.pi
+        # D at t1 with D(t0) = d0 in [0, 2π): d1 plus the whole turns between
+        turns = np.round((iv.d0 + w * h - wrap_pi(iv.az1 - iv.az0) - iv.d1) / TWO_PI)
+        big_d1 = iv.d1 + TWO_PI * turns
+        rising = unwraps & (bound < w)
+        if rising.any():
+            got = self._rising(iv, np.flatnonzero(rising), bound, turns, big_d1)
+            if got is not None:
+                found.append(got)
+        # the others: dropped when no multiple of 2π is within the envelope, else split
+        rest = ~rising
+        half = 0.5 * (w + bound) * h
+        mid_d = 0.5 * (iv.d0 + big_d1)
+        near = np.ceil((mid_d - half) / TWO_PI) <= np.floor((mid_d + half) / TWO_PI)
+        rest &= ~unwraps | near
+        # an object that stays within vertical_m of the antenna's vertical all through the
+        # interval has no azimuth to meet there
+        rest &= 0.5 * (iv.rho0 + iv.rho1 + v * h) > self.vertical_m
+        leaf = rest & (h <= self.resolution_s)
+        if leaf.any():
+            found.append(_sign_changes(np.flatnonzero(leaf & unwraps), iv, big_d1))
+        split = np.flatnonzero(rest & ~leaf)
+        return self._halves(iv, split) if split.size else None
+
+    def _rate_bound(self, iv: _Intervals, v: np.ndarray, h: np.ndarray) -> np.ndarray:
+        """A = v/ρ_min + slack, the bound on the azimuth's rate over each interval [rad/s]
+        (infinite when the ground range may vanish); ``v`` [m/s], ``h`` the lengths [s]."""
+        rho_min = 0.5 * (iv.rho0 + iv.rho1 - v * h)
+        with np.errstate(divide="ignore"):
+            bound = np.where(rho_min > 0.0, v / np.where(rho_min > 0.0, rho_min, 1.0), np.inf)
+        return bound + self.rate_slack_rad_s
+
+    def _rising(self, iv: _Intervals, r: np.ndarray, bound: np.ndarray, turns: np.ndarray,
+                big_d1: np.ndarray) -> _Brackets | None:
+        """Brackets of the roots on intervals ``r``, where D increases: k = (0 if d0 = 0 else
+        1) ... (turns if d1 > 0 else turns - 1), each between the lines of slopes ω ± A
+        through both ends; None when there are none."""
+        w = self.rate_rad_s
+        t0, t1, d0 = iv.t0, iv.t1, iv.d0
+        k_lo = (d0[r] > 0.0).astype(np.int64)
+        k_hi = turns[r].astype(np.int64) - (iv.d1[r] <= 0.0)
+        count = np.maximum(k_hi - k_lo + 1, 0)
+        if not count.any():
+            return None
+        rr = np.repeat(r, count)
+        k = np.repeat(k_lo, count) + _ranks(count)
+        target = TWO_PI * k
+        a = bound[rr]
+        lo = np.maximum(t0[rr] + (target - d0[rr]) / (w + a),
+                        t1[rr] - (big_d1[rr] - target) / (w - a))
+        hi = np.minimum(t0[rr] + (target - d0[rr]) / (w - a),
+                        t1[rr] - (big_d1[rr] - target) / (w + a))
+        lo = np.clip(lo, t0[rr], t1[rr])
+        hi = np.clip(hi, lo, t1[rr])
+        return _Brackets(iv.obj[rr], lo, hi, t0[rr], iv.az0[rr], d0[rr] - target,
+                         np.ones(rr.size))
+
+    def _halves(self, iv: _Intervals, split: np.ndarray) -> _Intervals:
+        """Intervals ``split`` cut at their midpoints: every first half, then every second."""
+        w = self.rate_rad_s
+        tm = 0.5 * (iv.t0[split] + iv.t1[split])
+        js = iv.obj[split]
+        azm, _, rhom = self.look_at(tm, js)
+        dm = _beam_lead(self.beam_a[js] + w * (tm - self.t_a[js]) - azm)
+        cat = np.concatenate
+        return _Intervals(cat([js, js]), cat([iv.t0[split], tm]), cat([tm, iv.t1[split]]),
+                          cat([iv.az0[split], azm]), cat([azm, iv.az1[split]]),
+                          cat([iv.rho0[split], rhom]), cat([rhom, iv.rho1[split]]),
+                          cat([iv.d0[split], dm]), cat([dm, iv.d1[split]]))
+
+    def _solve(self, b: _Brackets) -> np.ndarray:
+        """Roots [s] of D(t) = ref_d + ω (t - ref_t) - wrap(az(t) - ref_az) on the brackets,
+        where D goes from ``-sign`` to ``sign``: safeguarded Newton with the object's own
+        rate, D' = ω - az', bisecting whenever a step leaves the bracket."""
+        w, i, sign = self.rate_rad_s, b.obj, b.sign
+        ref_t, ref_az, ref_d = b.ref_t, b.ref_az, b.ref_d
+        lo, hi = b.lo.copy(), b.hi.copy()
+        # first guess: where the beam would meet the object frozen at the bracket's reference
+        t = np.clip(ref_t - ref_d / w, lo, hi)
+        out = t.copy()
+        act = np.arange(i.size)
+        for _ in range(200):
+            az, rate, _ = self.look_at(t, i[act])
+            f = (ref_d[act] + w * (t - ref_t[act]) - wrap_pi(az - ref_az[act])) * sign[act]
+            below = f < 0.0
+            lo[act] = np.where(below, t, lo[act])
+            hi[act] = np.where(below, hi[act], t)
+            slope = (w - rate) * sign[act]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                step = -f / slope
+            nt = t + step
+            newton = (slope > 0.0) & (nt >= lo[act]) & (nt <= hi[act])
+            nt = np.where(newton, nt, 0.5 * (lo[act] + hi[act]))
+            done = ((newton & (np.abs(step) <= self.tol_s)) | (hi[act] - lo[act] <= self.tol_s)
+                    | (f == 0.0))
+            out[act] = np.where(f == 0.0, t, nt)
+            keep = ~done
+            act, t = act[keep], nt[keep]
+            if not act.size:
+                break
+        return out
+
+
+def beam_crossings(
+    look_at: LookAt,
+    t_a: ArrayLike,
+    t_b: ArrayLike,
+    beam_a: ArrayLike,
+    beam_b: ArrayLike,
+    rate_rad_s: float,
+    speed_m_s: ArrayLike,
+    rate_slack_rad_s: float = 0.0,
+    min_separation_s: float = 0.0,
+    ends: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Every time in ``[t_a, t_b)`` at which a clockwise beam meets each of N objects.
+
+    The search and its guarantees are those of :class:`CrossingSearch` (which also takes the
+    solver's tolerances, fixed here at their defaults).
 
     Parameters
     ----------
@@ -568,8 +770,6 @@ def beam_crossings(
     rate_slack_rad_s : added to the azimuth-rate bound (the true-north frame's own rotation
         along a moving antenna's track, the sphere's departure from the plane) [rad/s]
     min_separation_s : crossings of one object closer than this are one (the first) [s]
-    tol_s, resolution_s : see :data:`CROSSING_TOL_S`, :data:`CROSSING_RESOLUTION_S`
-    vertical_m : see :data:`CROSSING_VERTICAL_M` [m]
     ends : optional (N,) azimuths [rad] and ground ranges [m] at ``t_a`` and at ``t_b``
         (az_a, ground_a, az_b, ground_b), when the caller has them (one revolution's end is
         the next one's start); else ``look_at`` gives them
@@ -578,87 +778,16 @@ def beam_crossings(
     -------
     idx, t : the object index and time [s] of every crossing, sorted by object then time
     """
-    w = float(rate_rad_s)
-    t_a = np.asarray(t_a, dtype=float)
-    t_b = np.asarray(t_b, dtype=float)
-    beam_a = np.asarray(beam_a, dtype=float)
-    speed = np.asarray(speed_m_s, dtype=float)
-    n = t_a.size
-    ids = np.arange(n)
-    if ends is None:
-        az_a, _, rho_a = look_at(t_a, ids)
-        az_b, _, rho_b = look_at(t_b, ids)
-    else:
-        az_a, rho_a, az_b, rho_b = ends
-    d_a = _beam_lead(np.asarray(beam_a) - az_a)
-    d_b = _beam_lead(np.asarray(beam_b, dtype=float) - az_b)
-    # the intervals to search: object, ends, azimuth, ground range and beam lead at the ends
-    iv: tuple[np.ndarray, ...] = (ids, t_a, t_b, az_a, az_b, rho_a, rho_b, d_a, d_b)
-    brackets: list[tuple[np.ndarray, ...]] = []
-    while iv[0].size:
-        i, t0, t1, az0, az1, rho0, rho1, d0, d1 = iv
-        h = t1 - t0
-        v = speed[i]
-        rho_min = 0.5 * (rho0 + rho1 - v * h)
-        with np.errstate(divide="ignore"):
-            bound = np.where(rho_min > 0.0, v / np.where(rho_min > 0.0, rho_min, 1.0), np.inf)
-        bound = bound + rate_slack_rad_s
-        unwraps = bound * h < np.pi
-        # D at t1 with D(t0) = d0 in [0, 2π): d1 plus the whole turns between
-        turns = np.round((d0 + w * h - wrap_pi(az1 - az0) - d1) / TWO_PI)
-        big_d1 = d1 + TWO_PI * turns
-        rising = unwraps & (bound < w)
-        # an increasing D: roots k = (0 if d0 = 0 else 1) ... (turns if d1 > 0 else turns - 1)
-        if rising.any():
-            r = np.flatnonzero(rising)
-            k_lo = (d0[r] > 0.0).astype(np.int64)
-            k_hi = turns[r].astype(np.int64) - (d1[r] <= 0.0)
-            count = np.maximum(k_hi - k_lo + 1, 0)
-            if count.any():
-                rr = np.repeat(r, count)
-                k = np.repeat(k_lo, count) + _ranks(count)
-                target = TWO_PI * k
-                a = bound[rr]
-                lo = np.maximum(t0[rr] + (target - d0[rr]) / (w + a),
-                                t1[rr] - (big_d1[rr] - target) / (w - a))
-                hi = np.minimum(t0[rr] + (target - d0[rr]) / (w - a),
-                                t1[rr] - (big_d1[rr] - target) / (w + a))
-                lo = np.clip(lo, t0[rr], t1[rr])
-                hi = np.clip(hi, lo, t1[rr])
-                brackets.append((i[rr], lo, hi, t0[rr], az0[rr], d0[rr] - target,
-                                 np.ones(rr.size)))
-        # the others: dropped when no multiple of 2π is within the envelope, else split
-        rest = ~rising
-        half = 0.5 * (w + bound) * h
-        mid_d = 0.5 * (d0 + big_d1)
-        near = np.ceil((mid_d - half) / TWO_PI) <= np.floor((mid_d + half) / TWO_PI)
-        rest &= ~unwraps | near
-        # an object that stays within vertical_m of the antenna's vertical all through the
-        # interval has no azimuth to meet there
-        rest &= 0.5 * (rho0 + rho1 + v * h) > vertical_m
-        leaf = rest & (h <= resolution_s)
-        if leaf.any():
-            brackets.append(_sign_changes(np.flatnonzero(leaf & unwraps), iv, big_d1))
-        split = np.flatnonzero(rest & ~leaf)
-        if not split.size:
-            break
-        tm = 0.5 * (t0[split] + t1[split])
-        js = i[split]
-        azm, _, rhom = look_at(tm, js)
-        dm = _beam_lead(beam_a[js] + w * (tm - t_a[js]) - azm)
-        iv = tuple(np.concatenate([x, y]) for x, y in zip(
-            (js, t0[split], az0[split], rho0[split], d0[split], tm, azm, rhom, dm),
-            (js, tm, azm, rhom, dm, t1[split], az1[split], rho1[split], d1[split]),
-            strict=True))
-        # back to the order (object, t0, t1, az0, az1, rho0, rho1, d0, d1)
-        iv = (iv[0], iv[1], iv[5], iv[2], iv[6], iv[3], iv[7], iv[4], iv[8])
-    if not brackets:
-        return np.zeros(0, np.int64), np.zeros(0)
-    b_i, lo, hi, ref_t, ref_az, ref_d, sign = (np.concatenate(c) for c in zip(*brackets,
-                                                                           strict=True))
-    t = _solve_brackets(look_at, b_i, lo, hi, ref_t, ref_az, ref_d, sign, w, tol_s)
-    order = np.lexsort((t, b_i))
-    b_i, t = b_i[order], t[order]
+    t_a, t_b, beam_a, beam_b, speed_m_s = (np.asarray(x, dtype=float)
+                                           for x in (t_a, t_b, beam_a, beam_b, speed_m_s))
+    return CrossingSearch(look_at, t_a, t_b, beam_a, beam_b, float(rate_rad_s), speed_m_s,
+                          rate_slack_rad_s, min_separation_s, ends).crossings()
+
+
+def _first_of_close(b_i: np.ndarray, t: np.ndarray, min_separation_s: float
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """Crossings ``b_i``, ``t`` (sorted by object then time) with each run of one object's
+    crossings closer than ``min_separation_s`` [s] kept as its first."""
     if b_i.size > 1 and min_separation_s > 0.0:
         keep = np.ones(b_i.size, dtype=bool)
         same = b_i[1:] == b_i[:-1]
@@ -673,7 +802,7 @@ def beam_crossings(
                     else:
                         last_kept = t[j]
             b_i, t = b_i[keep], t[keep]
-    return b_i.astype(np.int64), t
+    return b_i, t
 
 
 def _beam_lead(x: np.ndarray) -> np.ndarray:
@@ -690,12 +819,11 @@ def _ranks(count: np.ndarray) -> np.ndarray:
     return np.arange(total) - starts
 
 
-def _sign_changes(r: np.ndarray, iv: tuple[np.ndarray, ...], big_d1: np.ndarray
-                  ) -> tuple[np.ndarray, ...]:
+def _sign_changes(r: np.ndarray, iv: _Intervals, big_d1: np.ndarray) -> _Brackets:
     """Brackets of the sign changes of D - 2πk over the intervals ``r`` of ``iv`` (the
     search's leaves): D from d0 at t0 to ``big_d1`` at t1, up or down; a root at t0 itself
     (d0 = 0) counts, one at t1 belongs to the next interval."""
-    i, t0, t1, az0, _, _, _, d0, _ = (x[r] for x in iv)
+    i, t0, t1, az0, d0 = iv.obj[r], iv.t0[r], iv.t1[r], iv.az0[r], iv.d0[r]
     d1 = big_d1[r]
     up = d1 >= d0
     # up: multiples in [d0, d1); down: in (d1, d0]
@@ -705,35 +833,5 @@ def _sign_changes(r: np.ndarray, iv: tuple[np.ndarray, ...], big_d1: np.ndarray
     rr = np.repeat(np.arange(r.size), count)
     k = np.repeat(k_lo, count) + _ranks(count)
     target = TWO_PI * k
-    return (i[rr], t0[rr], t1[rr], t0[rr], az0[rr], d0[rr] - target,
-            np.where(up[rr], 1.0, -1.0))
-
-
-def _solve_brackets(look_at, i, lo, hi, ref_t, ref_az, ref_d, sign, w, tol_s):
-    """Roots of D(t) = ref_d + ω (t - ref_t) - wrap(az(t) - ref_az) on brackets [lo, hi]
-    where D goes from ``-sign`` to ``sign`` (``sign`` 1: increasing): safeguarded Newton
-    with the object's own rate, D' = ω - az', bisecting whenever a step leaves the bracket."""
-    lo, hi = lo.copy(), hi.copy()
-    # first guess: where the beam would meet the object frozen at the bracket's reference
-    t = np.clip(ref_t - ref_d / w, lo, hi)
-    out = t.copy()
-    act = np.arange(i.size)
-    for _ in range(200):
-        az, rate, _ = look_at(t, i[act])
-        f = (ref_d[act] + w * (t - ref_t[act]) - wrap_pi(az - ref_az[act])) * sign[act]
-        below = f < 0.0
-        lo[act] = np.where(below, t, lo[act])
-        hi[act] = np.where(below, hi[act], t)
-        slope = (w - rate) * sign[act]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            step = -f / slope
-        nt = t + step
-        newton = (slope > 0.0) & (nt >= lo[act]) & (nt <= hi[act])
-        nt = np.where(newton, nt, 0.5 * (lo[act] + hi[act]))
-        done = (newton & (np.abs(step) <= tol_s)) | (hi[act] - lo[act] <= tol_s) | (f == 0.0)
-        out[act] = np.where(f == 0.0, t, nt)
-        keep = ~done
-        act, t = act[keep], nt[keep]
-        if not act.size:
-            break
-    return out
+    return _Brackets(i[rr], t0[rr], t1[rr], t0[rr], az0[rr], d0[rr] - target,
+                     np.where(up[rr], 1.0, -1.0))

@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from shipradar.sim.world.scenario import (
     DEFAULT_ENTITY_RCS_M2,
@@ -245,6 +246,24 @@ class LiveTargets(MotionTable):
             cases.add(swerling_case(e.rcs, e.kind, e.swerling))
         return sorted(cases)
 
+    def row_of(self, entity_id: str) -> int | None:
+        """The row of entity ``entity_id`` (its index in ``ids``), None before its first state."""
+        return self._row.get(entity_id)
+
+    def heading_deg(self, row: int, t: float) -> float | None:
+        """The heading [deg, in [0, 360)] at ``t`` [s] of the entity in ``row``, from its latest
+        state: the orientation's heading h0 turned at the state's heading rate, h0 + ḣ (t − t0)
+        (the orientation's dead reckoning, IEEE 1278.1 annex E, for a turn about the vertical;
+        :func:`shipradar.sim.adapters.dis.ecef_heading_rate_dps`), held after the entity leaves;
+        None before its first state or when its state has no orientation."""
+        if t < float(self._t_first[row]):
+            return None
+        h = float(self._h[row])
+        if not np.isfinite(h):
+            return None
+        dt = min(t, float(self.t_last[row])) - float(self._t_u[row])
+        return (h + float(self._h_rate[row]) * dt) % 360.0
+
     def _classify(self, type_text: str | None) -> tuple[str, Rcs, int]:
         text = "" if type_text is None else str(type_text)
         for e in self.scenario.entity_types:
@@ -408,7 +427,8 @@ class LiveTargets(MotionTable):
         return (np.hypot(self._v[:n, 0], self._v[:n, 1])
                 + np.hypot(self._a[:n, 0], self._a[:n, 1]) * (self.timeout_s + 120.0))
 
-    def state_acc(self, t, rows=None, accel: bool = True):
+    def state_acc(self, t: ArrayLike, rows: ArrayLike | None = None, accel: bool = True
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray]:
         """Positions (M, 3) [m], velocities (M, 3) [m/s], accelerations (M, 3) [m/s²] (zero:
         constant-velocity dead reckoning; None unless ``accel``) and activity (M,) at times
         ``t`` [s] (:meth:`MotionTable.state` without the accelerations)."""
@@ -457,7 +477,7 @@ class RiddenPlatforms:
 
     def _row(self, p: int) -> int | None:
         eid = self.riders.get(p)
-        return None if eid is None else self.entities._row.get(eid)
+        return None if eid is None else self.entities.row_of(eid)
 
     @property
     def max_speed(self) -> np.ndarray:
@@ -471,7 +491,8 @@ class RiddenPlatforms:
                 out[p] = max(out[p], float(bound[r]))
         return out
 
-    def state(self, t: Any, rows: Any = None):
+    def state(self, t: ArrayLike, rows: ArrayLike | None = None
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Positions, velocities, activity at ``t`` of platforms ``rows`` (as the base)."""
         pos, vel, active = self.base.state(t, rows)
         rows_a = np.broadcast_to(np.asarray(rows), np.shape(t)).reshape(-1)
@@ -491,17 +512,8 @@ class RiddenPlatforms:
         return pos, vel, active
 
     def heading_deg(self, p: int, t: float) -> float | None:
-        """Platform ``p``'s heading at ``t`` [deg] from its entity's latest state: its
-        orientation's heading h0 turned at the state's heading rate, h0 + ḣ (t − t0) (the
-        orientation's dead reckoning, IEEE 1278.1 annex E, for a turn about the vertical;
-        :func:`shipradar.sim.adapters.dis.ecef_heading_rate_dps`), held after the entity
-        leaves; None when it has none (not riding, not yet seen, no orientation)."""
-        ent = self.entities
+        """Platform ``p``'s heading at ``t`` [deg] from its entity's latest state
+        (:meth:`LiveTargets.heading_deg`); None when it has none (not riding, not yet seen,
+        no orientation)."""
         r = self._row(p)
-        if r is None or t < float(ent.t_first[r]):
-            return None
-        h = float(ent._h[r])
-        if not np.isfinite(h):
-            return None
-        dt = min(t, float(ent.t_last[r])) - float(ent._t_u[r])
-        return (h + float(ent._h_rate[r]) * dt) % 360.0
+        return None if r is None else self.entities.heading_deg(r, t)

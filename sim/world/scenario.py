@@ -275,7 +275,7 @@ def corner_needs(waypoints: list[Waypoint], turn_g: float) -> list[tuple[float, 
     return out
 
 
-def _check_motion(obj, prefix: str = "") -> None:
+def _check_motion(obj: Target | Platform, prefix: str = "") -> None:
     """Segments and smoothing of a target or platform: consistent, and flyable at every
     point (weave and climb slopes below the speed, loads only when moving, corners that fit
     their legs).  Messages start with the field's path relative to the object."""
@@ -351,7 +351,7 @@ def _check_motion(obj, prefix: str = "") -> None:
                 z = z_to
 
 
-def _max_altitude(obj) -> float:
+def _max_altitude(obj: Target | Platform | Jammer) -> float:
     """Highest altitude an object reaches [m]: its waypoints, climbs and pop-up apexes."""
     top = max(w.altitude_m for w in obj.waypoints)
     for s in getattr(obj, "segments", ()):
@@ -1425,7 +1425,7 @@ def parse_scenario(data: Any) -> Scenario:
         raise ScenarioError(format_validation_error(exc, data)) from None
 
 
-def _expanded_nodes(node, memo: dict) -> int:
+def _expanded_nodes(node: yaml.Node, memo: dict[int, int]) -> int:
     """Nodes of a composed YAML graph once aliases are expanded (shared nodes counted at each
     use), computed in time linear in the distinct nodes."""
     key = id(node)

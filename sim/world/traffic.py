@@ -37,9 +37,10 @@ import weakref
 from collections import OrderedDict
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from shipradar.sim.world import geodesy
 from shipradar.sim.world.errors import BadInputError
@@ -51,6 +52,9 @@ from shipradar.sim.world.kinematics import (
     pieces_max_speed,
 )
 from shipradar.sim.world.scenario import Rcs, Scenario, Target, Traffic, swerling_case
+
+if TYPE_CHECKING:
+    import pyarrow as pa
 
 __all__ = ["CUBIC", "MotionTable", "PieceTable", "SceneTargets", "TrafficError",
            "hermite_coefficients", "monotone_slopes", "scene_targets"]
@@ -190,18 +194,21 @@ class MotionTable:
     with their states (:class:`PieceTable`, :class:`shipradar.sim.world.live.LiveTargets`):
     :meth:`state` is :meth:`state_acc` without the accelerations."""
 
-    def state(self, t, rows=None):
+    def state(self, t: ArrayLike, rows: ArrayLike | None = None
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Positions (M, 3) [m], velocities (M, 3) [m/s] and activity (M,) of objects
         ``rows`` (all when None) at times ``t`` [s] (a scalar or one per row)."""
         pos, vel, _, active = self.state_acc(t, rows, accel=False)
         return pos, vel, active
 
-    def state_acc(self, t, rows=None, accel: bool = True):
+    def state_acc(self, t: ArrayLike, rows: ArrayLike | None = None, accel: bool = True
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray]:
         """:meth:`state` with the accelerations (M, 3) [m/s²] third (None unless ``accel``)."""
         raise NotImplementedError
 
     @staticmethod
-    def _rows_times(n: int, t, rows) -> tuple[np.ndarray, np.ndarray]:
+    def _rows_times(n: int, t: ArrayLike, rows: ArrayLike | None
+                    ) -> tuple[np.ndarray, np.ndarray]:
         """``rows`` as an index array (all ``n`` objects when None) and ``t`` broadcast
         to it."""
         rows = np.arange(n) if rows is None else np.asarray(rows, dtype=np.int64)
@@ -265,7 +272,8 @@ class PieceTable(MotionTable):
             todo = todo[lo[todo] < hi[todo]]
         return lo
 
-    def state_acc(self, t, rows=None, accel: bool = True):
+    def state_acc(self, t: ArrayLike, rows: ArrayLike | None = None, accel: bool = True
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray]:
         """:meth:`state` with the accelerations (M, 3) [m/s²] third (None unless ``accel``)."""
         rows, t = self._rows_times(self.n, t, rows)
         j = self.piece_index(t, rows)
@@ -340,7 +348,7 @@ def _where(index: int, key: str) -> str:
     return f"traffic[{index}].{key}"
 
 
-def _read_table(entry: Traffic, index: int, names: dict[str, Any]):
+def _read_table(entry: Traffic, index: int, names: dict[str, Any]) -> pa.Table:
     """The file's columns that ``names`` asks for, as a pyarrow Table (limits checked)."""
     import pyarrow as pa
 
@@ -413,7 +421,7 @@ def _csv_header(path: Path) -> list[str]:
     return list(reader.schema.names)
 
 
-def _float_column(table, name: str | None, where: str = "") -> np.ndarray | None:
+def _float_column(table: pa.Table, name: str | None, where: str = "") -> np.ndarray | None:
     """A numeric column as float64 (NaN where missing); None when the file lacks it.
 
     Raises
@@ -437,7 +445,7 @@ def _float_column(table, name: str | None, where: str = "") -> np.ndarray | None
     return np.asarray(col.to_numpy(zero_copy_only=False), dtype=float)
 
 
-def _text_column(table, name: str | None) -> np.ndarray | None:
+def _text_column(table: pa.Table, name: str | None) -> np.ndarray | None:
     import pyarrow as pa
     import pyarrow.compute as pc
 
@@ -449,7 +457,7 @@ def _text_column(table, name: str | None) -> np.ndarray | None:
     return np.asarray(col.to_numpy(zero_copy_only=False), dtype=object)
 
 
-def _times_s(table, entry: Traffic, index: int, names: dict[str, Any],
+def _times_s(table: pa.Table, entry: Traffic, index: int, names: dict[str, Any],
              scenario: Scenario) -> np.ndarray:
     """Scenario time of each row [s] (NaN where missing), alignment and offset applied."""
     import pyarrow as pa
@@ -670,7 +678,7 @@ def read_traffic(entry: Traffic, index: int, scenario: Scenario,
         dropped=dropped, fixes_en=pos[:, :2])
 
 
-def _first_names(name_col, rows: np.ndarray, new_id: np.ndarray,
+def _first_names(name_col: np.ndarray | None, rows: np.ndarray, new_id: np.ndarray,
                  ids: list[str]) -> list[str]:
     """Each target's name: its first non-empty name in the file, else its id."""
     if name_col is None or not rows.size:

@@ -22,6 +22,7 @@ from collections.abc import Sequence
 
 import numpy as np
 from pydantic import BaseModel
+from pydantic.fields import FieldInfo
 
 from shipradar.sim.world.kinematics import (
     ARC,
@@ -34,7 +35,7 @@ from shipradar.sim.world.kinematics import (
     linear_pieces,
     waypoint_enu,
 )
-from shipradar.sim.world.scenario import STANDARD_GRAVITY, Platform, Target
+from shipradar.sim.world.scenario import STANDARD_GRAVITY, Jammer, Platform, Scenario, Target
 
 TWO_PI = 2.0 * math.pi
 #: Course changes below this are not rounded [rad].
@@ -52,12 +53,14 @@ def _heading_vector(psi: float) -> np.ndarray:
     return np.array([math.sin(psi), math.cos(psi), 0.0])
 
 
-def _arc(t0, p0, psi, v, dt, *, a=0.0, w=0.0, vz=0.0, az=0.0) -> Piece:
+def _arc(t0: float, p0: np.ndarray, psi: float, v: float, dt: float, *, a: float = 0.0,
+         w: float = 0.0, vz: float = 0.0, az: float = 0.0) -> Piece:
     return Piece(t0, dt, np.asarray(p0, float), np.zeros(3), ARC,
                  np.array([psi, v, a, w, vz, az], dtype=float))
 
 
-def _sine(t0, p0, psi, v, dt, amplitude, k, plane) -> Piece:
+def _sine(t0: float, p0: np.ndarray, psi: float, v: float, dt: float, amplitude: float,
+          k: float, plane: int) -> Piece:
     m = (amplitude * k / v) ** 2
     return Piece(t0, dt, np.asarray(p0, float), np.zeros(3), SINE,
                  np.array([psi, v, amplitude, k, plane, m], dtype=float))
@@ -231,16 +234,18 @@ def smoothed_pieces(obj: Target | Platform, frame: LocalFrame) -> list[Piece]:
     return out or linear_pieces(track)
 
 
-def object_pieces(obj, frame: LocalFrame) -> list[Piece]:
+def object_pieces(obj: Target | Platform | Jammer, frame: LocalFrame) -> list[Piece]:
     """The pieces of any scenario object: segments, a smoothed track or plain waypoints."""
-    if getattr(obj, "segments", None):
-        return segment_pieces(obj, frame)
-    if getattr(obj, "smoothing", None) is not None:
-        return smoothed_pieces(obj, frame)
+    if not isinstance(obj, Jammer):  # a jammer flies its waypoints
+        if obj.segments:
+            return segment_pieces(obj, frame)
+        if obj.smoothing is not None:
+            return smoothed_pieces(obj, frame)
     return linear_pieces(waypoint_enu(obj.waypoints, frame))
 
 
-def trajectories(objects: Sequence, frame: LocalFrame, hold: bool) -> Trajectories:
+def trajectories(objects: Sequence[Target | Platform | Jammer], frame: LocalFrame,
+                 hold: bool) -> Trajectories:
     """:class:`shipradar.sim.world.kinematics.Trajectories` of scenario objects.
 
     Objects that only have waypoints are built exactly as before (same arithmetic, same
@@ -256,7 +261,7 @@ def trajectories(objects: Sequence, frame: LocalFrame, hold: bool) -> Trajectori
 _UNIT = __import__("re").compile(r"\[([^\[\]]+)\]\s*$")
 
 
-def _unit(field) -> str:
+def _unit(field: FieldInfo) -> str:
     """The unit at the end of a field's description (``[m/s]``), or the field name's suffix."""
     m = _UNIT.search(field.description or "")
     if m:
@@ -264,7 +269,7 @@ def _unit(field) -> str:
     return ""
 
 
-def _walk(model, indent: int, lines: list[str]) -> None:
+def _walk(model: BaseModel, indent: int, lines: list[str]) -> None:
     pad = "  " * indent
     for name, field in type(model).model_fields.items():
         value = getattr(model, name)
@@ -284,23 +289,25 @@ def _walk(model, indent: int, lines: list[str]) -> None:
             lines.append(f"{pad}{name}: {shown}" + (f"  [{unit}]" if unit else ""))
 
 
-def motion_summary(scenario) -> list[str]:
+def motion_summary(scenario: Scenario) -> list[str]:
     """One line per platform and target: how it moves, when, how far, how hard (the pieces
     the engine will fly: segments, rounded corners or plain waypoints)."""
     frame = LocalFrame(scenario.origin)
     lines = []
-    for label, objs, hold in (("platforms", scenario.platforms, True),
-                              ("targets", scenario.targets, False)):
+    groups: tuple[tuple[str, Sequence[Target | Platform], bool], ...] = (
+        ("platforms", scenario.platforms, True), ("targets", scenario.targets, False))
+    for label, objs, hold in groups:
         for i, o in enumerate(objs):
             pieces = object_pieces(o, frame)
             tr = Trajectories(None, hold=hold, pieces=[pieces])
             t0, t1 = float(tr.t_first[0]), float(tr.t_last[0])
             t = np.linspace(t0, t1, max(2, min(20_000, int((t1 - t0) * 10) + 2)))
             pos, vel, acc, _ = tr.state_acc(t, np.zeros(t.size, dtype=int))
+            assert acc is not None  # asked for (accel=True)
             length = float(np.sum(np.linalg.norm(np.diff(pos, axis=0), axis=1)))
-            how = ("segments" if getattr(o, "segments", None) else
+            how = ("segments" if o.segments else
                    f"waypoints rounded at {o.smoothing.turn_g:g} g"
-                   if getattr(o, "smoothing", None) is not None else "waypoints (straight legs)")
+                   if o.smoothing is not None else "waypoints (straight legs)")
             a = float(np.linalg.norm(acc, axis=1).max())
             lines.append(
                 f"{label}[{i}] {o.id}: {how}, {len(pieces)} piece(s), {t0:g}-{t1:.1f} s, path "
@@ -310,7 +317,7 @@ def motion_summary(scenario) -> list[str]:
     return lines
 
 
-def resolved_scene_lines(scenario) -> list[str]:
+def resolved_scene_lines(scenario: Scenario) -> list[str]:
     """The scene as the simulator will use it (``shipradar validate --explain``): every field
     with its default filled in and its unit, then how each object moves."""
     lines = ["resolved scene (every default filled in, units in brackets):"]
