@@ -23,9 +23,12 @@ processes on a plain clock that replays SimPy's event order
 once; the bytes are the same.
 
 What the engine asks of its bus is declared in :mod:`shipradar.sim.stream.sink`; the keys of
-its messages in :mod:`shipradar.sim.stream.schema`; which plots go in which sector message in
-:func:`shipradar.sim.stream.framing.sector_columns`, for a bus that takes frames and for one
-that takes payloads alike.
+its messages in :mod:`shipradar.sim.stream.schema`.  The engine gathers values; the stream
+shapes the messages from them: which plots go in which sector message in
+:func:`shipradar.sim.stream.framing.sector_columns`, and ``meta``, ``eos``,
+``truth[sensors]``, ``end`` and ``entities`` from typed records (an antenna's state, a
+radar's description, a block's ends of scan) in :mod:`shipradar.sim.stream.payloads`, for a
+bus that takes frames and for one that takes payloads alike.
 """
 
 from __future__ import annotations
@@ -51,12 +54,22 @@ from shipradar.sim.engine.order import EventOrder
 from shipradar.sim.engine.plot_blocks import merge_plot_batches, slice_plots
 from shipradar.sim.stream import protocol
 from shipradar.sim.stream.framing import Slices, sector_columns, target_columns
-from shipradar.sim.stream.schema import (
-    END,
-    EOS,
-    META,
-    TRUTH_SENSORS,
-    SchemaError,
+from shipradar.sim.stream.payloads import (
+    AntennaState,
+    AntennaStates,
+    ClutterFalseAlarmMeta,
+    PackedMeta,
+    SensorDescription,
+    SensorTruthRows,
+    end_of_scan_frames,
+    end_payload,
+    entities_payload,
+    eos_payload,
+    meta_payload,
+    pack_meta,
+    truth_sensors_frames,
+    truth_sensors_items,
+    truth_sensors_payload,
 )
 from shipradar.sim.stream.sink import (
     CallbackSink,
@@ -291,10 +304,8 @@ class Simulation:
         self.bus.flush()
 
     def _end_payload(self) -> dict[str, Any]:
-        return END.message(
-            time_s=self.duration,
-            sensors=[r.radar.id for r in self.radars],
-            scans=[r.scans_in_run for r in self.radars])
+        return end_payload(self.duration, [r.radar.id for r in self.radars],
+                           [r.scans_in_run for r in self.radars])
 
     @property
     def batched(self) -> bool:
@@ -408,7 +419,6 @@ class Simulation:
         ``entities`` message at ``now`` (the recording keeps what the run used)."""
         if self.live_source is None or now <= self._live_refreshed:
             return
-        from shipradar.sim.stream.schema import ENTITIES
         from shipradar.sim.world.live import check_states, take_rows
 
         self._live_refreshed = now
@@ -430,22 +440,8 @@ class Simulation:
                     applied = store.apply(part, now)
                     if applied["id"]:
                         used.append(applied)
-        if not used or self.bus is None:
-            return
-        cols: dict[str, Any] = {"id": [i for u in used for i in u["id"]]}
-        for key in ENTITIES.columns("n"):
-            if ENTITIES[key].required or key == "active":
-                cols[key] = np.concatenate([u[key] for u in used])
-            elif key == "heading_deg":  # NaN (unknown) where a batch has none
-                if any(key in u for u in used):
-                    cols[key] = np.concatenate([u.get(key, np.full(len(u["id"]), np.nan))
-                                                for u in used])
-            elif any(key in u for u in used):  # accelerations: 0 where a batch has none
-                cols[key] = np.concatenate([u.get(key, np.zeros(len(u["id"]))) for u in used])
-        for key in ("type", "name"):
-            if any(key in u for u in used):
-                cols[key] = [x for u in used for x in u.get(key, [""] * len(u["id"]))]
-        self.bus.emit(protocol.TOPIC_ENTITIES, now, ENTITIES.message(**cols))
+        if used and self.bus is not None:
+            self.bus.emit(protocol.TOPIC_ENTITIES, now, entities_payload(used))
 
     def summary(self, wall_s: float) -> dict[str, Any]:
         s = self.stats
@@ -586,7 +582,7 @@ class RadarProcess:
         # when this radar's link is free [s]: its last message's publication (issue 33's
         # latency; a message never overtakes the one before it)
         self._link_free = 0.0
-        self._meta_items: tuple[int, bytes, bytes] | None = None
+        self._meta_items: PackedMeta | None = None
         # what the bus takes (_bus_caps), found once per bus: a runtime-checkable protocol's
         # isinstance costs ~20 us, once per sector it was half of a sparse recorded run
         self._caps_of: tuple[object, FrameSink | None, PlotsAheadSink | None] = (
@@ -768,9 +764,9 @@ class RadarProcess:
 
     def antenna_state(self, t: float, pos: np.ndarray | None = None,
                       vel: np.ndarray | None = None, lat: float | None = None,
-                      lon: float | None = None) -> dict[str, Any]:
-        """The antenna's ``position``, ``velocity_enu_mps`` and ``heading_deg`` at time ``t``
-        [s], as ``meta`` (scan start) and ``eos`` (scan end) carry them; the platform's
+                      lon: float | None = None) -> AntennaState:
+        """The antenna's position, velocity and heading at time ``t`` [s], as ``meta`` (scan
+        start) and ``eos`` (scan end) report them (navigated, issue 33); the platform's
         state and geodetic position are computed unless given."""
         if pos is None or vel is None:
             p, v = self.platform_state(np.array([t]))
@@ -784,13 +780,9 @@ class RadarProcess:
         heading = self._heading(float(vel[0]), float(vel[1]), t)
         if self.errors is not None and self.errors.navigates:
             heading = (heading + math.degrees(float(self.errors.heading_bias_rad(t)))) % 360.0
-        up = float(pos[2] + self.radar.antenna_height_m)
-        return {
-            "position": {"lat_deg": lat, "lon_deg": lon, "alt_m": up,
-                         "east_m": float(pos[0]), "north_m": float(pos[1]), "up_m": up},
-            "velocity_enu_mps": [float(x) for x in vel],
-            "heading_deg": heading,
-        }
+        return AntennaState(lat, lon, float(pos[0]), float(pos[1]),
+                            float(pos[2] + self.radar.antenna_height_m),
+                            (float(vel[0]), float(vel[1]), float(vel[2])), heading)
 
     def _heading(self, v_east: float, v_north: float, t: float | None = None) -> float:
         """The platform's heading [deg] from its velocity east and north [m/s], true north,
@@ -804,20 +796,18 @@ class RadarProcess:
             return math.degrees(math.atan2(v_east, v_north)) % 360.0
         return self.platform.heading_deg
 
-    def _antenna_states(self, ends: _ScanEnds) -> tuple[dict[str, Any], list[np.ndarray]]:
-        """:meth:`antenna_state` at every end of ``ends``, as the first one (the shape of
-        all) and the columns of its float leaves in packing order (element by element the
-        same numbers), for :func:`shipradar.sim.stream.protocol.float_rows`."""
+    def _antenna_states(self, ends: _ScanEnds) -> AntennaStates:
+        """:meth:`antenna_state` at every end of ``ends``, as columns (element by element the
+        same numbers)."""
         pos, vel = ends.pos, ends.vel
-        up = pos[:, 2] + self.radar.antenna_height_m
         heading = [self._heading(e, n, tt) for (e, n), tt in zip(vel[:, :2].tolist(), ends.t,
                                                                  strict=True)]
         if self.errors is not None and self.errors.navigates:  # the gyro's bias (issue 33)
             bias = np.degrees(self.errors.heading_bias_rad(np.asarray(ends.t)))
             heading = np.mod(np.asarray(heading) + bias, 360.0).tolist()
-        first = self.antenna_state(ends.t[0], pos[0], vel[0], ends.lat[0], ends.lon[0])
-        return first, [np.asarray(ends.lat), np.asarray(ends.lon), up, pos[:, 0], pos[:, 1],
-                       up, vel[:, 0], vel[:, 1], vel[:, 2], np.asarray(heading)]
+        return AntennaStates(np.asarray(ends.lat), np.asarray(ends.lon), pos[:, 0], pos[:, 1],
+                             pos[:, 2] + self.radar.antenna_height_m, vel,
+                             np.asarray(heading))
 
     # ------------------------------------------------------------------ process
     def run(self, env: _Clock, per_sector: bool = True) -> Generator[Any, Any, None]:
@@ -1008,13 +998,13 @@ class RadarProcess:
         self.__dict__.pop("_target_names", None)
 
     @functools.cached_property
-    def _target_names(self) -> dict[str, list[str]]:
+    def _target_names(self) -> list[str] | None:
         """``meta.target_names`` when traffic files or a live source name their targets
-        (vessel names, callsigns); {} for a scene of its own targets only (their names are
+        (vessel names, callsigns); None for a scene of its own targets only (their names are
         their ids)."""
         targets = self.sim.target_set
         live = self.sim.live_source is not None
-        return {"target_names": list(targets.names)} if targets.files or live else {}
+        return list(targets.names) if targets.files or live else None
 
     @functools.cached_property
     def _clutter_fa_meta(self) -> dict:
@@ -1061,67 +1051,45 @@ class RadarProcess:
         packed = self._next_meta
         if frames is not None and self._meta_items is not None and packed is not None \
                 and packed[0] == t:  # packed with the previous scan's end (_frame_ends)
-            n, before, after = self._meta_items
-            frames.emit_frames(at, protocol.encode_items(protocol.TOPIC_META, at, n,
-                                                         (before, packed[1], after)))
+            frames.emit_frames(at, self._meta_items.encode(at, packed[1]))
             return
         last = self._last_eos
         if last is not None and last[0] == t:  # the previous scan's end: its state
-            state = {"scan": scan, **self.antenna_state(t, *last[1:])}
+            state = self.antenna_state(t, *last[1:])
         else:
-            state = {"scan": scan, **self.antenna_state(t)}
+            state = self.antenna_state(t)
         if frames is not None:
-            self._emit_meta_frames(frames, at, state)
+            if self._meta_items is None:  # what does not change, packed once
+                self._meta_items = pack_meta(self._description(), scan, state)
+            frames.emit_frames(at, self._meta_items.encode(at, PackedMeta.scan_state(scan,
+                                                                                     state)))
         else:
-            bus.emit(protocol.TOPIC_META, at, self._meta_payload(state))
+            bus.emit(protocol.TOPIC_META, at, meta_payload(self._description(), scan, state))
 
-    def _emit_meta_frames(self, bus: FrameSink, t: float, state: dict[str, Any]) -> None:
-        """The metadata from its items packed once (:meth:`_emit_meta`): the keys before
-        ``scan``, then ``state`` (``scan`` and the antenna's state, the keys that follow it
-        in :data:`shipradar.sim.stream.schema.META`), then the rest."""
-        parts = self._meta_items
-        if parts is None:
-            payload = self._meta_payload(state)
-            keys = list(payload)
-            k = keys.index("scan")
-            topic = protocol.TOPIC_META
-            parts = self._meta_items = (
-                len(keys), protocol.payload_items(topic, {c: payload[c] for c in keys[:k]}),
-                protocol.payload_items(topic, {c: payload[c]
-                                               for c in keys[k + len(state):]}))
-        n, before, after = parts
-        bus.emit_frames(t, protocol.encode_items(
-            protocol.TOPIC_META, t, n,
-            (before, protocol.payload_items(protocol.TOPIC_META, state), after)))
-
-    def _meta_payload(self, state: dict[str, Any]) -> dict:
-        """``meta`` with ``state``: ``scan`` and the antenna's state at the scan's start."""
-        r = self.radar
-        return META.message(
-            sensor=r.id,
-            platform=self.platform.id,
-            **state,
-            radar=self._radar_dump,
-            scan_period_s=r.scan_period_s,
-            sectors_per_scan=self.n_sectors,
-            sector_s=self.sector_s,
-            pfa=self.model.pfa,
-            noise_false_alarms_per_scan=self.model.noise_false_alarms_per_scan,
-            **self._clutter_fa_meta,
-            target_ids=self.target_ids,
-            **self._target_names,
-            origin_codes=list(ORIGIN_NAMES),
-            interference_codes=list(self.model.INTERFERENCE_NAMES),
-            origin=self.sim.scenario.origin.model_dump(),
-            start_time=self.sim.scenario.start_time.isoformat(),
-            # for ASTERIX output (sim/adapters/asterix): the data source and the noise floor that
-            # turns a plot's S/I into an amplitude (I048/130 PAM)
-            sac_sic=list(self.sim.scenario.asterix_sources()[r.id]),
-            noise_power_dbm=10.0 * math.log10(self.model.n0 * 1e3),
+    def _description(self) -> SensorDescription:
+        """What ``meta`` says of this radar besides the scan and the antenna's state."""
+        r, model, scenario = self.radar, self.model, self.sim.scenario
+        fa = self._clutter_fa_meta
+        clutter = None if not fa else ClutterFalseAlarmMeta(
+            fa["clutter_false_alarms_per_scan"],
+            fa["clutter_false_alarm_profile"]["range_edges_m"],
+            fa["clutter_false_alarm_profile"]["per_scan"],
+            None if "clutter_false_alarm_density" not in fa else tuple(
+                fa["clutter_false_alarm_density"].values()))
+        return SensorDescription(
+            sensor=r.id, platform=self.platform.id, radar=self._radar_dump,
+            scan_period_s=r.scan_period_s, sectors_per_scan=self.n_sectors,
+            sector_s=self.sector_s, pfa=model.pfa,
+            noise_false_alarms_per_scan=model.noise_false_alarms_per_scan, clutter=clutter,
+            target_ids=self.target_ids, target_names=self._target_names,
+            origin_codes=ORIGIN_NAMES, interference_codes=model.INTERFERENCE_NAMES,
+            origin=scenario.origin.model_dump(), start_time=scenario.start_time.isoformat(),
+            # for ASTERIX output (sim/adapters/asterix): the data source and the noise floor
+            # that turns a plot's S/I into an amplitude (I048/130 PAM)
+            sac_sic=scenario.asterix_sources()[r.id],
+            noise_power_dbm=10.0 * math.log10(model.n0 * 1e3),
             # the span a tracker unfolds plots.range_rate_mps by (docs/protocol.md 4.2)
-            **({"range_rate_span_mps": self.model.range_rate_span_mps}
-               if self.model.has_doppler_bank else {}),
-        )
+            range_rate_span_mps=model.range_rate_span_mps if model.has_doppler_bank else None)
 
     def plan_scans(self, t_scans: list[float]) -> tuple[np.ndarray, np.ndarray]:
         """The targets the beam may meet in each revolution starting at ``t_scans``: their
@@ -1516,16 +1484,14 @@ class RadarProcess:
         self._ends = _ScanEnds(scan0, t.tolist(), pos, vel, lat.tolist(), lon.tolist(),
                                columns, true_pos=true_pos)
 
-    def _eos_payload(self, j: int, state: dict[str, Any] | None = None) -> dict[str, Any]:
-        """``eos`` of the ``j``-th revolution of :attr:`_ends`, with the antenna's ``state``
-        at its end (:meth:`antenna_state`, computed unless given)."""
+    def _eos_payload(self, j: int) -> dict[str, Any]:
+        """``eos`` of the ``j``-th revolution of :attr:`_ends`, with the antenna's state at
+        its end (:meth:`antenna_state`)."""
         ends = self._ends
         assert ends is not None
         t, scan = ends.t[j], ends.scan0 + j
-        if state is None:
-            state = self.antenna_state(t, ends.pos[j], ends.vel[j], ends.lat[j], ends.lon[j])
-        return EOS.message(sensor=self.radar.id, scan=scan, time_s=t, **state,
-                           complete=self._eos_complete(t, scan))
+        state = self.antenna_state(t, ends.pos[j], ends.vel[j], ends.lat[j], ends.lon[j])
+        return eos_payload(self.radar.id, scan, t, state, self._eos_complete(t, scan))
 
     def _eos_complete(self, t: float, scan: int) -> bool:
         """Whether revolution ``scan``, ending at ``t`` [s], is complete: the run's end
@@ -1546,28 +1512,13 @@ class RadarProcess:
             ends.targets = target_columns(self.radar.id, scans, ends.t, ends.columns,
                                           len(self.target_ids))
         if encoded:
-            # every eos is {sensor, scan, time_s, *antenna state, complete} (the schema's
-            # order, checked with the first one) and the next meta's items {scan, *antenna
-            # state}: the states' items packed at once (float_rows), the rest per end
-            first, columns = self._antenna_states(ends)
-            eos0 = self._eos_payload(0, first)
-            if list(eos0) != ["sensor", "scan", "time_s", *first, "complete"]:
-                raise SchemaError(f"eos keys {list(eos0)}: not the engine's packing")
-            topic = protocol.TOPIC_EOS
-            states = protocol.float_rows(protocol.TOPIC_META, first, columns)
-            times = protocol.float_rows(topic, {"time_s": 0.0}, [np.asarray(ends.t)])
-            sensor = protocol.payload_items(topic, {"sensor": self.radar.id})
-            scan_items = [protocol.payload_items(topic, {"scan": s})
-                          for s in range(scans.start, scans.stop + 1)]
-            complete = {c: protocol.payload_items(topic, {"complete": c}) for c in (True, False)}
-            eos = [protocol.encode_items(topic, t, len(eos0), (
-                sensor, scan_items[j], times[j], states[j],
-                complete[self._eos_complete(t, scans[j])]))[1]
-                for j, t in enumerate(ends.t)]
-            meta = [scan_items[j + 1] + states[j] for j in range(len(ends.t))]
+            # every end's eos and the next meta's scan and antenna state, packed at once
+            packed = end_of_scan_frames(
+                self.radar.id, ends.scan0, ends.t, self._antenna_states(ends),
+                [self._eos_complete(t, scan) for t, scan in zip(ends.t, scans, strict=True)])
             truth = (ends.targets.encode(np.asarray(ends.t)) if ends.targets is not None
-                     else [None] * len(eos))
-            ends.frames = list(zip(eos, truth, meta, strict=True))
+                     else [None] * len(ends.t))
+            ends.frames = list(zip(packed.eos, truth, packed.next_meta, strict=True))
 
     def _end_of_scan(self, t: float, scan: int, t_at: float | None = None) -> None:
         """The end of revolution ``scan`` at time ``t`` (its ``eos`` and ``truth[targets]``,
@@ -1602,42 +1553,28 @@ class RadarProcess:
         if self.errors is not None:
             frames = self._bus_caps()[0]
             if frames is not None:  # packed once per block, but the latency (issue 33)
-                items = self._truth_sensors_items(j)
-                latency = protocol.payload_items(protocol.TOPIC_TRUTH,
-                                                 {"latency_s": self._scan_latency})
-                frames.emit_frames(at, protocol.encode_items(
-                    protocol.TOPIC_TRUTH, at, len(TRUTH_SENSORS.fields), (items, latency)))
+                frames.emit_frames(at, truth_sensors_frames(self._truth_sensors_items(j),
+                                                            self._scan_latency, at))
             else:
                 bus.emit(protocol.TOPIC_TRUTH, at, self._truth_sensors(t, scan, j))
         bus.flush()
 
     def _truth_sensors_items(self, j: int) -> bytes:
-        """The items of the ``j``-th end's ``truth[sensors]`` but its last key, ``latency_s``
-        (:func:`shipradar.sim.stream.protocol.payload_items`), those of every end of the block
-        packed at once: the same bytes as :meth:`_truth_sensors`."""
+        """The items of the ``j``-th end's ``truth[sensors]`` but its last key, ``latency_s``,
+        those of every end of the block packed at once
+        (:func:`shipradar.sim.stream.payloads.truth_sensors_items`): the same bytes as
+        :meth:`_truth_sensors`."""
         ends = self._ends
         assert ends is not None and ends.true_pos is not None and self.errors is not None
         if ends.sensor_items is None:
-            topic = protocol.TOPIC_TRUTH
-            first = self._truth_sensors(ends.t[0], ends.scan0, 0)
-            keys = list(first)
-            if keys[:3] != ["sensor", "scan", "kind"] or keys[-1] != "latency_s":
-                raise SchemaError(f"truth[sensors] keys {keys}: not the engine's packing")
-            floats = {k: first[k] for k in keys[3:-1]}
-            assert ends.errors is not None
+            if ends.errors is None:  # every end of the block's at once
+                ends.errors = self.errors.values(np.asarray(ends.t))
             pos, vel = ends.true_pos, ends.vel
             heading = [math.radians(self._heading(e, n, tt)) for (e, n), tt in zip(
                 vel[:, :2].tolist(), ends.t, strict=True)]
-            columns = {"time_s": ends.t, **ends.errors, "true_east_m": pos[:, 0],
-                       "true_north_m": pos[:, 1],
-                       "true_up_m": pos[:, 2] + self.radar.antenna_height_m,
-                       "true_heading_rad": heading}
-            rows = protocol.float_rows(topic, floats, [np.asarray(columns[k]) for k in floats])
-            sensor = protocol.payload_items(topic, {"sensor": self.radar.id})
-            kind = protocol.payload_items(topic, {"kind": TRUTH_SENSORS.kind})
-            ends.sensor_items = [
-                b"".join((sensor, protocol.payload_items(topic, {"scan": ends.scan0 + i}), kind,
-                          row)) for i, row in enumerate(rows)]
+            ends.sensor_items = truth_sensors_items(self.radar.id, ends.scan0, SensorTruthRows(
+                ends.t, ends.errors, pos[:, 0], pos[:, 1],
+                pos[:, 2] + self.radar.antenna_height_m, heading))
         return ends.sensor_items[j]
 
     def _truth_sensors(self, t: float, scan: int, j: int) -> dict[str, Any]:
@@ -1650,12 +1587,10 @@ class RadarProcess:
         heading = self._heading(float(vel[0]), float(vel[1]), t)
         if ends.errors is None:  # every end of the block's at once
             ends.errors = errors.values(np.asarray(ends.t))
-        return TRUTH_SENSORS.message(
-            sensor=self.radar.id, scan=scan, time_s=t,
-            **{k: v[j] for k, v in ends.errors.items()},
-            true_east_m=float(pos[0]), true_north_m=float(pos[1]),
-            true_up_m=float(pos[2] + self.radar.antenna_height_m),
-            true_heading_rad=math.radians(heading), latency_s=self._scan_latency)
+        return truth_sensors_payload(
+            self.radar.id, scan, t, {k: v[j] for k, v in ends.errors.items()},
+            (float(pos[0]), float(pos[1]), float(pos[2] + self.radar.antenna_height_m)),
+            math.radians(heading), self._scan_latency)
 
     def in_coverage(self, platform_pos: np.ndarray, target_pos: np.ndarray,
                     active: np.ndarray) -> np.ndarray:

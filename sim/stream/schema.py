@@ -5,10 +5,12 @@ per topic and kind: :data:`META`, :data:`PLOTS`, :data:`EOS`, :data:`END`, :data
 :data:`TRUTH_TARGETS`, and :data:`TRACKS` and :data:`REGISTRATION` (published back by a
 tracker). Everything else derives from this module (STYLE lesson 12):
 
-- the engine (:mod:`shipradar.sim.engine.simulation`) builds its messages with
-  :meth:`Payload.message` (keys in this order, none missing, none unknown), takes its plot
-  columns (:data:`PLOT_COLUMNS`, :data:`PLOT_TRUTH_COLUMNS`) and their dtypes from here, and
-  frames its sectors with :func:`shipradar.sim.stream.framing.sector_columns`;
+- the engine (:mod:`shipradar.sim.engine.simulation`) gathers values and the stream shapes
+  its messages with :meth:`Payload.message` (keys in this order, none missing, none
+  unknown): the sectors in :mod:`shipradar.sim.stream.framing`, ``meta``, ``eos``,
+  ``truth[sensors]``, ``end`` and ``entities`` in :mod:`shipradar.sim.stream.payloads`; the
+  engine takes its plot columns (:data:`PLOT_COLUMNS`, :data:`PLOT_TRUTH_COLUMNS`) and their
+  dtypes from here;
 - the readers name the keys they read with :meth:`Payload.keys_of`, which refuses a key
   this module does not declare (the Stone Soup reader, export, ASTERIX, the viewer's wire
   format);
