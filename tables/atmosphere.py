@@ -21,8 +21,10 @@ from __future__ import annotations
 
 import functools
 import sys
+from dataclasses import dataclass
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -31,8 +33,8 @@ from scipy import constants
 from shipradar.sensors import atmosphere as atm
 from shipradar.tables.store import Table, get_or_build
 
-__all__ = ["TABLE_NAME", "TABLE_VERSION", "atmospheric_loss_grid", "atmospheric_loss_inputs",
-           "lookup_gas_fog_loss_db"]
+__all__ = ["TABLE_NAME", "TABLE_VERSION", "AtmosphericLossSpec", "atmospheric_loss_grid",
+           "atmospheric_loss_inputs", "lookup_gas_fog_loss_db"]
 
 #: Table builder name and version (bump on any change of the model in
 #: :mod:`shipradar.sensors.atmosphere`).
@@ -117,25 +119,10 @@ def _fog_loss_db(gamma_fog_db_per_km: float, slant_range_m: ArrayLike, elevation
     return gamma_fog_db_per_km * length / constants.kilo
 
 
-# params: the gas and fog inputs of [16] (P.676, P.840) and the grid, by keyword
-def atmospheric_loss_grid(
-    freq_hz: float,
-    ranges_m: ArrayLike,
-    elevations_rad: ArrayLike,
-    *,
-    temperature_k: float = atm.STANDARD_TEMPERATURE_K,
-    pressure_hpa: float = atm.STANDARD_PRESSURE_HPA,
-    water_vapour_density_g_m3: float = atm.STANDARD_WATER_VAPOUR_G_M3,
-    fog_lwc_g_m3: float = 0.0,
-    fog_top_m: float = atm.DEFAULT_FOG_TOP_M,
-    antenna_height_m: float = 0.0,
-    cache: bool = True,
-    root: Path | None = None,
-) -> Table:
-    """Table of the one-way gaseous + fog loss of [16] against slant range and elevation.
-
-    Built once per scene (off-line level), cached by :func:`shipradar.tables.store.get_or_build`
-    under a hash of every input below plus the itur recommendation versions.
+@dataclass(frozen=True)
+class AtmosphericLossSpec:
+    """What the atmospheric-loss table depends on: one declaration, read by the cache key
+    (:meth:`inputs`) and by :func:`atmospheric_loss_grid`.
 
     Parameters
     ----------
@@ -154,10 +141,66 @@ def atmospheric_loss_grid(
         Top of the fog layer above the sea [m]; the fog fills the sea-to-top layer.
     antenna_height_m : float, optional
         Radar antenna height above the sea [m].
+    """
+
+    freq_hz: float
+    ranges_m: ArrayLike
+    elevations_rad: ArrayLike
+    temperature_k: float = atm.STANDARD_TEMPERATURE_K
+    pressure_hpa: float = atm.STANDARD_PRESSURE_HPA
+    water_vapour_density_g_m3: float = atm.STANDARD_WATER_VAPOUR_G_M3
+    fog_lwc_g_m3: float = 0.0
+    fog_top_m: float = atm.DEFAULT_FOG_TOP_M
+    antenna_height_m: float = 0.0
+
+    def inputs(self) -> dict[str, Any]:
+        """The table's inputs (its cache key and provenance), with the itur recommendation
+        versions; the axes as float arrays."""
+        ranges = np.asarray(self.ranges_m, dtype=float)
+        elevations = np.asarray(self.elevations_rad, dtype=float)
+        if np.any(ranges < 0.0):
+            raise ValueError("slant ranges must be >= 0")
+        return {
+            "freq_hz": float(self.freq_hz),
+            "ranges_m": ranges,
+            "elevations_rad": elevations,
+            "temperature_k": float(self.temperature_k),
+            "pressure_hpa": float(self.pressure_hpa),
+            "water_vapour_density_g_m3": float(self.water_vapour_density_g_m3),
+            "fog_lwc_g_m3": float(self.fog_lwc_g_m3),
+            "fog_top_m": float(self.fog_top_m),
+            "antenna_height_m": float(self.antenna_height_m),
+            **itur_versions(),
+        }
+
+
+def atmospheric_loss_grid(
+    freq_hz: float,
+    ranges_m: ArrayLike,
+    elevations_rad: ArrayLike,
+    *,
+    cache: bool = True,
+    root: Path | None = None,
+    **conditions: Any,
+) -> Table:
+    """Table of the one-way gaseous + fog loss of [16] against slant range and elevation.
+
+    Built once per scene (off-line level), cached by :func:`shipradar.tables.store.get_or_build`
+    under a hash of every input (:class:`AtmosphericLossSpec`) plus the itur recommendation
+    versions.
+
+    Parameters
+    ----------
+    freq_hz, ranges_m, elevations_rad
+        Frequency [Hz] and the axes: slant range [m] and elevation [rad]
+        (:class:`AtmosphericLossSpec`).
     cache : bool, optional
         Read/write the table cache (False: always build, nothing written).
     root : Path, optional
         Cache directory (default :func:`shipradar.tables.store.cache_dir`).
+    **conditions
+        The other fields of :class:`AtmosphericLossSpec` (temperature, pressure, water
+        vapour, fog, antenna height), by keyword.
 
     Returns
     -------
@@ -167,15 +210,11 @@ def atmospheric_loss_grid(
         the table (it depends on the rain cell geometry): see
         :func:`shipradar.sensors.atmosphere.rain_loss_db`.
     """
-    ranges = np.asarray(ranges_m, dtype=float)
-    elevations = np.asarray(elevations_rad, dtype=float)
-    inputs = atmospheric_loss_inputs(
-        freq_hz, ranges, elevations, temperature_k=temperature_k, pressure_hpa=pressure_hpa,
-        water_vapour_density_g_m3=water_vapour_density_g_m3, fog_lwc_g_m3=fog_lwc_g_m3,
-        fog_top_m=fog_top_m, antenna_height_m=antenna_height_m)
+    inputs = AtmosphericLossSpec(freq_hz, ranges_m, elevations_rad, **conditions).inputs()
 
     def build() -> Table:
-        return _build_grid(float(freq_hz), ranges, elevations, inputs)
+        return _build_grid(inputs["freq_hz"], inputs["ranges_m"], inputs["elevations_rad"],
+                           inputs)
 
     if not cache:
         return build()
@@ -183,35 +222,11 @@ def atmospheric_loss_grid(
     return table
 
 
-def atmospheric_loss_inputs(
-    freq_hz: float,
-    ranges_m: ArrayLike,
-    elevations_rad: ArrayLike,
-    *,
-    temperature_k: float = atm.STANDARD_TEMPERATURE_K,
-    pressure_hpa: float = atm.STANDARD_PRESSURE_HPA,
-    water_vapour_density_g_m3: float = atm.STANDARD_WATER_VAPOUR_G_M3,
-    fog_lwc_g_m3: float = 0.0,
-    fog_top_m: float = atm.DEFAULT_FOG_TOP_M,
-    antenna_height_m: float = 0.0,
-) -> dict:
-    """The inputs of :func:`atmospheric_loss_grid` that key its table (same arguments)."""
-    ranges = np.asarray(ranges_m, dtype=float)
-    elevations = np.asarray(elevations_rad, dtype=float)
-    if np.any(ranges < 0.0):
-        raise ValueError("slant ranges must be >= 0")
-    return {
-        "freq_hz": float(freq_hz),
-        "ranges_m": ranges,
-        "elevations_rad": elevations,
-        "temperature_k": float(temperature_k),
-        "pressure_hpa": float(pressure_hpa),
-        "water_vapour_density_g_m3": float(water_vapour_density_g_m3),
-        "fog_lwc_g_m3": float(fog_lwc_g_m3),
-        "fog_top_m": float(fog_top_m),
-        "antenna_height_m": float(antenna_height_m),
-        **itur_versions(),
-    }
+def atmospheric_loss_inputs(freq_hz: float, ranges_m: ArrayLike, elevations_rad: ArrayLike,
+                            **conditions: Any) -> dict[str, Any]:
+    """The inputs of :func:`atmospheric_loss_grid` that key its table (same arguments: the
+    fields of :class:`AtmosphericLossSpec`)."""
+    return AtmosphericLossSpec(freq_hz, ranges_m, elevations_rad, **conditions).inputs()
 
 
 def lookup_gas_fog_loss_db(

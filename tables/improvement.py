@@ -140,32 +140,15 @@ RESOLUTIONS = {
 }
 
 
-# long: one normalisation per processor kind (MTI, banks, cascade, stagger) of [49]-[62]
-# params: the processor's declaration; a spec record as the clutter maps' is not done yet
-def improvement_table_inputs(
-    processor: str,
-    *,
-    n_pulses: int | None = None,
-    mti_pulses: int = 2,
-    n_filters: int | None = None,
-    window: str = "rectangular",
-    window_sidelobe_db: float | None = None,
-    taylor_nbar: int = df.DEFAULT_TAYLOR_NBAR,
-    prf_hz: float | None = None,
-    stagger_prf_hz: Sequence[float] | None = None,
-    resolution: str = "standard",
-    pick: str = "response",
-    stability_limit_db: float = df.DEFAULT_STABILITY_LIMIT_DB,
-) -> dict[str, Any] | None:
-    """Validate the processor description and return the table's inputs (its cache key).
-
-    Only the inputs that change the table are kept (e.g. the PRF only for a stagger, the
-    window only for a bank), so that equal tables share one cache file.
+@dataclass(frozen=True)
+class ImprovementTableSpec:
+    """What an improvement-factor table depends on: one declaration, read by the cache key
+    (:meth:`inputs`) and by :func:`build_improvement_table`.
 
     Parameters
     ----------
     processor : {"none", "mti", "dft_bank", "fir_bank", "mti_bank"}
-        ``"none"``: no Doppler processing (I_F = 1, returns ``None``).  ``"mti"``: an
+        ``"none"``: no Doppler processing (I_F = 1, no table).  ``"mti"``: an
         ``mti_pulses``-pulse canceller [58].  ``"dft_bank"``: ``n_pulses`` filters of
         ``n_pulses`` taps [59]-[60], windowed [62].  ``"fir_bank"``: ``n_filters`` filters of
         ``n_pulses`` taps, windowed.  ``"mti_bank"``: the canceller followed by a bank, [61];
@@ -194,57 +177,94 @@ def improvement_table_inputs(
     stability_limit_db : float
         System-stability limit of the improvement factor [dB].
     """
-    if processor not in PROCESSORS:
-        raise ValueError(f"unknown processor {processor!r}; choose one of {PROCESSORS}")
-    if processor == "none":
-        return None
-    if resolution not in RESOLUTIONS:
-        raise ValueError(f"resolution must be one of {sorted(RESOLUTIONS)}, got {resolution!r}")
-    if pick not in ("response", "best"):
-        raise ValueError(f"pick must be 'response' or 'best', got {pick!r}")
-    df.stability_residue(stability_limit_db)  # validates the range
-    inputs: dict[str, Any] = {
-        "processor": processor,
-        "resolution": resolution,
-        "stability_limit_db": float(stability_limit_db),
-    }
-    if processor in ("mti", "mti_bank"):
-        if int(mti_pulses) != mti_pulses or mti_pulses < 2:
-            raise ValueError(f"mti_pulses must be an integer >= 2, got {mti_pulses}")
-        inputs["mti_pulses"] = int(mti_pulses)
-    if processor != "mti":
+
+    processor: str
+    n_pulses: int | None = None
+    mti_pulses: int = 2
+    n_filters: int | None = None
+    window: str = "rectangular"
+    window_sidelobe_db: float | None = None
+    taylor_nbar: int = df.DEFAULT_TAYLOR_NBAR
+    prf_hz: float | None = None
+    stagger_prf_hz: Sequence[float] | None = None
+    resolution: str = "standard"
+    pick: str = "response"
+    stability_limit_db: float = df.DEFAULT_STABILITY_LIMIT_DB
+
+    def inputs(self) -> dict[str, Any] | None:
+        """Validate the processor description and return the table's inputs (its cache key
+        and provenance); None for ``processor="none"``.
+
+        Only the inputs that change the table are kept (e.g. the PRF only for a stagger, the
+        window only for a bank), so that equal tables share one cache file.
+        """
+        processor = self.processor
+        if processor not in PROCESSORS:
+            raise ValueError(f"unknown processor {processor!r}; choose one of {PROCESSORS}")
+        if processor == "none":
+            return None
+        if self.resolution not in RESOLUTIONS:
+            raise ValueError(f"resolution must be one of {sorted(RESOLUTIONS)}, "
+                             f"got {self.resolution!r}")
+        if self.pick not in ("response", "best"):
+            raise ValueError(f"pick must be 'response' or 'best', got {self.pick!r}")
+        df.stability_residue(self.stability_limit_db)  # validates the range
+        inputs: dict[str, Any] = {
+            "processor": processor,
+            "resolution": self.resolution,
+            "stability_limit_db": float(self.stability_limit_db),
+        }
+        mti_pulses = self.mti_pulses
+        if processor in ("mti", "mti_bank"):
+            if int(mti_pulses) != mti_pulses or mti_pulses < 2:
+                raise ValueError(f"mti_pulses must be an integer >= 2, got {mti_pulses}")
+            inputs["mti_pulses"] = int(mti_pulses)
+        if processor != "mti":
+            inputs.update(self._bank_inputs())
+        if self.stagger_prf_hz is not None and len(self.stagger_prf_hz) > 0:
+            prfs = sorted(float(f) for f in self.stagger_prf_hz)
+            if self.prf_hz is None or self.prf_hz <= 0 or prfs[0] <= 0:
+                raise ValueError("a staggered PRF needs prf_hz > 0 and positive stagger PRFs")
+            # only the two bounding PRFs enter the model (5.1.4)
+            inputs.update(prf_hz=float(self.prf_hz), stagger_prf_hz=[prfs[0], prfs[-1]])
+        return inputs
+
+    def _bank_inputs(self) -> dict[str, Any]:
+        """The bank's inputs (taps, filters, window, pick) of a bank or a cascade."""
+        processor, n_pulses, window = self.processor, self.n_pulses, self.window
         if n_pulses is None or int(n_pulses) != n_pulses:
             raise ValueError(f"processor {processor!r} needs an integer n_pulses")
-        n_taps = int(n_pulses) - (int(mti_pulses) - 1 if processor == "mti_bank" else 0)
+        n_taps = int(n_pulses) - (int(self.mti_pulses) - 1 if processor == "mti_bank" else 0)
         if n_taps < 1:
             raise ValueError(f"n_pulses={n_pulses} leaves no tap for the bank")
         if processor == "dft_bank":
-            if n_filters is not None and int(n_filters) != n_taps:
+            if self.n_filters is not None and int(self.n_filters) != n_taps:
                 raise ValueError("a DFT bank has as many filters as taps; use 'fir_bank'")
             filters = n_taps
         else:
-            filters = n_taps if n_filters is None else int(n_filters)
+            filters = n_taps if self.n_filters is None else int(self.n_filters)
         if filters < 1:
             raise ValueError("n_filters must be >= 1")
         if window not in df.WINDOWS:
             raise ValueError(f"unknown window {window!r}; choose one of {df.WINDOWS}")
-        inputs.update(n_pulses=int(n_pulses), n_filters=filters, window=window, pick=pick)
+        out: dict[str, Any] = dict(n_pulses=int(n_pulses), n_filters=filters, window=window,
+                                   pick=self.pick)
         if window == "taylor":
-            sll = (
-                df.DEFAULT_TAYLOR_SIDELOBE_DB if window_sidelobe_db is None else window_sidelobe_db
-            )
-            inputs.update(window_sidelobe_db=float(sll), taylor_nbar=int(taylor_nbar))
+            sll = (df.DEFAULT_TAYLOR_SIDELOBE_DB if self.window_sidelobe_db is None
+                   else self.window_sidelobe_db)
+            out.update(window_sidelobe_db=float(sll), taylor_nbar=int(self.taylor_nbar))
         elif window == "chebyshev":
-            if window_sidelobe_db is None:
+            if self.window_sidelobe_db is None:
                 raise ValueError("the Chebyshev window needs window_sidelobe_db")
-            inputs["window_sidelobe_db"] = float(window_sidelobe_db)
-    if stagger_prf_hz is not None and len(stagger_prf_hz) > 0:
-        prfs = sorted(float(f) for f in stagger_prf_hz)
-        if prf_hz is None or prf_hz <= 0 or prfs[0] <= 0:
-            raise ValueError("a staggered PRF needs prf_hz > 0 and positive stagger PRFs")
-        # only the two bounding PRFs enter the model (5.1.4)
-        inputs.update(prf_hz=float(prf_hz), stagger_prf_hz=[prfs[0], prfs[-1]])
-    return inputs
+            out["window_sidelobe_db"] = float(self.window_sidelobe_db)
+        return out
+
+
+def improvement_table_inputs(processor: str, **kwargs: Any) -> dict[str, Any] | None:
+    """The inputs of an improvement-factor table (its cache key), validated; None for
+    ``processor="none"``.  The keywords are the fields of :class:`ImprovementTableSpec`
+    (the arguments of :func:`build_improvement_table` and :func:`improvement_table`)."""
+    return ImprovementTableSpec(processor, **kwargs).inputs()
 
 
 def processor_weights(inputs: dict[str, Any]) -> NDArray:
