@@ -25,9 +25,25 @@ def test_one_thread_product_is_the_threaded_product(rows: int) -> None:
 
 
 def test_thread_count_restored() -> None:
-    if blas._THREADS is None:
-        pytest.skip("numpy is not linked to a known OpenBLAS")
-    get, _ = blas._THREADS
-    before = get()
+    """Every BLAS library's thread count is what it was after the product, also after a
+    product in another thread (OpenBLAS's count is process-wide)."""
+    import threading
+
+    from threadpoolctl import threadpool_info
+
+    if blas.blas_controller() is None:
+        pytest.skip("numpy is not linked to a BLAS library threadpoolctl knows")
+
+    def counts() -> list[tuple[str, int]]:
+        return [(i["filepath"], i["num_threads"]) for i in threadpool_info()
+                if i["user_api"] == "blas"]
+
+    before = counts()
     blas.matmul_one_thread(np.ones((3000, 8)), np.ones((8, 7)))
-    assert get() == before
+    assert counts() == before
+    seen = []
+    th = threading.Thread(target=lambda: seen.append(
+        blas.matmul_one_thread(np.ones((3000, 8)), np.ones((8, 7)))))
+    th.start()
+    th.join()
+    assert counts() == before and seen[0].shape == (3000, 7)
