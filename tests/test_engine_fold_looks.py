@@ -1,13 +1,14 @@
 """The last look of every target at each end of scan (``truth[targets]``) folded for a whole
-block at once is the sequential fold, revolution after revolution, of the looks the dwell
-model reports (calls in order, a call's looks by time, the last one kept)."""
+block at once (:class:`shipradar.sim.engine.last_looks.LastLooks`) is the sequential fold,
+revolution after revolution, of the looks the dwell model reports (calls in order, a call's
+looks by time, the last one kept)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from shipradar.sim.engine.simulation import RadarProcess
+from shipradar.sim.engine.last_looks import LastLooks
 
 
 def _sequential(last, calls, scan0, count):
@@ -28,11 +29,10 @@ def _sequential(last, calls, scan0, count):
     return out, last
 
 
-def _process(k, last):
-    proc = RadarProcess.__new__(RadarProcess)
-    proc._last_look = last
-    proc._looks = []
-    return proc
+def _looks(k, last):
+    looks = LastLooks(k)
+    looks.last = last
+    return looks
 
 
 def _call(rng, k, revs, n, ties):
@@ -60,26 +60,27 @@ def test_block_fold_is_the_sequential_fold(seed):
     calls.append(_call(rng, k, np.array([scan0 + count - 1, scan0 + count]), 10, ties=True))
     want, want_last = _sequential(last, [tuple(a[c[0] < scan0 + count] for a in c)
                                          for c in calls], scan0, count)
-    proc = _process(k, tuple(a.copy() for a in last))
-    proc._looks = list(calls)
-    got = proc._fold_looks(scan0, count)
+    looks = _looks(k, tuple(a.copy() for a in last))
+    for c in calls:
+        looks.add(*c)
+    got = looks.fold(scan0, count)
     for g, w in zip(got, want, strict=True):
         assert g.dtype == w.dtype and g.tobytes() == w.tobytes()
-    for g, w in zip(proc._last_look, want_last, strict=True):
+    for g, w in zip(looks.last, want_last, strict=True):
         assert g.tobytes() == w.tobytes()
     # the next block's looks are kept, and fold as they would have
     nxt, _ = _sequential(want_last, [tuple(a[c[0] == scan0 + count] for a in c)
                                      for c in calls], scan0 + count, 1)
-    got = proc._fold_looks(scan0 + count, 1)
+    got = looks.fold(scan0 + count, 1)
     for g, w in zip(got, nxt, strict=True):
         assert g.tobytes() == w.tobytes()
-    assert proc._looks == []
+    assert looks.pending == []
 
 
 def test_fold_without_looks_repeats_the_last_ones():
     last = (np.array([1.0, np.nan]), np.array([0.5, np.nan]), np.array([3.0, np.nan]),
             np.array([2, -1], np.int8))
-    proc = _process(2, tuple(a.copy() for a in last))
-    got = proc._fold_looks(7, 3)
+    looks = _looks(2, tuple(a.copy() for a in last))
+    got = looks.fold(7, 3)
     for g, a in zip(got, last, strict=True):
         assert g.tobytes() == np.tile(a, 3).tobytes()

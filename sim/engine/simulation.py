@@ -50,6 +50,7 @@ import simpy
 import simpy.rt
 
 from shipradar.sensors.geometry import K_FACTOR, sweep_time
+from shipradar.sim.engine.last_looks import LastLooks
 from shipradar.sim.engine.order import EventOrder
 from shipradar.sim.engine.plot_blocks import merge_plot_batches, slice_plots
 from shipradar.sim.stream import protocol
@@ -602,13 +603,9 @@ class RadarProcess:
         self.target_ids = list(sim.target_set.ids)
         # the ends of the revolutions computed ahead (_scan_end_states)
         self._ends: _ScanEnds | None = None
-        # the looks of the revolutions computed ahead, by revolution: (target, time, P_d, S/I
-        # [dB], dominant interference) of each (_on_look), folded into the last look of each
-        # target (time, P_d, S/I, interference) at each end of scan for truth[targets]
-        self._looks: list[tuple[np.ndarray, ...]] = []
-        k_targets = len(self.target_ids)
-        self._last_look = (np.full(k_targets, np.nan), np.full(k_targets, np.nan),
-                           np.full(k_targets, np.nan), np.full(k_targets, -1, np.int8))
+        # the looks of the revolutions computed ahead (_on_look), folded into the last look
+        # of each target at each end of scan for truth[targets]
+        self._looks = LastLooks(len(self.target_ids))
         self._block_scan0 = 0
         model.on_look.append(self._on_look)
         # revolutions computed ahead (see _compute_block), consumed one per scan: the rows
@@ -635,7 +632,7 @@ class RadarProcess:
         self._block_plots = self._block_frames = None
         self._ends = None
         self._last_eos = self._next_meta = None
-        self._looks = []
+        self._looks.clear()
 
     # ------------------------------------------------------------------ helpers
     def _bus_caps(self) -> tuple[FrameSink | None, PlotsAheadSink | None]:
@@ -717,50 +714,7 @@ class RadarProcess:
         engine's own observer), for the last look of each target in ``truth[targets]``."""
         rev = (np.zeros(look.size, np.int64) if look.batch is None
                else np.asarray(look.batch, np.int64)) + self._block_scan0
-        self._looks.append((rev, look.target, look.time_s, look.pd, look.si_db,
-                            look.interference))
-
-    def _fold_looks(self, scan0: int, count: int) -> tuple[np.ndarray, ...]:
-        """The last look of every target up to the end of each revolution ``scan0`` to
-        ``scan0 + count - 1``: its time, P_d, S/I [dB] and dominant interference (NaN, NaN,
-        NaN, -1 before any), ``count`` rows of one per target each (the ``truth[targets]``
-        columns of :meth:`_scan_end_states`).
-
-        The looks are taken revolution after revolution, in each the calls in their order
-        and a call's looks by time (stably): a target's last look up to a revolution is the
-        last one in that order.  All the block's looks at once: sorted by (target,
-        revolution, call, time), the last of a target up to revolution j is found by
-        bisection (the same look a sequential fold of each revolution keeps).
-        """
-        last = self._last_look
-        k = last[0].size
-        out = tuple(np.tile(a, count) for a in last)
-        if not count:
-            return out
-        calls, self._looks = self._looks, []
-        later = [c for c in calls if (c[0] >= scan0 + count).any()]
-        if later:  # looks of revolutions after the block wait for theirs
-            self._looks = [tuple(a[c[0] >= scan0 + count] for a in c) for c in later]
-            calls = [tuple(a[c[0] < scan0 + count] for a in c) for c in calls]
-        calls = [c for c in calls if c[0].size]
-        if not calls:
-            return out
-        rev, target, t, pd, si_db, code = (np.concatenate(a) for a in zip(*calls, strict=True))
-        call = np.repeat(np.arange(len(calls)), [c[0].size for c in calls])
-        order = np.lexsort((t, call, rev, target))  # stable: a tie keeps the call's order
-        target, rev = target[order].astype(np.int64), rev[order] - scan0
-        key = target * count + np.maximum(rev, 0)
-        # the last look of target i up to revolution j: the last key <= i count + j
-        want = np.arange(k)[None, :] * count + np.arange(count)[:, None]
-        pos = np.searchsorted(key, want.ravel(), side="right") - 1
-        hit = pos >= 0
-        hit[hit] = target[pos[hit]] == np.tile(np.arange(k), count)[hit]
-        src = order[pos[hit]]
-        for o, a in zip(out, (t, pd, si_db, code), strict=True):
-            o[hit] = a[src]
-        for a, o in zip(last, out, strict=True):
-            a[:] = o[(count - 1) * k:]
-        return out
+        self._looks.add(rev, look.target, look.time_s, look.pd, look.si_db, look.interference)
 
     def antenna_state(self, t: float, pos: np.ndarray | None = None,
                       vel: np.ndarray | None = None, lat: float | None = None,
@@ -987,12 +941,7 @@ class RadarProcess:
         if n <= old:
             return
         self.target_ids.extend(sim.target_set.ids[old:n])
-        t_look, pd, si, code = self._last_look
-        more = n - old
-        self._last_look = (np.concatenate([t_look, np.full(more, np.nan)]),
-                           np.concatenate([pd, np.full(more, np.nan)]),
-                           np.concatenate([si, np.full(more, np.nan)]),
-                           np.concatenate([code, np.full(more, -1, np.int8)]))
+        self._looks.grow(n - old)
         self.model.refresh_targets()
         self._meta_items = None  # target_ids and target_names changed
         self.__dict__.pop("_target_names", None)
@@ -1235,7 +1184,7 @@ class RadarProcess:
                     target_part["revolution"] = target_part.pop("batch")
         parts = [] if target_part is None else [target_part]
         parts += self._false_alarms(bounds)
-        looks = self._fold_looks(scan0, len(bounds))  # the block's looks are all made
+        looks = self._looks.fold(scan0, len(bounds))  # the block's looks are all made
         assert self._ends is not None
         if self._ends.columns is not None:
             self._ends.columns.update(zip(("look_time_s", "pd", "snr_db", "interference"),
@@ -1454,8 +1403,8 @@ class RadarProcess:
         velocity, latitude and longitude (the geodetic conversion is iterative) and the
         ``truth[targets]`` columns of every target: position, velocity, acceleration,
         activity and :meth:`in_coverage` (the last looks follow once the block's dwells are
-        done, :meth:`_fold_looks`).  Element-wise the same numbers as one call per end of
-        scan."""
+        done, :meth:`shipradar.sim.engine.last_looks.LastLooks.fold`).  Element-wise the same
+        numbers as one call per end of scan."""
         sim = self.sim
         t = self.sector_end(self.n_sectors * np.arange(scan0 + 1, scan0 + 1 + count) - 1)
         pos, vel = self.platform_state(t)
