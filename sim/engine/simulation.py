@@ -175,35 +175,8 @@ class Simulation:
         #: with it)
         self.active_radar = 0
         self.stats = RunStats()
-        origin = scenario.origin
-        self.frame = LocalFrame(origin)
-        # waypoints (as before), segments or rounded corners: analytic pieces
-        # (shipradar.sim.world.trajectory)
-        # the scenario's own targets and its traffic files' (shipradar.sim.world.traffic), or
-        # the entities of a live source (shipradar.sim.world.live: a list that grows)
-        #: the live source of entity states (shipradar.sim.stream.entities), None without
-        self.live_source = entities
-        self._live_refreshed = -math.inf
-        self.target_set: Any
-        if entities is not None:
-            from shipradar.sim.world.live import LiveTargets
-
-            if processes > 1:
-                raise ValueError("processes > 1 is not for a live source (--entities)")
-            self.target_set = LiveTargets(scenario)
-        else:
-            self.target_set = scene_targets(scenario)
-        self.targets = self.target_set.trajectories(self.frame)
-        self.platforms: Any = trajectories(scenario.platforms, self.frame, hold=True)
-        #: the entities the platforms ride on (``platforms[].dis_entity``), None without
-        self.ridden = None
-        riders = {i: p.dis_entity for i, p in enumerate(scenario.platforms) if p.dis_entity}
-        if riders and entities is not None:
-            from shipradar.sim.world.live import LiveTargets, RiddenPlatforms
-
-            self.ridden = LiveTargets(scenario)
-            self.platforms = RiddenPlatforms(self.platforms, self.ridden, riders)
-        self.jammers = trajectories(scenario.jammers, self.frame, hold=True)
+        self.frame = LocalFrame(scenario.origin)
+        self._scene_objects(scenario, entities)
         self.tables = tables if tables is not None else load_scene_tables(scenario)
         seeds = np.random.SeedSequence(self.seed).spawn(len(scenario.radars()))
         self.radars: list[RadarProcess] = []
@@ -228,6 +201,37 @@ class Simulation:
         self.latency = any(r.errors is not None and r.errors.has_latency for r in self.radars)
         #: the latest publication time of any message [s] (the run's end without latency)
         self.last_publication = 0.0
+
+    def _scene_objects(self, scenario: Scenario, entities: Any) -> None:
+        """The run's moving objects in its local frame (:attr:`frame`): the targets (the
+        scenario's own and its traffic files', :mod:`shipradar.sim.world.traffic`, or the
+        entities of a live source, :mod:`shipradar.sim.world.live`: a list that grows), the
+        platforms (riding on live entities with ``platforms[].dis_entity``) and the jammers;
+        waypoints, segments or rounded corners as analytic pieces
+        (:mod:`shipradar.sim.world.trajectory`)."""
+        #: the live source of entity states (shipradar.sim.stream.entities), None without
+        self.live_source = entities
+        self._live_refreshed = -math.inf
+        self.target_set: Any
+        if entities is not None:
+            from shipradar.sim.world.live import LiveTargets
+
+            if self.processes > 1:
+                raise ValueError("processes > 1 is not for a live source (--entities)")
+            self.target_set = LiveTargets(scenario)
+        else:
+            self.target_set = scene_targets(scenario)
+        self.targets = self.target_set.trajectories(self.frame)
+        self.platforms: Any = trajectories(scenario.platforms, self.frame, hold=True)
+        #: the entities the platforms ride on (``platforms[].dis_entity``), None without
+        self.ridden = None
+        riders = {i: p.dis_entity for i, p in enumerate(scenario.platforms) if p.dis_entity}
+        if riders and entities is not None:
+            from shipradar.sim.world.live import LiveTargets, RiddenPlatforms
+
+            self.ridden = LiveTargets(scenario)
+            self.platforms = RiddenPlatforms(self.platforms, self.ridden, riders)
+        self.jammers = trajectories(scenario.jammers, self.frame, hold=True)
 
     # ------------------------------------------------------------------ running
     def _environment(self) -> simpy.Environment:
