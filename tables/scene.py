@@ -627,6 +627,6 @@ def farthest_mover_range_m(scenario: Scenario, radar: Radar) -> float:
 
         at = np.append(ship.times[0][np.isfinite(ship.times[0])], ship.t_last)
         ship_pos, _, _ = ship.state(at, np.zeros(at.size, dtype=int))
-        best = max([best, *(scene_targets(scenario).max_ground_range_m(p[:2])
-                            for p in ship_pos)])
+        targets = scene_targets(scenario)
+        best = max([best, *(targets.max_ground_range_m(p[:2]) for p in ship_pos)])
     return best

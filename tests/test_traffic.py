@@ -69,6 +69,32 @@ def test_monotone_slopes_are_scipys_pchip_derivatives():
         assert d[starts[k]:starts[k + 1]] == pytest.approx(ref, rel=1e-12, abs=1e-12)
 
 
+@pytest.mark.parametrize(("t", "y", "want"), [
+    # h0 = 1, h1 = 2, m0 = 1, m1 = 0.25: d = (4 - 0.25)/3
+    ([0.0, 1.0, 3.0], [0.0, 1.0, 1.5], 1.25),
+    # m0 = 1, m1 = 9: d = (3 - 9)/2 = -3, of the wrong sign: 0
+    ([0.0, 1.0, 2.0], [0.0, 1.0, 10.0], 0.0),
+    # h0 = 10, h1 = 1, m0 = 1, m1 = -10: d = (21 + 100)/11 = 11 > 3 m0: 3 m0
+    ([0.0, 10.0, 11.0], [0.0, 10.0, 0.0], 3.0),
+])
+def test_end_slopes_take_each_branch_of_the_three_point_rule(t, y, want):
+    """The end derivative of a run of three (Moler's shape-preserving three-point rule),
+    worked by hand for each of its branches (plain, wrong sign, overshoot), at the first knot
+    and, mirrored, at the last; and equal to scipy's PchipInterpolator's (second method)."""
+    t, y = np.asarray(t), np.asarray(y)
+    starts = np.array([0, 3, 6])
+    # the second run is the first mirrored in time: its last knot's derivative is -want
+    tt = np.concatenate([t, t[-1] - t[::-1]])
+    yy = np.concatenate([y, y[::-1]])
+    d = monotone_slopes(tt, yy[:, None], starts)[:, 0]
+    assert d[0] == pytest.approx(want, rel=1e-12, abs=1e-12)
+    assert d[5] == pytest.approx(-want, rel=1e-12, abs=1e-12)
+    for k in range(2):
+        run = slice(starts[k], starts[k + 1])
+        ref = PchipInterpolator(tt[run], yy[run]).derivative()(tt[run])
+        assert d[run] == pytest.approx(ref, rel=1e-12, abs=1e-12)
+
+
 def test_hermite_matches_ends_and_reproduces_a_cubic():
     """The cubic through (p0, v0) and (p1, v1) over h ends at p1 with velocity v1, and a
     cubic given by its end values is recovered exactly."""

@@ -33,7 +33,6 @@ second each side, exact to ~1e-9 relative).
 
 from __future__ import annotations
 
-import weakref
 from collections import OrderedDict
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -83,10 +82,11 @@ class TrafficError(ValueError, BadInputError):
 def monotone_slopes(t: np.ndarray, y: np.ndarray, starts: np.ndarray) -> np.ndarray:
     """Derivatives at the knots of the monotone piecewise-cubic interpolant (Fritsch-Carlson).
 
-    The same derivatives as ``scipy.interpolate.PchipInterpolator`` (its
-    ``_find_derivatives``): at an interior knot the weighted harmonic mean of the two
-    neighbouring slopes, 0 where they differ in sign or one is 0; at an end the one-sided
-    three-point estimate, shape-preserving; a run of two knots gets the chord's slope.
+    The same derivatives as ``scipy.interpolate.PchipInterpolator`` (its ``derivative()`` at
+    the knots; tests/test_traffic.py compares them): at an interior knot the weighted
+    harmonic mean of the two neighbouring slopes (Fritsch and Butland), 0 where they differ
+    in sign or one is 0; at an end the one-sided three-point estimate, shape-preserving
+    (:func:`_edge_slope`); a run of two knots gets the chord's slope.
 
     Parameters
     ----------
@@ -98,8 +98,10 @@ def monotone_slopes(t: np.ndarray, y: np.ndarray, starts: np.ndarray) -> np.ndar
     -------
     (K, D) derivatives [unit/s]
 
-    Reference: F. N. Fritsch and R. E. Carlson, "Monotone piecewise cubic interpolation",
-    SIAM J. Numer. Anal. 17 (2), 238-246 (1980).
+    References: F. N. Fritsch and R. E. Carlson, "Monotone piecewise cubic interpolation",
+    SIAM J. Numer. Anal. 17 (2), 238-246 (1980); F. N. Fritsch and J. Butland, "A method for
+    constructing local monotone piecewise cubic interpolants", SIAM J. Sci. Stat. Comput. 5
+    (2), 300-304 (1984).
     """
     k = t.size
     d = np.zeros_like(y)
@@ -139,8 +141,14 @@ def monotone_slopes(t: np.ndarray, y: np.ndarray, starts: np.ndarray) -> np.ndar
 
 
 def _edge_slope(h0: np.ndarray, h1: np.ndarray, m0: np.ndarray, m1: np.ndarray) -> np.ndarray:
-    """scipy's ``PchipInterpolator._edge_case``: the one-sided three-point derivative, set
-    to 0 when its sign differs from the end slope, and to 3 m0 when it overshoots."""
+    """The derivative at the end knot of a run of >= 3: the non-centred three-point formula
+    d = ((2 h0 + h1) m0 - h0 m1)/(h0 + h1), with h0, m0 the step [s] and slope of the end
+    interval and h1, m1 those of its neighbour; set to 0 when its sign differs from m0's,
+    and to 3 m0 when m0 and m1 differ in sign and |d| > 3 |m0| (shape-preserving).
+
+    C. Moler, *Numerical Computing with MATLAB* (SIAM, 2004), ch. 3 (``pchiptx``'s
+    ``pchipend``); the end rule of scipy's ``PchipInterpolator``, which cites it.
+    """
     h0, h1 = h0[:, None], h1[:, None]
     d = ((2.0 * h0 + h1) * m0 - h0 * m1) / (h0 + h1)
     wrong = np.sign(d) != np.sign(m0)
@@ -540,121 +548,207 @@ def read_traffic(entry: Traffic, index: int, scenario: Scenario,
     """
     names = entry.column_names()
     table = _read_table(entry, index, names)
-    n_rows = table.num_rows
+    columns = _file_columns(table, entry, index, names, scenario)
     dropped: dict[str, int] = {}
+    rows, code = _kept_rows(columns, entry, index, dropped)
+    runs = _runs(columns, rows, code, frame, entry.max_gap_s, dropped)
+    v = _fix_velocities(columns, runs, frame, names["speed_unit"])
+    return _tracks(entry, columns, runs, v, table.num_rows, dropped)
 
-    def drop(mask: np.ndarray, reason: str) -> None:
-        k = int(np.count_nonzero(~mask))
-        if k:
-            dropped[reason] = dropped.get(reason, 0) + k
 
+@dataclass(frozen=True)
+class _Columns:
+    """What :func:`read_traffic` reads of a file, one entry per row: ``ids`` (object, None
+    where missing), scenario time ``t`` [s], ``lat``, ``lon`` [deg], ``alt`` [m] (NaN where
+    missing); ``speed`` [the file's unit], ``course`` [deg], ``vrate`` [m/s] and the
+    ``name_text`` and ``class_text``, None when the file has no such column."""
+
+    ids: np.ndarray
+    t: np.ndarray
+    lat: np.ndarray
+    lon: np.ndarray
+    alt: np.ndarray
+    speed: np.ndarray | None
+    course: np.ndarray | None
+    vrate: np.ndarray | None
+    name_text: np.ndarray | None
+    class_text: np.ndarray | None
+
+
+@dataclass(frozen=True)
+class _Runs:
+    """The fixes kept, by id then time, in runs of >= 2 (an id's fixes split where two are
+    more than ``max_gap_s`` apart): each fix's file ``rows``, time ``t`` [s] and position
+    ``pos`` (K, 3) [m]; ``new_id`` marks an id's first fix, ``gap`` the first after a gap;
+    ``starts`` (R + 1,) each run's first fix and K."""
+
+    rows: np.ndarray
+    t: np.ndarray
+    pos: np.ndarray
+    new_id: np.ndarray
+    gap: np.ndarray
+    starts: np.ndarray
+
+
+def _count_dropped(dropped: dict[str, int], kept: np.ndarray, reason: str) -> None:
+    """Count the rows ``kept`` is false for in ``dropped[reason]``."""
+    k = int(np.count_nonzero(~kept))
+    if k:
+        dropped[reason] = dropped.get(reason, 0) + k
+
+
+def _file_columns(table: pa.Table, entry: Traffic, index: int, names: dict[str, Any],
+                  scenario: Scenario) -> _Columns:
+    """The columns of ``table`` that ``names`` asks for (numbers as float64, NaN where
+    missing), times in the scenario's time [s]."""
     ids = _text_column(table, names["id"])
-    assert ids is not None
     t = _times_s(table, entry, index, names, scenario)
     lat = _float_column(table, names["lat"], _where(index, "columns.lat"))
     lon = _float_column(table, names["lon"], _where(index, "columns.lon"))
-    assert lat is not None and lon is not None
-    alt_names = names.get("alt")
-    alt = np.zeros(n_rows)
-    if alt_names is not None:
-        alt_names = alt_names if isinstance(alt_names, list) else [alt_names]
-        cols = [_float_column(table, c, _where(index, "columns.alt")) for c in alt_names
-                if c in table.column_names]
-        if not cols:
-            raise TrafficError(f"{_where(index, 'columns.alt')}: no column {alt_names!r} in "
-                               f"{entry.path!r}")
-        alt = np.full(n_rows, np.nan)
-        for c in cols:  # the first column that has a value (ADS-B: geo-, then barometric)
-            assert c is not None
-            alt = np.where(np.isnan(alt), c, alt)
-    unit = _SPEED_UNITS[names["speed_unit"]]
-    speed = _float_column(table, names.get("speed"), _where(index, "columns.speed"))
-    course = _float_column(table, names.get("course"), _where(index, "columns.course"))
-    vrate = _float_column(table, names.get("vertical_rate"),
-                          _where(index, "columns.vertical_rate"))
-    name_col = _text_column(table, names.get("name"))
-    class_col = _text_column(table, names.get("class_"))
+    assert ids is not None and lat is not None and lon is not None  # checked by _read_table
+    return _Columns(
+        ids=ids, t=t, lat=lat, lon=lon, alt=_altitudes(table, entry, index, names),
+        speed=_float_column(table, names.get("speed"), _where(index, "columns.speed")),
+        course=_float_column(table, names.get("course"), _where(index, "columns.course")),
+        vrate=_float_column(table, names.get("vertical_rate"),
+                            _where(index, "columns.vertical_rate")),
+        name_text=_text_column(table, names.get("name")),
+        class_text=_text_column(table, names.get("class_")))
 
-    keep = np.array([v is not None for v in ids], dtype=bool)
-    drop(keep, "no id")
-    ok = np.isfinite(t)
-    drop(ok | ~keep, "no time")
-    keep &= ok
-    ok = np.isfinite(lat) & np.isfinite(lon) & (np.abs(lat) <= 90.0) & (np.abs(lon) <= 180.0)
-    drop(ok | ~keep, "no position")
-    keep &= ok
-    ok = np.isfinite(alt) & (alt >= -500.0) & (alt <= 30_000.0)
-    drop(ok | ~keep, "altitude missing or outside [-500, 30000] m")
-    keep &= ok
-    # heights above the sea (>= 0) for the radar model: a fix a little below the surface
-    # (an ellipsoid height, a barometric offset) is at the surface
-    alt = np.where(ok, np.maximum(alt, 0.0), alt)
+
+def _altitudes(table: pa.Table, entry: Traffic, index: int, names: dict[str, Any]
+               ) -> np.ndarray:
+    """Each row's altitude [m]: 0 when the preset has no altitude, else the first of its
+    altitude columns that has a value (ADS-B: geo-, then barometric), NaN where none has."""
+    alt_names = names.get("alt")
+    if alt_names is None:
+        return np.zeros(table.num_rows)
+    alt_names = alt_names if isinstance(alt_names, list) else [alt_names]
+    cols = [_float_column(table, c, _where(index, "columns.alt")) for c in alt_names
+            if c in table.column_names]
+    if not cols:
+        raise TrafficError(f"{_where(index, 'columns.alt')}: no column {alt_names!r} in "
+                           f"{entry.path!r}")
+    alt = np.full(table.num_rows, np.nan)
+    for c in cols:
+        assert c is not None
+        alt = np.where(np.isnan(alt), c, alt)
+    return alt
+
+
+def _kept_rows(c: _Columns, entry: Traffic, index: int, dropped: dict[str, int]
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """The rows kept (usable, within the entry's ids and window, one per id and time),
+    sorted by id then time, and each one's id code; the others counted in ``dropped``.
+
+    Raises
+    ------
+    TrafficError
+        When more ids than ``limits.max_ids`` are left.
+    """
+    keep = np.array([v is not None for v in c.ids], dtype=bool)
+    _count_dropped(dropped, keep, "no id")
+    for ok, reason in (
+            (np.isfinite(c.t), "no time"),
+            (np.isfinite(c.lat) & np.isfinite(c.lon) & (np.abs(c.lat) <= 90.0)
+             & (np.abs(c.lon) <= 180.0), "no position"),
+            (np.isfinite(c.alt) & (c.alt >= -500.0) & (c.alt <= 30_000.0),
+             "altitude missing or outside [-500, 30000] m")):
+        _count_dropped(dropped, ok | ~keep, reason)  # each row counted for its first reason
+        keep &= ok
     if entry.ids is not None:
         wanted = set(entry.ids)
-        keep &= np.array([v in wanted for v in ids], dtype=bool)
+        keep &= np.array([v in wanted for v in c.ids], dtype=bool)
     if entry.window_start_s is not None:
-        keep &= t >= entry.window_start_s
+        keep &= c.t >= entry.window_start_s
     if entry.window_end_s is not None:
-        keep &= t <= entry.window_end_s
+        keep &= c.t <= entry.window_end_s
     rows = np.flatnonzero(keep)
-    uniq, code = np.unique(ids[rows].astype(str), return_inverse=True)
+    uniq, code = np.unique(c.ids[rows].astype(str), return_inverse=True)
     if uniq.size > entry.limits.max_ids:
         raise TrafficError(f"{_where(index, 'path')}: {entry.path!r} has {uniq.size} ids "
                            f"after its filters, must be <= limits.max_ids "
                            f"{entry.limits.max_ids}")
-    order = np.lexsort((t[rows], code))
+    order = np.lexsort((c.t[rows], code))
     rows, code = rows[order], code[order]
-    tr = t[rows]
+    tr = c.t[rows]
     # one fix per (id, time): a repeated time keeps the file's first row
     dup = np.zeros(rows.size, dtype=bool)
     dup[1:] = (code[1:] == code[:-1]) & (tr[1:] == tr[:-1])
-    drop(~dup, "repeated time")
-    rows, code, tr = rows[~dup], code[~dup], tr[~dup]
+    _count_dropped(dropped, ~dup, "repeated time")
+    return rows[~dup], code[~dup]
 
-    en = local_positions(frame, lat[rows], lon[rows]) if rows.size else np.zeros((0, 2))
-    pos = np.column_stack([en, alt[rows]]) if rows.size else np.zeros((0, 3))
-    # runs: consecutive fixes of one id no more than max_gap_s apart
-    new_id = np.ones(rows.size, dtype=bool)
+
+def _run_marks(code: np.ndarray, t: np.ndarray, max_gap_s: float
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """Of fixes sorted by id ``code`` then time ``t`` [s]: an id's first fix, and the first
+    fix after a gap longer than ``max_gap_s`` [s] (bool (K,) each)."""
+    new_id = np.ones(code.size, dtype=bool)
     new_id[1:] = code[1:] != code[:-1]
-    gap = np.zeros(rows.size, dtype=bool)
-    gap[1:] = ~new_id[1:] & (np.diff(tr) > entry.max_gap_s)
+    gap = np.zeros(code.size, dtype=bool)
+    gap[1:] = ~new_id[1:] & (np.diff(t) > max_gap_s)
+    return new_id, gap
+
+
+def _runs(c: _Columns, rows: np.ndarray, code: np.ndarray, frame: LocalFrame,
+          max_gap_s: float, dropped: dict[str, int]) -> _Runs:
+    """The kept ``rows`` (id ``code``) in ``frame``, cut into runs of consecutive fixes of
+    one id no more than ``max_gap_s`` [s] apart; lone fixes counted in ``dropped``."""
+    tr = c.t[rows]
+    # heights above the sea (>= 0) for the radar model: a fix a little below the surface
+    # (an ellipsoid height, a barometric offset) is at the surface
+    alt = np.maximum(c.alt[rows], 0.0)
+    en = local_positions(frame, c.lat[rows], c.lon[rows]) if rows.size else np.zeros((0, 2))
+    pos = np.column_stack([en, alt]) if rows.size else np.zeros((0, 3))
+    new_id, gap = _run_marks(code, tr, max_gap_s)
     run_start = np.flatnonzero(new_id | gap)
     run_len = np.diff(np.append(run_start, rows.size))
     lone = np.repeat(run_len == 1, run_len)
-    drop(~lone, "lone fix (no neighbour within max_gap_s)")
-    # the pieces are built on runs of >= 2 fixes; lone fixes leave
+    _count_dropped(dropped, ~lone, "lone fix (no neighbour within max_gap_s)")
+    # the pieces are built on runs of >= 2 fixes; lone fixes leave (and the marks are
+    # derived again: a lone fix may have separated two gaps)
     sel = ~lone
     rows, code, tr, pos = rows[sel], code[sel], tr[sel], pos[sel]
-    new_id, gap = new_id[sel], gap[sel]
-    if rows.size:
-        # re-derive after dropping lone fixes (a lone fix may have separated two gaps)
-        new_id = np.ones(rows.size, dtype=bool)
-        new_id[1:] = code[1:] != code[:-1]
-        gap = np.zeros(rows.size, dtype=bool)
-        gap[1:] = ~new_id[1:] & (np.diff(tr) > entry.max_gap_s)
+    new_id, gap = _run_marks(code, tr, max_gap_s)
     starts = np.append(np.flatnonzero(new_id | gap), rows.size)
+    return _Runs(rows, tr, pos, new_id, gap, starts)
 
-    vel = monotone_slopes(tr, pos[:, :2], starts) if rows.size else np.zeros((0, 2))
-    if speed is not None and course is not None and rows.size:
-        s = speed[rows] * unit
-        c = course[rows]
-        if names["speed_unit"] == "knots":  # AIS "not available" codes
-            s = np.where(speed[rows] >= AIS_SOG_NOT_AVAILABLE_KN, np.nan, s)
-            c = np.where(c >= AIS_COG_NOT_AVAILABLE_DEG, np.nan, c)
-        has = np.isfinite(s) & np.isfinite(c) & (s >= 0.0)
+
+def _fix_velocities(c: _Columns, runs: _Runs, frame: LocalFrame, speed_unit: str
+                    ) -> np.ndarray:
+    """The velocity (K, 3) [m/s] at each fix of ``runs``: the reported speed and course where
+    the file has them (AIS's "not available" codes excepted), else the monotone derivative;
+    the vertical rate limited to the monotone region (module notes)."""
+    rows, tr, pos, starts = runs.rows, runs.t, runs.pos, runs.starts
+    if not rows.size:
+        return np.zeros((0, 3))
+    vel = monotone_slopes(tr, pos[:, :2], starts)
+    if c.speed is not None and c.course is not None:
+        s = c.speed[rows] * _SPEED_UNITS[speed_unit]
+        course = c.course[rows]
+        if speed_unit == "knots":  # AIS "not available" codes
+            s = np.where(c.speed[rows] >= AIS_SOG_NOT_AVAILABLE_KN, np.nan, s)
+            course = np.where(course >= AIS_COG_NOT_AVAILABLE_DEG, np.nan, course)
+        has = np.isfinite(s) & np.isfinite(course) & (s >= 0.0)
         if has.any():
-            cr = np.radians(c[has])
-            vel[has] = _reported_velocity(frame, lat[rows][has], lon[rows][has],
+            cr = np.radians(course[has])
+            vel[has] = _reported_velocity(frame, c.lat[rows][has], c.lon[rows][has],
                                           s[has] * np.sin(cr), s[has] * np.cos(cr))
-    vz = limited_slopes(tr, pos[:, 2], vrate[rows] if vrate is not None else
-                        np.full(rows.size, np.nan), starts) if rows.size else np.zeros(0)
-    v = np.column_stack([vel, vz]) if rows.size else np.zeros((0, 3))
+    vz = limited_slopes(tr, pos[:, 2], c.vrate[rows] if c.vrate is not None else
+                        np.full(rows.size, np.nan), starts)
+    return np.column_stack([vel, vz])
 
-    # pieces: between consecutive fixes of an id; a gap's piece is linear and not live
+
+def _tracks(entry: Traffic, c: _Columns, runs: _Runs, v: np.ndarray, n_rows: int,
+            dropped: dict[str, int]) -> TrafficTracks:
+    """The targets of ``runs`` (fix velocities ``v`` (K, 3) [m/s]): a Hermite piece between
+    consecutive fixes of an id, a linear piece that is not live across a gap; ids, names
+    and classes from the file."""
+    rows, tr, pos, new_id = runs.rows, runs.t, runs.pos, runs.new_id
     same_id = ~new_id[1:] if rows.size else np.zeros(0, dtype=bool)
     a = np.flatnonzero(same_id)
     h = tr[a + 1] - tr[a]
-    is_gap = gap[a + 1]
+    is_gap = runs.gap[a + 1]
     c2, c3 = hermite_coefficients(pos[a], pos[a + 1], v[a], v[a + 1], h)
     chord = (pos[a + 1] - pos[a]) / h[:, None]
     v0 = np.where(is_gap[:, None], chord, v[a])
@@ -665,15 +759,13 @@ def read_traffic(entry: Traffic, index: int, scenario: Scenario,
     counts = np.bincount(target_of_piece, minlength=n_targets)
     offsets = np.concatenate([[0], np.cumsum(counts)])
     first_rows = rows[new_id] if rows.size else rows
-    prefix = entry.id_prefix
-    out_ids = [prefix + str(x) for x in ids[first_rows]]
-    out_names = _first_names(name_col, rows, new_id, out_ids)
-    out_classes: list[str | None] = ([None] * n_targets if class_col is None else
+    out_ids = [entry.id_prefix + str(x) for x in c.ids[first_rows]]
+    out_classes: list[str | None] = ([None] * n_targets if c.class_text is None else
                                      [None if x is None else str(x).strip()
-                                      for x in class_col[first_rows]])
+                                      for x in c.class_text[first_rows]])
     return TrafficTracks(
-        ids=out_ids, names=out_names, classes=out_classes, offsets=offsets,
-        t0=tr[a], dt=h, p0=pos[a], v0=v0, kind=kind, par=par, live=~is_gap,
+        ids=out_ids, names=_first_names(c.name_text, rows, new_id, out_ids), classes=out_classes,
+        offsets=offsets, t0=tr[a], dt=h, p0=pos[a], v0=v0, kind=kind, par=par, live=~is_gap,
         max_altitude_m=float(pos[:, 2].max()) if rows.size else 0.0, rows=n_rows,
         dropped=dropped, fixes_en=pos[:, :2])
 
@@ -760,7 +852,16 @@ class SceneTargets:
         return best
 
 
-def _build(scenario: Scenario) -> SceneTargets:
+def scene_targets(scenario: Scenario) -> SceneTargets:
+    """Every target of ``scenario`` (its own and its traffic files'), built anew at each call:
+    whoever runs the scene builds it once and hands it on (the engine gives its own to each
+    radar's dwell model).  The files are read once per process (:func:`_cached_read`).
+
+    Raises
+    ------
+    TrafficError
+        On a traffic file that cannot be used (one line: field, value, allowed range).
+    """
     frame = LocalFrame(scenario.origin)
     own = list(scenario.targets)
     ids = [t.id for t in own]
@@ -775,25 +876,19 @@ def _build(scenario: Scenario) -> SceneTargets:
     seen = set(ids) | {p.id for p in scenario.platforms} | {j.id for j in scenario.jammers}
     for i, entry in enumerate(scenario.traffic):
         tracks = _cached_read(entry, i, scenario, frame)
-        for k, tid in enumerate(tracks.ids):
-            if tid in seen:
-                raise TrafficError(
-                    f"{_where(i, 'id_prefix')}: id {tid!r} of {entry.path!r} is already a "
-                    f"scenario or traffic id; ids must be unique (give an id_prefix), got "
-                    f"{entry.id_prefix!r}")
-            seen.add(tid)
-            over = next((o for o in entry.overrides if tid[len(entry.id_prefix):] in o.ids
-                         or (tracks.classes[k] is not None and tracks.classes[k] in o.classes)),
-                        None)
-            kind = (over.kind if over is not None and over.kind else entry.resolved_kind)
-            model = over.rcs if over is not None and over.rcs is not None else entry.rcs
-            case = (over.swerling if over is not None and over.swerling is not None
-                    else entry.swerling)
-            ids.append(tid)
-            names.append(tracks.names[k])
+        clash = next((tid for tid in tracks.ids if tid in seen), None)
+        if clash is not None:
+            raise TrafficError(
+                f"{_where(i, 'id_prefix')}: id {clash!r} of {entry.path!r} is already a "
+                f"scenario or traffic id; ids must be unique (give an id_prefix), got "
+                f"{entry.id_prefix!r}")
+        seen.update(tracks.ids)
+        for kind, model, case in _file_catalogue(entry, tracks):
             kinds.append(kind)
             rcs.append(model)
-            sw.append(swerling_case(model, kind, case))
+            sw.append(case)
+        ids += tracks.ids
+        names += tracks.names
         files.append(tracks)
         total += tracks.rows
         for reason, count in tracks.dropped.items():
@@ -803,6 +898,34 @@ def _build(scenario: Scenario) -> SceneTargets:
                         total, dropped)
 
 
+def _file_catalogue(entry: Traffic, tracks: TrafficTracks) -> list[tuple[str, Rcs, int]]:
+    """Kind, RCS model and Swerling case of each target of a file: the entry's, or those of
+    the first of its ``overrides`` that names the target's id (without the prefix) or
+    class."""
+    by_id = [set(o.ids) for o in entry.overrides]
+    by_class = [set(o.classes) for o in entry.overrides]
+    cut = len(entry.id_prefix)
+    choice: dict[int | None, tuple[str, Rcs, int]] = {}
+    out = []
+    for tid, cls in zip(tracks.ids, tracks.classes, strict=True):
+        j = next((j for j in range(len(by_id)) if tid[cut:] in by_id[j]
+                  or (cls is not None and cls in by_class[j])), None)
+        got = choice.get(j)
+        if got is None:
+            over = None if j is None else entry.overrides[j]
+            kind = over.kind if over is not None and over.kind else entry.resolved_kind
+            model = over.rcs if over is not None and over.rcs is not None else entry.rcs
+            case = (over.swerling if over is not None and over.swerling is not None
+                    else entry.swerling)
+            got = choice[j] = (kind, model, swerling_case(model, kind, case))
+        out.append(got)
+    return out
+
+
+#: The files read in this process, by value: the cost of a run with traffic is its files'
+#: reading (a CSV parse, the frame's projection), and every input of it is in the key
+#: (:func:`_cached_read`), so an equal entry of an equal scene, or of another scene of a
+#: study, reuses the tracks; a few files at most.
 _READ_CACHE: OrderedDict[tuple, TrafficTracks] = OrderedDict()
 _READ_CACHE_SIZE = 8
 
@@ -827,25 +950,3 @@ def _cached_read(entry: Traffic, index: int, scenario: Scenario,
     while len(_READ_CACHE) > _READ_CACHE_SIZE:
         _READ_CACHE.popitem(last=False)
     return tracks
-
-
-_SCENE_CACHE: dict[int, tuple[weakref.ref, SceneTargets]] = {}
-
-
-def scene_targets(scenario: Scenario) -> SceneTargets:
-    """Every target of ``scenario`` (its own and its traffic files'), built once per
-    scenario object.
-
-    Raises
-    ------
-    TrafficError
-        On a traffic file that cannot be used (one line: field, value, allowed range).
-    """
-    hit = _SCENE_CACHE.get(id(scenario))
-    if hit is not None and hit[0]() is scenario:
-        return hit[1]
-    out = _build(scenario)
-    for k in [k for k, (ref, _) in _SCENE_CACHE.items() if ref() is None]:
-        del _SCENE_CACHE[k]
-    _SCENE_CACHE[id(scenario)] = (weakref.ref(scenario), out)
-    return out
