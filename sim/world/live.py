@@ -79,6 +79,12 @@ def _good_ids(ids: Any) -> np.ndarray:
     return np.array([isinstance(i, str) and 0 < len(i) <= MAX_ID_CHARS for i in ids], bool)
 
 
+def _count(bad: dict[str, int], reason: str, k: int = 1) -> None:
+    """Add ``k`` rows (or messages) to ``bad[reason]``."""
+    if k:
+        bad[reason] = bad.get(reason, 0) + k
+
+
 def check_states(payload: dict[str, Any], bad: dict[str, int]) -> dict[str, Any] | None:
     """The usable rows of one ``entities`` payload as arrays, the others counted in ``bad``
     by reason; None when the message as a whole is unusable (counted).
@@ -90,61 +96,30 @@ def check_states(payload: dict[str, Any], bad: dict[str, int]) -> dict[str, Any]
     payload has them, ``heading_deg`` (and ``heading_rate_dps``) (float arrays, NaN where
     unusable).  Vectorized: no Python loop per row.
     """
-    def count(reason: str, k: int = 1) -> None:
-        if k:
-            bad[reason] = bad.get(reason, 0) + k
-
     ids = payload.get("id")
     if not isinstance(ids, (list, tuple)):
-        count("no id column")
+        _count(bad, "no id column")
         return None
     n = len(ids)
-    cols: dict[str, np.ndarray] = {}
-    # the state columns are required; the accelerations are optional (zero when absent)
-    for key in (*_COLUMNS, *_ACCEL):
-        v = payload.get(key)
-        if v is None and key in _COLUMNS:
-            count(f"no {key} column")
-            return None
-        try:
-            a = np.zeros(n) if v is None else np.asarray(v, dtype=float).reshape(-1)
-        except (TypeError, ValueError):
-            count(f"{key} not numbers")
-            return None
-        if a.size != n:
-            count("columns of unequal lengths")
-            return None
-        cols[key] = a
+    cols = _state_columns(payload, n, bad)
+    if cols is None:
+        return None
     for key in ("type", "name"):
         v = payload.get(key)
         if v is not None and (not isinstance(v, (list, tuple)) or len(v) != n):
-            count("columns of unequal lengths")
+            _count(bad, "columns of unequal lengths")
             return None
     act = payload.get("active")
     try:
         active = np.ones(n, bool) if act is None else np.asarray(act, dtype=bool).reshape(-1)
     except (TypeError, ValueError):
-        count("active not booleans")
+        _count(bad, "active not booleans")
         return None
     if active.size != n:
-        count("columns of unequal lengths")
+        _count(bad, "columns of unequal lengths")
         return None
-    ok = _good_ids(ids)
-    count("bad id", int(np.count_nonzero(~ok)))
     state = np.column_stack([cols[k] for k in (*_COLUMNS[1:], *_ACCEL)])
-    finite = np.isfinite(state).all(axis=1) & ~np.isinf(cols["time_s"])
-    count("not finite", int(np.count_nonzero(ok & ~finite)))
-    ok &= finite
-    with np.errstate(invalid="ignore"):
-        under = cols["up_m"] < MIN_UP_M
-        far = np.hypot(cols["east_m"], cols["north_m"]) > MAX_FRAME_M
-        fast = np.sqrt(cols["v_east_mps"] ** 2 + cols["v_north_mps"] ** 2
-                       + cols["v_up_mps"] ** 2) > MACH_30_MPS
-    for mask, reason in ((under, "inside the earth"), (far, "beyond the frame"),
-                         (fast, "faster than Mach 30")):
-        count(reason, int(np.count_nonzero(ok & mask)))
-        ok &= ~mask
-    keep = np.flatnonzero(ok)
+    keep = np.flatnonzero(_usable_rows(ids, cols, state, bad))
     out: dict[str, Any] = {k: cols[k][keep] for k in (*_COLUMNS, *_ACCEL)}
     out["state"] = state[keep]  # (m, 9): position, velocity, acceleration, for apply
     out["accelerated"] = any(payload.get(k) is not None for k in _ACCEL)
@@ -163,6 +138,51 @@ def check_states(payload: dict[str, Any], bad: dict[str, int]) -> dict[str, Any]
             h = np.full(n, np.nan)
         out[key] = h[keep] if h.size == n else np.full(keep.size, np.nan)
     return out
+
+
+def _state_columns(payload: dict[str, Any], n: int, bad: dict[str, int]
+                   ) -> dict[str, np.ndarray] | None:
+    """The state columns :data:`_COLUMNS` (required) and the accelerations :data:`_ACCEL`
+    (zero when absent) of a payload of ``n`` rows, as float64 arrays; None (counted in
+    ``bad``) when a required one is missing, or one is not numbers or of another length."""
+    cols: dict[str, np.ndarray] = {}
+    for key in (*_COLUMNS, *_ACCEL):
+        v = payload.get(key)
+        if v is None and key in _COLUMNS:
+            _count(bad, f"no {key} column")
+            return None
+        try:
+            a = np.zeros(n) if v is None else np.asarray(v, dtype=float).reshape(-1)
+        except (TypeError, ValueError):
+            _count(bad, f"{key} not numbers")
+            return None
+        if a.size != n:
+            _count(bad, "columns of unequal lengths")
+            return None
+        cols[key] = a
+    return cols
+
+
+def _usable_rows(ids: Any, cols: dict[str, np.ndarray], state: np.ndarray,
+                 bad: dict[str, int]) -> np.ndarray:
+    """Whether each row is usable (bool (n,)): a good id, finite numbers, above
+    :data:`MIN_UP_M`, within :data:`MAX_FRAME_M` and below :data:`MACH_30_MPS`; each other
+    row counted in ``bad`` under its first reason."""
+    ok = _good_ids(ids)
+    _count(bad, "bad id", int(np.count_nonzero(~ok)))
+    finite = np.isfinite(state).all(axis=1) & ~np.isinf(cols["time_s"])
+    _count(bad, "not finite", int(np.count_nonzero(ok & ~finite)))
+    ok &= finite
+    with np.errstate(invalid="ignore"):
+        under = cols["up_m"] < MIN_UP_M
+        far = np.hypot(cols["east_m"], cols["north_m"]) > MAX_FRAME_M
+        fast = np.sqrt(cols["v_east_mps"] ** 2 + cols["v_north_mps"] ** 2
+                       + cols["v_up_mps"] ** 2) > MACH_30_MPS
+    for mask, reason in ((under, "inside the earth"), (far, "beyond the frame"),
+                         (fast, "faster than Mach 30")):
+        _count(bad, reason, int(np.count_nonzero(ok & mask)))
+        ok &= ~mask
+    return ok
 
 
 def take_rows(rows: dict[str, Any], mask: np.ndarray) -> dict[str, Any]:

@@ -147,6 +147,24 @@ def segment_pieces(obj: Target | Platform, frame: LocalFrame) -> list[Piece]:
     return out
 
 
+def _legs(track: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Velocity (L, 3) [m/s], horizontal speed (L,) [m/s] and course (L,) [rad, clockwise
+    from north] of each leg of a ``(W, 4)`` track (L = W - 1); a leg at rest takes the
+    course of the next moving leg, else of the previous one (0 when none moves)."""
+    dt_leg = np.diff(track[:, 0])
+    dpos = np.diff(track[:, 1:], axis=0)
+    vel = dpos / dt_leg[:, None]
+    speed = np.hypot(vel[:, 0], vel[:, 1])
+    course = np.arctan2(vel[:, 0], vel[:, 1])
+    nleg = len(dt_leg)
+    for i in range(nleg):
+        if speed[i] == 0.0:
+            j = next((j for j in (*range(i + 1, nleg), *range(i - 1, -1, -1)) if speed[j] > 0),
+                     None)
+            course[i] = course[j] if j is not None else 0.0
+    return vel, speed, course
+
+
 def smoothed_pieces(obj: Target | Platform, frame: LocalFrame) -> list[Piece]:
     """The pieces of a waypoint track whose corners are rounded at ``smoothing.turn_g``.
 
@@ -165,18 +183,8 @@ def smoothed_pieces(obj: Target | Platform, frame: LocalFrame) -> list[Piece]:
     if obj.smoothing is None:
         raise ValueError("smoothed_pieces needs a smoothing")
     g = STANDARD_GRAVITY * obj.smoothing.turn_g
-    dt_leg = np.diff(track[:, 0])
-    dpos = np.diff(track[:, 1:], axis=0)
-    vel = dpos / dt_leg[:, None]
-    speed = np.hypot(vel[:, 0], vel[:, 1])
-    course = np.arctan2(vel[:, 0], vel[:, 1])
-    nleg = len(dt_leg)
-    # course of a leg at rest: that of the neighbouring moving leg
-    for i in range(nleg):
-        if speed[i] == 0.0:
-            j = next((j for j in (*range(i + 1, nleg), *range(i - 1, -1, -1)) if speed[j] > 0),
-                     None)
-            course[i] = course[j] if j is not None else 0.0
+    vel, speed, course = _legs(track)
+    nleg = len(speed)
     t, pos = float(track[0, 0]), track[0, 1:].copy()
     out: list[Piece] = []
 
