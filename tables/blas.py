@@ -14,8 +14,8 @@ thread control where OpenBLAS is built on OpenMP).  For the dwell model's shapes
 tens of thousands of rows, 8 pulses, 7 filters, complex) the result is bit for bit the
 threaded one (``tests/test_blas.py``; the shipped scenes' recordings are unchanged); in
 general a BLAS product's bits may depend on its thread count
-(``shipradar.sim.dwell.model._sum_over_sectors``), and one thread makes them the same on
-every machine.  Where no BLAS library is found the product is numpy's ``@`` as it is.
+(``shipradar.sim.dwell.false_alarm_model.sum_over_sectors``), and one thread makes them the
+same on every machine.  Where no BLAS library is found the product is numpy's ``@`` as it is.
 
 Cost (``benchmarks/blas_limits.py``, load ~10): ``threadpoolctl.threadpool_limits`` made
 at each call finds the loaded libraries anew, 0.5-0.7 ms per call, so one

@@ -12,6 +12,7 @@ that finds them never imports itur.
 
 from __future__ import annotations
 
+import functools
 from pathlib import Path
 from typing import Any
 
@@ -36,27 +37,40 @@ RAIN_TABLE_NAME = "rain_attenuation"
 RAIN_TABLE_VERSION = 1
 RAIN_SECOND_NODE_ABOVE_MM_H = 1.0
 
-#: The tables read in this process, by file, with the (inode, size, mtime) they were read at:
-#: a run asks for each radar's T'_a a dozen times (the scene's table keys, the build
-#: estimates, the dwell model), a file read and CRC check each (~1 ms) before issue 27.
-_READ: dict[Path, tuple[tuple[int, int, int], Table]] = {}
+#: Inputs of a table, hashable: its inputs dict's items in order.
+_Inputs = tuple[tuple[str, Any], ...]
 
 
-#: The cache paths of the tables asked for in this process, by their inputs and the cache
-#: directory: the inputs' hash (~15 us) once, not at every run's construction.
-_PATHS: dict[tuple[Any, ...], Path] = {}
+class _NotCached(LookupError):
+    """No table of these inputs in the cache (or a damaged one): not remembered."""
+
+
+@functools.lru_cache(maxsize=256)
+def _cache_path_of(name: str, version: int, inputs: _Inputs, root: Path) -> Path:
+    """``cache_path(name, inputs_hash(name, version, inputs), root)``: a pure function of its
+    arguments, kept per process (the inputs' hash, ~15 us, once, not at every run's
+    construction; a study's many scenes: the least recently used go first)."""
+    return cache_path(name, inputs_hash(name, version, dict(inputs)), root)
 
 
 def _table_path(name: str, version: int, inputs: dict[str, Any]) -> Path:
-    """``cache_path(name, inputs_hash(name, version, inputs))``, remembered per process."""
-    root = cache_dir()
-    key = (name, version, tuple(inputs.items()), root)
-    path = _PATHS.get(key)
-    if path is None:
-        if len(_PATHS) >= 256:  # a study's many scenes: start again rather than grow
-            _PATHS.clear()
-        path = _PATHS[key] = cache_path(name, inputs_hash(name, version, inputs), root)
-    return path
+    """``cache_path(name, inputs_hash(name, version, inputs))`` in the cache directory of
+    now, remembered per process."""
+    return _cache_path_of(name, version, tuple(inputs.items()), cache_dir())
+
+
+@functools.lru_cache(maxsize=64)
+def _load_version(name: str, version: int, inputs: _Inputs, path: Path,
+                  stamp: tuple[int, int, int]) -> Table:
+    """The table of ``path`` as it was at ``stamp`` (inode, size, mtime), read once per
+    process and file version: a run asks for each radar's T'_a a dozen times (the scene's
+    table keys, the build estimates, the dwell model's preparation), a file read and CRC
+    check each (~1 ms) before issue 27. A missing or damaged table raises
+    :class:`_NotCached` (not remembered: asked, and warned about, again)."""
+    table = load_cached(name, version, dict(inputs))
+    if table is None:
+        raise _NotCached(path)
+    return table
 
 
 def _read_cached(inputs: dict[str, Any], name: str = TABLE_NAME,
@@ -68,14 +82,11 @@ def _read_cached(inputs: dict[str, Any], name: str = TABLE_NAME,
         st = path.stat()
     except OSError:
         return None
-    stamp = (st.st_ino, st.st_size, st.st_mtime_ns)
-    seen = _READ.get(path)
-    if seen is not None and seen[0] == stamp:
-        return seen[1]
-    table = load_cached(name, version, inputs)
-    if table is not None:
-        _READ[path] = (stamp, table)
-    return table
+    try:
+        return _load_version(name, version, tuple(inputs.items()), path,
+                             (st.st_ino, st.st_size, st.st_mtime_ns))
+    except _NotCached:
+        return None
 
 
 def sky_temperature_table(args: dict[str, Any], store: bool = True) -> Table:

@@ -4,7 +4,7 @@ The ``meta`` message's clutter false-alarm density was a matrix product; OpenBLA
 a sum differently with one thread than with two, so the raid's recording differed between
 this 2-core machine and a 1-core one, or a Dask worker (which runs with one thread). The
 density is now summed in a fixed order without BLAS
-(``sim.dwell.false_alarm_model._sum_over_sectors``).
+(``sim.dwell.false_alarm_model.sum_over_sectors``).
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from shipradar.sim.dwell.false_alarm_model import _sum_over_sectors
+from shipradar.sim.dwell.false_alarm_model import sum_over_sectors
 
 ROOT = Path(__file__).resolve().parents[1]
 RAID = str(ROOT / "scenarios" / "raid.yaml")
@@ -89,9 +89,9 @@ def test_the_sum_over_sectors_is_the_product():
     split = rng.random(n_sectors)
     by_azimuth[cell, np.arange(n_sectors)] = split
     by_azimuth[cell + 1, np.arange(n_sectors)] += 1.0 - split
-    got = _sum_over_sectors(by_ring, by_azimuth)
+    got = sum_over_sectors(by_ring, by_azimuth)
     np.testing.assert_allclose(got, by_ring @ by_azimuth.T, rtol=1e-13, atol=1e-300)
     assert np.all(got[:, -2:] == 0.0)
     np.testing.assert_allclose(got.sum(), by_ring.sum(), rtol=1e-12)
     # no sector at all: zeros of the right shape
-    assert _sum_over_sectors(by_ring, np.zeros((n_cells, n_sectors))).shape == (n_rings, n_cells)
+    assert sum_over_sectors(by_ring, np.zeros((n_cells, n_sectors))).shape == (n_rings, n_cells)

@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from shipradar.sensors.propagation import horizon_range, interference_region_limit, two_ray_factor
-from shipradar.sim.dwell.model import DwellModel, _TwoRayFallback
+from shipradar.sim.dwell.model import DwellModel
+from shipradar.sim.dwell.prepared import TwoRayFallback
 from shipradar.tables.scene import SceneTables
 
 from .helpers import bare_scene, quiet_radar
@@ -20,7 +21,7 @@ def test_cached_fallback_equals_two_ray_factor(pol, pattern, wave):
                         antenna_height_m=25.0, beamwidth_el_deg=12.0)
     s = bare_scene(radar=radar, propagation="two_ray")
     m = DwellModel(s, s.platforms[0], s.platforms[0].radars[0], SceneTables())
-    fb = _TwoRayFallback(m.radar, wave, m.elevation_pattern)
+    fb = TwoRayFallback(m.radar, wave, m.elevation_pattern)
     rng = np.random.default_rng(4)
     heights = np.array([0.0, 3.0, 5.0, 150.0, 3385.0, 8001.0])
     h = rng.choice(heights, 400)
@@ -43,7 +44,7 @@ def test_cached_fallback_equals_two_ray_factor(pol, pattern, wave):
 def test_cache_is_bounded():
     s = bare_scene(propagation="two_ray")
     m = DwellModel(s, s.platforms[0], s.platforms[0].radars[0], SceneTables())
-    fb = _TwoRayFallback(m.radar, 0.0, m.elevation_pattern)
+    fb = TwoRayFallback(m.radar, 0.0, m.elevation_pattern)
     fb.MAX_HEIGHTS = 10
     h = np.linspace(1.0, 500.0, 25)
     d = np.full(25, 5e3)

@@ -1,8 +1,10 @@
-"""What a run sets up from the radar and its tables alone is made once per process and shared
-by the runs (issue 27, item 5): the P_fac generator (each run a twin that shares its arrays
-and per-thread scratch), the clutter spectrum at its sectors and the two-ray fallback's terms.
-Sharing changes no draw: twins draw as fresh generators, interleaved or in threads, and a
-scene run again in one process, on the same or on freshly loaded tables, gives the same bytes.
+"""What a run sets up from the radar and its tables alone is prepared once and shared by the
+runs given the same preparation (issues 27 and 31: :class:`PreparedScene`, passed explicitly):
+the P_fac generator (each run a twin that shares its arrays and per-thread scratch), the
+clutter spectrum at its sectors and the two-ray fallback's terms. Sharing changes no draw:
+twins draw as fresh generators, interleaved or in threads, and a scene run again in one
+process, with the first run's preparation or on freshly loaded tables with a new one, gives
+the same bytes.
 """
 
 from __future__ import annotations
@@ -13,12 +15,12 @@ import threading
 import numpy as np
 import pytest
 
-from shipradar.sim.dwell import model as dwell_model
+from shipradar.sim.dwell.prepared import PreparedScene
 from shipradar.sim.engine.simulation import Simulation
 from shipradar.sim.stream.bus import Bus
 from shipradar.sim.stream.recording import Recorder
 from shipradar.sim.world.scenario import load_scenario
-from shipradar.tables.scene import load_scene_tables
+from shipradar.tables.scene import SceneTables, load_scene_tables
 from tests.helpers import ROOT, random_clutter_generator
 
 TWO_PI = 2.0 * np.pi
@@ -74,27 +76,42 @@ def test_twins_in_threads_draw_as_fresh_generators():
     assert got == want
 
 
-def _recording(scenario, tables, path):
+def _recording(scenario, tables, path, prepared=None):
     bus = Bus(None, Recorder(path, overwrite=True))
-    sim = Simulation(scenario, bus=bus, duration_s=30.0, tables=tables)
+    sim = Simulation(scenario, bus=bus, duration_s=30.0, tables=tables, prepared=prepared)
     sim.run()
     bus.close()
     return hashlib.sha256(path.read_bytes()).hexdigest(), sim
 
 
 @pytest.mark.slow
-def test_runs_in_one_process_share_the_set_up_and_give_the_same_bytes(tmp_path):
+def test_runs_given_one_preparation_share_its_set_up_and_give_the_same_bytes(tmp_path):
     sc = load_scenario(ROOT / "scenarios" / "single_missile.yaml")
     tables = load_scene_tables(sc)
-    dwell_model.forget_process_caches()
-    first, sim_a = _recording(sc, tables, tmp_path / "a.rec")
-    again, sim_b = _recording(sc, tables, tmp_path / "b.rec")
+    first, sim_a = _recording(sc, tables, tmp_path / "a.rec")  # prepares its own
+    again, sim_b = _recording(sc, tables, tmp_path / "b.rec", prepared=sim_a.prepared)
     fresh, sim_c = _recording(sc, load_scene_tables(sc), tmp_path / "c.rec")
     assert first == again == fresh
     a, b, c = (s.radars[0].model for s in (sim_a, sim_b, sim_c))
+    assert sim_b.prepared is sim_a.prepared and b.prepared is a.prepared
     assert a.false_alarms.generator is not b.false_alarms.generator  # a twin per run
     assert a.false_alarms.generator.eta is b.false_alarms.generator.eta  # its arrays shared
     assert a.false_alarms.sector_spectrum is b.false_alarms.sector_spectrum
-    assert a._two_ray is b._two_ray is c._two_ray  # by value: the antenna and the sea
-    if a.tables.pfac is not c.tables.pfac:  # other table objects: their own generator
-        assert a.false_alarms.generator.eta is not c.false_alarms.generator.eta
+    assert a._two_ray is b._two_ray and a._sea_reader is b._sea_reader
+    # a run given no preparation makes its own: nothing kept by the process
+    assert c.prepared is not a.prepared and c._two_ray is not a._two_ray
+    assert c.false_alarms.generator.eta is not a.false_alarms.generator.eta
+
+
+def test_a_preparation_is_for_its_own_scenario_and_tables():
+    sc = load_scenario(ROOT / "scenarios" / "single_missile.yaml")
+    tables = SceneTables()
+    prepared = PreparedScene(sc, tables)
+    sim = Simulation(sc, tables=tables, prepared=prepared, duration_s=1.0)
+    assert sim.prepared is prepared
+    assert sim.radars[0].model.prepared is prepared.radar(*next(iter(sc.radars())))
+    with pytest.raises(ValueError, match="prepared: made for other scene tables"):
+        Simulation(sc, tables=SceneTables(), prepared=prepared)
+    other = load_scenario(ROOT / "scenarios" / "single_missile.yaml")  # equal, not the same
+    with pytest.raises(ValueError, match="prepared: made for another scenario"):
+        Simulation(other, tables=tables, prepared=prepared)

@@ -63,6 +63,6 @@ def test_rain_attenuation_is_itur_and_kept(table_cache):
     assert 0.2162e-3 * 8**1.6969 < kept.values[0] < 0.7056e-3 * 8**1.5900
     kept.values[0] = 0.125  # the store is read, not the model
     kept.save(path)
-    sky._READ.clear()
+    sky._load_version.cache_clear()
     assert sky.rain_attenuation_db_per_km(5.6e9, 8.0, "H") == 0.125
     assert sky.rain_attenuation_db_per_km(5.6e9, 0.0, "H") == 0.0  # no rain, no loss

@@ -3,11 +3,12 @@ equals the direct evaluation (issue 36; STYLE lesson 15).
 
 The map is built the way tables/scene.py builds it (``table_specs`` of a scene: the demo's
 C-band radar, VP and HP, with and without motion compensation, the ship under way) and read
-through the dwell's reader (:func:`shipradar.sim.dwell.model._stacked_reader`, azimuth
-periodic) at random points: the first 300 m (where a 100 m axis read 40.7 dB and 142 Hz wrong),
-anywhere to the last range, azimuths below 0 and past 2π, and the axis edges; the direct
-values from :func:`shipradar.tables.clutter.sea_clutter_cells` (the map's formulas at the
-point, composed from shipradar.sensors.sea_clutter).
+through the dwell's reader (:class:`shipradar.tables.store.StackedLookup2D`, azimuth
+periodic, as :class:`shipradar.sim.dwell.prepared.PreparedRadar` reads it) at random points:
+the first 300 m (where a 100 m axis read 40.7 dB and 142 Hz wrong), anywhere to the last
+range, azimuths below 0 and past 2π, and the axis edges; the direct values from
+:func:`shipradar.tables.clutter.sea_clutter_cells` (the map's formulas at the point, composed
+from shipradar.sensors.sea_clutter).
 
 Tolerance: P_sc within 1 dB of the local level (the larger of the direct value and the map's
 nodes around the point: the elevation pattern's nulls are not followed between nodes) at
@@ -23,11 +24,11 @@ import copy
 import numpy as np
 import pytest
 
-from shipradar.sim.dwell.model import _stacked_reader
 from shipradar.sim.world.scenario import parse_scenario
 from shipradar.tables import clutter as tc
 from shipradar.tables.scene import table_specs
 from shipradar.tables.sky import scene_radar_constants
+from shipradar.tables.store import StackedLookup2D
 
 from .helpers import example
 
@@ -60,7 +61,7 @@ def test_sea_map_equals_direct_off_grid(table_cache, polarization, compensated):
     rng = np.random.default_rng(36)
     d, az = _points(rng, radar.instrumented_range_m)
     arrays = (None, "doppler_mean_hz", "doppler_spread_hz", "weibull_a")
-    got = _stacked_reader(table, arrays, periodic1=True)(d, az)
+    got = StackedLookup2D(table, arrays, periodic1=True)(d, az)
     ref = tc.sea_clutter_cells(d, np.mod(az, 2 * np.pi), table.inputs,
                                k.elevation_pattern(radar))
     assert np.all(np.isfinite(got))

@@ -4,16 +4,16 @@
 One :class:`FalseAlarmModel` per :class:`shipradar.sim.dwell.model.DwellModel` (its
 ``false_alarms``), reading the radar's constants (P_fa, N_n, the resolution cell, the Doppler
 bank and its reference) from it. What a run sets up from the radar and its tables alone (the
-P_fac map's generator, the clutter spectrum at its sectors, the density) is kept once per
-process in the caches below (:func:`shipradar.sim.dwell.model.forget_process_caches`).
+P_fac map's generator, the clutter spectrum at its sectors, the density) is kept by the
+model's :class:`shipradar.sim.dwell.prepared.PreparedRadar`, which the runs of a study on the
+same tables share.
 """
 
 from __future__ import annotations
 
 import functools
-import hashlib
 import math
-import weakref
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
@@ -27,6 +27,25 @@ from shipradar.sim.world.scenario import Radar
 if TYPE_CHECKING:
     from shipradar.tables.scene import RadarTables
 
+#: (reference, spread) [Hz] of the Doppler bank at the P_fac map's sectors.
+Spectrum = tuple[np.ndarray, np.ndarray]
+
+
+class SharedSetUp(Protocol):
+    """What the false alarms read of their radar's preparation
+    (:class:`shipradar.sim.dwell.prepared.PreparedRadar`; a protocol: it imports this
+    module)."""
+
+    @property
+    def clutter_generator(self) -> false_alarms.ClutterFalseAlarms | None: ...
+
+    def clutter_false_alarm_density(self, ring_m: float, azimuth_sectors: int
+                                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None: ...
+
+    def sector_spectrum(self, spectrum_reference: Callable[[np.ndarray, np.ndarray], Spectrum]
+                        ) -> Spectrum: ...
+
+
 
 class DwellConstants(Protocol):
     """What the false alarms read of their radar's
@@ -35,6 +54,9 @@ class DwellConstants(Protocol):
 
     radar: Radar
     tables: RadarTables
+
+    @property
+    def prepared(self) -> SharedSetUp: ...
     pfa: float
     n_pulses: float
     range_cell: float
@@ -60,42 +82,6 @@ class DwellConstants(Protocol):
                            ) -> tuple[np.ndarray, np.ndarray]: ...
 
     def doppler_filter(self, doppler_hz: Any) -> np.ndarray: ...
-
-#: Entries each process cache keeps (the oldest goes first).
-PROCESS_CACHE_MAX = 16
-#: :meth:`FalseAlarmModel.clutter_false_alarm_density` by P_fac table (its inputs hash and a digest
-#: of the arrays the generator reads: a table loaded again for the next run hits too) and
-#: generator constants: a pure function of them, computed once per process, not once per run.
-#: Its matrix product starts OpenBLAS's threads, whose spinning cost ~0.4 s of CPU per run
-#: on a loaded 2-core machine, five times the demo's own run (docs/performance.md section 10).
-_DENSITY_CACHE: dict[tuple, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
-#: The same by table object (its id, checked through a weak reference: nothing kept alive),
-#: in front of the digest (~4 ms a run for the demo's map).
-_DENSITY_BY_TABLE: dict[tuple, tuple[weakref.ref, tuple[np.ndarray, np.ndarray, np.ndarray]]] = {}
-#: What else a run sets up from the radar and its tables alone, once per process, by table
-#: object (checked through weak references) and the radar's constants, only read afterwards:
-#: the P_fac map's generator (each run draws with a twin of its own,
-#: :meth:`shipradar.sensors.false_alarms.ClutterFalseAlarms.shared`), the clutter spectrum at
-#: its sectors (:attr:`FalseAlarmModel.sector_spectrum`) and the two-ray fallback's terms per
-#: target height (:class:`_TwoRayFallback`): ~3 ms of a 110 s run of the demo, 2 ms of them
-#: the fallback's 48-step bisections for the missile's one height.
-_GENERATORS: dict[tuple, tuple[weakref.ref, false_alarms.ClutterFalseAlarms]] = {}
-_FA_SPECTRA: dict[tuple, tuple[weakref.ref, weakref.ref | None,
-                               tuple[np.ndarray, np.ndarray]]] = {}
-
-
-def forget_caches() -> None:
-    """Forget this module's process caches (the next run pays its set-up again)."""
-    for cache in (_DENSITY_CACHE, _DENSITY_BY_TABLE, _GENERATORS, _FA_SPECTRA):
-        cache.clear()
-
-
-def remember_bounded(cache: dict, key: tuple, value: object) -> None:
-    """``cache[key] = value``, the oldest entry dropped first beyond
-    :data:`PROCESS_CACHE_MAX`."""
-    if len(cache) >= PROCESS_CACHE_MAX:
-        cache.pop(next(iter(cache)))
-    cache[key] = value
 
 
 class FalseAlarmModel:
@@ -153,21 +139,10 @@ class FalseAlarmModel:
     def generator(self) -> false_alarms.ClutterFalseAlarms | None:
         """The P_fac map's per-scan generator
         (:func:`shipradar.tables.pfac.clutter_false_alarm_generator`), made at its first use; None
-        without a P_fac map."""
-        pfac = self.dwell.tables.pfac
-        if pfac is None:
-            return None
-        r = self.dwell.radar
-        key = (id(pfac), self.dwell.pfa, r.n_channels, self.dwell.n_pulses, r.h_range, r.h_azimuth)
-        seen = _GENERATORS.get(key)
-        if seen is None or seen[0]() is not pfac:
-            from shipradar.tables.pfac import clutter_false_alarm_generator
-
-            seen = (weakref.ref(pfac), clutter_false_alarm_generator(
-                pfac, pfa=self.dwell.pfa, n_channels=r.n_channels, n_pulses=self.dwell.n_pulses,
-                h_range=r.h_range, h_azimuth=r.h_azimuth))
-            remember_bounded(_GENERATORS, key, seen)
-        return seen[1].shared()
+        without a P_fac map (each run a twin of its preparation's,
+        :attr:`shipradar.sim.dwell.prepared.PreparedRadar.clutter_generator`)."""
+        template = self.dwell.prepared.clutter_generator
+        return None if template is None else template.shared()
 
     def clutter_false_alarm_density(self, ring_m: float = 250.0, azimuth_sectors: int = 36
                                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
@@ -200,78 +175,20 @@ class FalseAlarmModel:
             each cell (r, a) [-], summing to the generator's η total. None without a P_fac
             map.
         """
-        pfac = self.dwell.tables.pfac
-        if pfac is None:
+        if self.dwell.tables.pfac is None:
             return None
         if not ring_m > 0.0 or azimuth_sectors < 1:
             raise ValueError("ring_m must be > 0 and azimuth_sectors >= 1")
-        r = self.dwell.radar
-        consts = (self.dwell.pfa, r.n_channels, self.dwell.n_pulses, r.h_range, r.h_azimuth,
-                  float(ring_m), int(azimuth_sectors))
-        seen = _DENSITY_BY_TABLE.get((id(pfac), *consts))
-        if seen is not None and seen[0]() is pfac:  # this very table: no digest needed
-            return seen[1]
-        digest = hashlib.blake2b(digest_size=16)
-        for a in (pfac.values, pfac.extra["cells"], pfac.extra["weibull_a"]):
-            digest.update(np.ascontiguousarray(a).data)
-        key = (pfac.key, digest.digest(), *consts)
-        out = _DENSITY_CACHE.get(key)
-        if out is None:
-            out = self._clutter_false_alarm_density(ring_m, int(azimuth_sectors))
-            for a in out:
-                a.setflags(write=False)  # shared by every run on these tables
-            remember_bounded(_DENSITY_CACHE, key, out)
-        remember_bounded(_DENSITY_BY_TABLE, (id(pfac), *consts), (weakref.ref(pfac), out))
-        return out
-
-    def _clutter_false_alarm_density(self, ring_m: float, n_az: int
-                                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """:meth:`clutter_false_alarm_density`, computed."""
-        gen = self.generator
-        assert gen is not None  # read with a P_fac map only
-        az_edges = np.linspace(0.0, 2.0 * math.pi, n_az + 1)
-        if gen.eta.size == 0:
-            return np.zeros(1), az_edges, np.zeros((0, n_az))
-        h, a_e = gen.antenna_height_m, gen.k_factor * geometry.EARTH_RADIUS_M
-        r_top = float(sea_clutter.slant_range_m(gen.r_max_m.max(), h, gen.k_factor))
-        edges = ring_m * np.arange(int(math.ceil(r_top / ring_m)) + 1, dtype=float)
-        # slant R -> ground d: R² = h² + 4 a_e (a_e + h) sin²(d / 2 a_e), inverted
-        s2 = np.clip((edges**2 - h * h) / (4.0 * a_e * (a_e + h)), 0.0, 1.0)
-        g_edges = 2.0 * a_e * np.arcsin(np.sqrt(s2))
-        frac_r = _overlap_fraction(g_edges, gen.r_min_m, gen.r_max_m)
-        # azimuth intervals may pass 2π (az_max ≤ az_min + 2π): the bins shifted by ±2π too
-        frac_az = np.add.reduce([_overlap_fraction(az_edges + shift, gen.az_min_rad,
-                                                   gen.az_max_rad)
-                                 for shift in (-2.0 * math.pi, 0.0, 2.0 * math.pi)])
-        per_scan = _sum_over_sectors(frac_r * gen.eta, frac_az)
-        last = np.flatnonzero(per_scan.sum(axis=1) > 0.0)
-        n = 0 if last.size == 0 else int(last[-1]) + 1
-        return edges[:n + 1], az_edges, per_scan[:n]
+        return self.dwell.prepared.clutter_false_alarm_density(ring_m, int(azimuth_sectors))
 
     @functools.cached_property
-    def sector_spectrum(self) -> tuple[np.ndarray, np.ndarray]:
+    def sector_spectrum(self) -> Spectrum:
         """(reference, spread) [Hz] of
         :meth:`shipradar.sim.dwell.model.DwellModel.spectrum_reference` at the centre of every
         active P_fac sector, for the sea-clutter false alarms' Doppler: the P_fac sector is
         the resolution of the clutter false-alarm model (count, position bounds and spike
         S/I are the sector's), and the spectrum changes little across one."""
-        pfac, sea = self.dwell.tables.pfac, self.dwell.tables.sea_clutter
-        key = (id(pfac), id(sea), self.dwell.compensation, self.dwell.wavelength,
-               self.dwell.radar.antenna_height_m)
-        seen = _FA_SPECTRA.get(key)
-        if seen is not None and seen[0]() is pfac and (
-                sea is None if seen[1] is None else seen[1]() is sea):
-            return seen[2]
-        gen = self.generator
-        assert gen is not None  # read with a P_fac map only
-        centre_r = 0.5 * (gen.r_min_m + gen.r_max_m)
-        centre_az = np.mod(0.5 * (gen.az_min_rad + gen.az_max_rad), 2.0 * math.pi)
-        spectrum = self.dwell.spectrum_reference(centre_r, centre_az)
-        for a in spectrum:
-            a.setflags(write=False)  # shared by every run on these tables
-        remember_bounded(_FA_SPECTRA, key, (weakref.ref(pfac), None if sea is None
-                                     else weakref.ref(sea), spectrum))
-        return spectrum
+        return self.dwell.prepared.sector_spectrum(self.dwell.spectrum_reference)
 
     def noise_false_alarms(self, rng: np.random.Generator, revolutions: int | None = None
                            ) -> dict:
@@ -347,7 +264,31 @@ class FalseAlarmModel:
         return out
 
 
-def _sum_over_sectors(by_ring: np.ndarray, by_azimuth: np.ndarray) -> np.ndarray:
+def clutter_false_alarm_density(gen: false_alarms.ClutterFalseAlarms, ring_m: float, n_az: int
+                                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:meth:`FalseAlarmModel.clutter_false_alarm_density` of the generator ``gen``, in rings
+    of ``ring_m`` [m] and ``n_az`` azimuth sectors, computed."""
+    az_edges = np.linspace(0.0, 2.0 * math.pi, n_az + 1)
+    if gen.eta.size == 0:
+        return np.zeros(1), az_edges, np.zeros((0, n_az))
+    h, a_e = gen.antenna_height_m, gen.k_factor * geometry.EARTH_RADIUS_M
+    r_top = float(sea_clutter.slant_range_m(gen.r_max_m.max(), h, gen.k_factor))
+    edges = ring_m * np.arange(int(math.ceil(r_top / ring_m)) + 1, dtype=float)
+    # slant R -> ground d: R² = h² + 4 a_e (a_e + h) sin²(d / 2 a_e), inverted
+    s2 = np.clip((edges**2 - h * h) / (4.0 * a_e * (a_e + h)), 0.0, 1.0)
+    g_edges = 2.0 * a_e * np.arcsin(np.sqrt(s2))
+    frac_r = _overlap_fraction(g_edges, gen.r_min_m, gen.r_max_m)
+    # azimuth intervals may pass 2π (az_max ≤ az_min + 2π): the bins shifted by ±2π too
+    frac_az = np.add.reduce([_overlap_fraction(az_edges + shift, gen.az_min_rad,
+                                               gen.az_max_rad)
+                             for shift in (-2.0 * math.pi, 0.0, 2.0 * math.pi)])
+    per_scan = sum_over_sectors(frac_r * gen.eta, frac_az)
+    last = np.flatnonzero(per_scan.sum(axis=1) > 0.0)
+    n = 0 if last.size == 0 else int(last[-1]) + 1
+    return edges[:n + 1], az_edges, per_scan[:n]
+
+
+def sum_over_sectors(by_ring: np.ndarray, by_azimuth: np.ndarray) -> np.ndarray:
     """``by_ring @ by_azimuth.T`` (rings × sectors, azimuth cells × sectors -> rings × cells)
     in a fixed order, without BLAS: a sector overlaps one or two azimuth cells, so each cell
     sums the columns of its own sectors, in sector order (``np.add.reduceat``).

@@ -1,8 +1,11 @@
 """The dwell processor: from the targets a beam crosses to plots (seed chapters 3-7, on-line).
 
-One :class:`DwellModel` per radar and scene. Everything that does not change during a run is
+One :class:`DwellModel` per radar and run. Everything that does not change during a run is
 computed once in its constructor (radar constant, system noise, P_fa, pulses per beam, the
-false-alarm rate, pattern and RCS parameters, the scene's tables);
+false-alarm rate, pattern and RCS parameters), and what depends on the radar and its tables
+alone is read from its :class:`shipradar.sim.dwell.prepared.PreparedRadar`, which the runs of
+a study on the same tables share (the clutter maps' readers, the two-ray fallback, the
+false-alarm generator and density);
 :meth:`DwellModel.process_targets` is then vectorized over all the targets the beam crosses
 in one sector, a chain of named steps (:mod:`shipradar.sim.dwell.look`: geometry,
 propagation, target power, clutter, jamming, processing, S/I, N_e, P_d, measurement) whose
@@ -35,13 +38,11 @@ from __future__ import annotations
 
 import functools
 import math
-import weakref
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from numpy.typing import ArrayLike
 
 from shipradar.sensors import (
     antenna,
@@ -63,8 +64,7 @@ from shipradar.sensors.radar import (
     false_alarm_probability,
     pulses_per_beamwidth,
 )
-from shipradar.sim.dwell import false_alarm_model
-from shipradar.sim.dwell.false_alarm_model import FalseAlarmModel, remember_bounded
+from shipradar.sim.dwell.false_alarm_model import FalseAlarmModel
 from shipradar.sim.dwell.look import (
     Contacts,
     Decision,
@@ -74,10 +74,9 @@ from shipradar.sim.dwell.look import (
     Propagation,
     TargetPower,
 )
+from shipradar.sim.dwell.prepared import PreparedRadar
 from shipradar.sim.world.kinematics import Geometry, wrap_pi
-from shipradar.sim.world.scenario import Platform, Radar, Rain, Scenario
-from shipradar.tables.sky import rain_attenuation_db_per_km, scene_radar_constants
-from shipradar.tables.store import StackedLookup2D, Table
+from shipradar.sim.world.scenario import Platform, Radar, Scenario
 
 if TYPE_CHECKING:
     from shipradar.sim.world.live import LiveTargets
@@ -90,35 +89,6 @@ Clutter = dict[str, np.ndarray]
 _RCS_CONSTANT, _RCS_MISSILE, _RCS_TABLE = 0, 1, 2
 #: Resolution of the common aspect grid on which RCS tables are resampled [deg].
 _RCS_TABLE_STEP_DEG = 0.1
-#: The clutter maps' stacked readers by table object, arrays and periodicity: the stack is
-#: a copy of the table's arrays (~5 ms a run for the demo's two) and is only read afterwards.
-_READERS: dict[tuple, tuple[weakref.ref, StackedLookup2D]] = {}
-#: The two-ray fallback's terms per target height (:class:`_TwoRayFallback`) by the radar's
-#: constants and sea: 2 ms of the demo's run, the 48-step bisections for the missile's height.
-_TWO_RAY: dict[tuple, _TwoRayFallback] = {}
-
-
-def forget_process_caches() -> None:
-    """Forget what runs set up once per process (the caches above): the next run pays its
-    set-up again, as the first run of a new process does. Changes no result (the caches hold
-    pure values); the fidelity study's first-run timing uses it
-    (:mod:`shipradar.sim.studies.timing`)."""
-    for cache in (_READERS, _TWO_RAY):
-        cache.clear()
-    false_alarm_model.forget_caches()
-
-
-def _stacked_reader(table: Table, arrays: tuple[str | None, ...],
-                    periodic1: bool) -> StackedLookup2D:
-    """A :class:`shipradar.tables.store.StackedLookup2D` of ``table``, made once per process
-    and table object."""
-    key = (id(table), arrays, periodic1)
-    seen = _READERS.get(key)
-    if seen is not None and seen[0]() is table:
-        return seen[1]
-    reader = StackedLookup2D(table, arrays, periodic1=periodic1)
-    remember_bounded(_READERS, key, (weakref.ref(table), reader))
-    return reader
 
 
 @dataclass(frozen=True)
@@ -137,25 +107,38 @@ MAX_ATMOSPHERIC_LOSS_DB = 1000.0
 
 
 class DwellModel:
-    """On-line radar model of one radar in one scene."""
+    """On-line radar model of one radar in one scene.
+
+    ``prepared`` is what the runs of this radar on these tables share
+    (:class:`shipradar.sim.dwell.prepared.PreparedRadar`: the clutter maps' readers, the
+    two-ray fallback, the false-alarm generator, spectrum and density); None: made here.
+    """
 
     INTERFERENCE_NAMES = INTERFERENCE_NAMES
 
     def __init__(self, scenario: Scenario, platform: Platform, radar: Radar,
-                 tables: SceneTables, targets: SceneTargets | LiveTargets | None = None
-                 ) -> None:
+                 tables: SceneTables, targets: SceneTargets | LiveTargets | None = None,
+                 prepared: PreparedRadar | None = None) -> None:
         from shipradar.sim.world.traffic import scene_targets
 
+        radar_tables = tables.for_radar(radar.id)
+        if prepared is None:
+            prepared = PreparedRadar(scenario, platform, radar, radar_tables)
+        elif (prepared.scenario is not scenario or prepared.radar is not radar
+              or prepared.tables is not radar_tables):
+            raise ValueError(f"prepared: made for another scenario, radar or tables than "
+                             f"radar {radar.id!r} of this run")
+        #: what the runs of this radar on these tables share
+        #: (:class:`shipradar.sim.dwell.prepared.PreparedRadar`)
+        self.prepared = prepared
         self.scenario = scenario
         #: every target of the scene, its own and its traffic files'
         #: (:class:`shipradar.sim.world.traffic.SceneTargets`)
         self.targets = scene_targets(scenario) if targets is None else targets
         self.platform = platform
         self.radar = radar
-        self.tables = tables.for_radar(radar.id)
-        fid = scenario.fidelity
-        env = scenario.environment
-        self.method = fid.pd_method
+        self.tables = radar_tables
+        self.method = scenario.fidelity.pd_method
         #: Observers of every look (:class:`shipradar.sim.dwell.look.LookObserver`): each call
         #: of :meth:`process_targets` hands each of them one
         #: :class:`~shipradar.sim.dwell.look.LookResults` after the detection draw (empty in a
@@ -166,14 +149,14 @@ class DwellModel:
         #: t_s) -> u`` replaces the detection draw by one uniform per look derived from the
         #: look itself, so two fidelity settings see the same dice per look.
         self.look_uniforms: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None
-        self.k = k = scene_radar_constants(scenario, radar)  # T'_a from the table store
+        self.k = k = prepared.constants  # T'_a from the table store
         self.wavelength, self.gain, self.k_r0 = k.wavelength, k.gain, k.k_r0
         self.l_x, self.l_c, self.l_r = k.l_x, k.l_c, k.l_r
         self.l_cfar, self.l_cd, self.l_b = k.l_cfar, k.l_cd, k.l_b
         self.theta_b, self.phi_b, self.tilt = k.theta_b, k.phi_b, k.tilt
         self.range_cell, self.bandwidth = k.range_cell, k.bandwidth
         self.t_a, self.t_s, self.n0 = k.t_a, k.t_s, k.n0
-        self.elevation_pattern = k.elevation_pattern(radar)
+        self.elevation_pattern = prepared.elevation_pattern
         self.high_resolution = bool(sea_clutter.is_medium_high_resolution(
             self.theta_b, radar.pulse_width_s))
         self._prepare_detection(radar)
@@ -181,15 +164,16 @@ class DwellModel:
         self._prepare_jammers(scenario)
         self._prepare_propagation(scenario)
         self._prepare_compensation(platform, radar)
-        self._prepare_clutter_readers(scenario)
+        # the clutter maps' readers (None where the scene has no map)
+        self._sea_reader = prepared.sea_reader
+        self._wx_reader = prepared.weather_reader
+        self._wx_trip_reader = prepared.weather_trip_reader
+        self._sea_spectrum_reader = prepared.sea_spectrum_reader
         #: the noise and sea-clutter false alarms and their density
         #: (:class:`shipradar.sim.dwell.false_alarm_model.FalseAlarmModel`)
         self.false_alarms = FalseAlarmModel(self)
-        self.rain_gamma_db_per_km = 0.0
-        if env.rain is not None and fid.atmosphere:
-            # P.838 through itur, kept in the table store (itur's import: 0.6 s of start-up)
-            self.rain_gamma_db_per_km = rain_attenuation_db_per_km(
-                radar.frequency_hz, _rain_equivalent_rate(env.rain), radar.polarization)
+        # P.838 through itur, kept in the table store (itur's import: 0.6 s of start-up)
+        self.rain_gamma_db_per_km = prepared.rain_gamma_db_per_km
 
     # ------------------------------------------------------------------ set-up
     def _prepare_detection(self, radar: Radar) -> None:
@@ -212,29 +196,6 @@ class DwellModel:
             cases = (self.targets.swerling_cases() if hasattr(self.targets, "swerling_cases")
                      else [int(c) for c in self.targets.swerling])  # live: any case it may get
             self._pd_tables = PdTables(self.pfa, self.n_pulses, cases)
-
-    def _prepare_clutter_readers(self, scenario: Scenario) -> None:
-        """The readers of the clutter maps (None where the scene has no map)."""
-        spectrum = (None, "doppler_mean_hz", "doppler_spread_hz")
-        # the sea clutter's mean μ_c is the bank's reference, computed (_sea_clutter_mean_hz)
-        # whether the map exists or not: its power, spread and Weibull a are read
-        self._sea_reader = (None if self.tables.sea_clutter is None else _stacked_reader(
-            self.tables.sea_clutter, (None, "doppler_spread_hz", "weibull_a"),
-            periodic1=True))
-        self._wx_reader = (None if self.tables.weather_clutter is None else _stacked_reader(
-            self.tables.weather_clutter, spectrum, periodic1=True))
-        # a rain region: each trip of the range-folded sum [39]-[41] is weighted by whether
-        # its own cell is in the rain, so the one-trip power is read and summed here
-        rain = scenario.environment.rain
-        self._wx_trip_reader = (
-            None if self.tables.weather_clutter is None or rain is None or rain.region is None
-            else _stacked_reader(self.tables.weather_clutter, ("single_trip_power_w",),
-                                 periodic1=True))
-        # the spectrum's spread alone, for the Doppler of every one of a scan's thousands of
-        # sea-clutter false alarms (its mean is computed: _sea_clutter_mean_hz)
-        self._sea_spectrum_reader = (None if self.tables.sea_clutter is None else
-                                     _stacked_reader(self.tables.sea_clutter, spectrum[2:],
-                                                     periodic1=True))
 
     def refresh_targets(self) -> None:
         """Take the scene's target list again (a live source's grew)."""
@@ -449,15 +410,8 @@ class DwellModel:
     def _prepare_propagation(self, scenario: Scenario) -> None:
         self.propagation_mode = scenario.fidelity.propagation
         self.wave_height = scenario.wave_height
-        # its per-height terms are a pure function of the antenna, the sea and the height:
-        # shared by the runs of a process
-        key = (self.radar.antenna_height_m, self.radar.frequency_hz, self.radar.polarization,
-               self.wave_height, self.k.pattern_key(self.radar))
-        two_ray = _TWO_RAY.get(key)
-        if two_ray is None:
-            two_ray = _TwoRayFallback(self.radar, self.wave_height, self.elevation_pattern)
-            remember_bounded(_TWO_RAY, key, two_ray)
-        self._two_ray = two_ray
+        # its per-height terms: shared by the runs of the preparation
+        self._two_ray = self.prepared.two_ray
 
     def azimuth_pattern(self, offset_rad: np.ndarray, envelope: bool = False) -> np.ndarray:
         """Azimuth directivity factor g_az (field) at an angle from the beam axis [8]-[13].
@@ -834,7 +788,7 @@ class DwellModel:
         group, n_groups = self._resolution_groups(look.geom, clutter, look.batch,
                                                   look.platform_vel, look.time_s, p_r)
         p_sum = np.bincount(group, weights=p_r, minlength=n_groups)
-        lead = _argmax_by_group(group, p_r, n_groups)
+        lead = argmax_by_group(group, p_r, n_groups)
         if clutter is None:
             one = np.ones(n_groups)
             return Contacts(group, n_groups, lead, p_sum, one, one, one)
@@ -1000,7 +954,7 @@ class DwellModel:
         # sort on one integer key does it (the numbers the grid gave when no two looks merge)
         n_groups = int(group.max()) + 1
         lead = (np.arange(n) if n_groups == n
-                else _argmax_by_group(group, np.ones(n) if power_w is None
+                else argmax_by_group(group, np.ones(n) if power_w is None
                                       else np.asarray(power_w, float), n_groups))
         rc = np.floor(geom.slant_range[lead] / self.range_cell).astype(np.int64)
         ac = np.floor(geom.azimuth[lead] / self.theta_b).astype(np.int64)
@@ -1073,98 +1027,6 @@ class DwellModel:
             else 1,
         }
 
-class _TwoRayFallback:
-    """:func:`shipradar.sensors.propagation.two_ray_factor` of one radar, with the per-height terms
-    cached.
-
-    For a given antenna (height, frequency, polarization, pattern) and sea, the two-ray
-    factor's limit of the interference region (a 48-step bisection), F at that limit and the
-    diffraction factor at the horizon depend on the target height alone.  They are computed
-    once per distinct height (targets fly at a few constant altitudes) instead of at every
-    call; per point only the two-ray terms inside the limit, the smooth-earth diffraction
-    beyond the horizon and the dB interpolation between them remain.  The combination is
-    that of :func:`shipradar.sensors.propagation.two_ray_factor`, which
-    ``tests/test_dwell_fallback.py`` checks this against.
-    """
-
-    #: Most heights remembered (a climbing target gives a new height at every dwell).
-    MAX_HEIGHTS = 4096
-
-    def __init__(self, radar: Radar, wave_height_m: float,
-                 elevation_pattern: Callable[[ArrayLike], np.ndarray]) -> None:
-        from shipradar.sensors import propagation as prop
-
-        self._prop = prop
-        self.h1 = float(radar.antenna_height_m)
-        self.freq = float(radar.frequency_hz)
-        self.pol = prop.normalize_polarization(radar.polarization)
-        self.wave = float(wave_height_m)
-        self.pattern = elevation_pattern
-        self.k_factor = geometry.K_FACTOR
-        self.eps = complex(prop.sea_water_permittivity(self.freq))
-        a_e = self.k_factor * geometry.EARTH_RADIUS_M
-        self.g_horizon = float(np.abs(elevation_pattern(
-            -np.arccos(np.array([a_e / (a_e + self.h1)]))))[0])
-        self._cache: dict[float, tuple[float, float, float, float]] = {}
-
-    def _terms(self, d: np.ndarray, h2: np.ndarray) -> np.ndarray:
-        gd, refl, _ = self._prop.two_ray_terms(
-            d, np.full(d.shape, self.h1), h2, self.freq, self.pol, self.wave, self.pattern, 0.0,
-            self.k_factor, self.eps, "miller-brown")
-        return np.abs(gd + refl)
-
-    def _per_height(self, heights: list[float]) -> dict[float, tuple[float, float, float, float]]:
-        """(horizon range, interference limit, F there, diffraction F at the horizon) [m, -]."""
-        prop = self._prop
-        h2 = np.array(heights, dtype=float)
-        h1 = np.full(h2.shape, self.h1)
-        d_h = prop.horizon_range(h1, h2, self.k_factor)
-        d_lim = prop.interference_region_limit(h1, h2, self.freq, self.k_factor)
-        f_lim = self._terms(d_lim, h2)
-        f_diff_h = prop.smooth_earth_diffraction_factor(
-            d_h, h1, h2, self.freq, self.pol, k_factor=self.k_factor,
-            permittivity=self.eps) * self.g_horizon
-        return {h: (d_h[i], d_lim[i], f_lim[i], f_diff_h[i]) for i, h in enumerate(heights)}
-
-    def __call__(self, range_m: np.ndarray, height_m: np.ndarray) -> np.ndarray:
-        """F (field ratio, pattern included) at terrestrial ranges and target heights [m]."""
-        d = np.asarray(range_m, dtype=float)
-        h2 = np.asarray(height_m, dtype=float)
-        if d.size == 0:
-            return np.zeros(d.shape)
-        if (d < 0).any() or (h2 < 0).any():
-            raise ValueError("range and heights must be >= 0")
-        cache = self._cache
-        # the distinct heights only (sorted): one dict lookup per height, not per target
-        uniq, inverse = np.unique(h2.ravel(), return_inverse=True)
-        keys = uniq.tolist()
-        missing = [h for h in keys if h not in cache]
-        if missing:
-            new = self._per_height(missing)
-            if len(cache) + len(new) <= self.MAX_HEIGHTS:
-                cache.update(new)
-            else:  # full (the runs of a process share it): emptied for the next calls
-                self._cache = {}  # (pure values: forgetting them changes no result)
-                cache = {**cache, **new}
-        per = np.array([cache[h] for h in keys], dtype=float).reshape(-1, 4)[inverse.ravel()]
-        d_h, d_lim, f_lim, f_diff_h = (per[:, i] for i in range(4))
-        # each branch is evaluated only when some point needs it (its other values unused)
-        beyond = d >= d_h
-        diffraction = np.zeros(d.shape)
-        if beyond.any():
-            diffraction = self._prop.smooth_earth_diffraction_factor(
-                np.maximum(d, d_h), np.full(d.shape, self.h1), h2, self.freq, self.pol,
-                k_factor=self.k_factor, permittivity=self.eps) * self.g_horizon
-        inside = d <= d_lim
-        f_inter = self._terms(np.minimum(d, d_lim), h2) if inside.any() else np.zeros(d.shape)
-        tiny = 1e-30
-        span = np.maximum(d_h - d_lim, 1e-9)
-        w = np.clip((d - d_lim) / span, 0.0, 1.0)
-        intermediate = np.exp((1 - w) * np.log(np.maximum(f_lim, tiny))
-                              + w * np.log(np.maximum(f_diff_h, tiny)))
-        return np.where(inside, f_inter, np.where(beyond, diffraction, intermediate))
-
-
 def _greedy_contacts(n: int, pairs: tuple[np.ndarray, np.ndarray],
                      power: np.ndarray) -> np.ndarray:
     """Contact index of each of ``n`` looks given the ``pairs`` (i, j) the radar cannot tell
@@ -1197,7 +1059,7 @@ def _greedy_contacts(n: int, pairs: tuple[np.ndarray, np.ndarray],
     return group.ravel().astype(np.int64)
 
 
-def _argmax_by_group(group: np.ndarray, value: np.ndarray, n_groups: int) -> np.ndarray:
+def argmax_by_group(group: np.ndarray, value: np.ndarray, n_groups: int) -> np.ndarray:
     """Index of the largest ``value`` in each group (the first of equals; groups numbered
     0 .. n_groups - 1, each with a member)."""
     out = np.empty(n_groups, dtype=np.int64)
@@ -1217,8 +1079,3 @@ def _argmax_by_group(group: np.ndarray, value: np.ndarray, n_groups: int) -> np.
     first[1:] = g[1:] != g[:-1]
     out[g[first]] = order[first]
     return out
-
-
-def _rain_equivalent_rate(rain: Rain) -> float:
-    """Rain-equivalent precipitation rate [mm/h] (seed 4.1.4: dry snow ÷10, wet snow ÷5)."""
-    return rain.rate_mm_h / {"rain": 1.0, "dry_snow": 10.0, "wet_snow": 5.0}[rain.kind]

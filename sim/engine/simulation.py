@@ -39,7 +39,6 @@ import itertools
 import math
 import sys
 import time
-import weakref
 from collections import deque
 from collections.abc import Generator, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -96,6 +95,7 @@ if TYPE_CHECKING:
     from shipradar.sensors.sensor_errors import RadarErrors
     from shipradar.sim.dwell.look import LookResults
     from shipradar.sim.dwell.model import DwellModel
+    from shipradar.sim.dwell.prepared import PreparedScene
 
 #: Plot origin codes on the truth topic.
 ORIGIN_TARGET, ORIGIN_NOISE, ORIGIN_SEA_CLUTTER = 0, 1, 2
@@ -138,8 +138,14 @@ class Simulation:
     only_radars : indices (in ``scenario.radars()`` order) of the radars to simulate, the
         others left out (a worker of ``shipradar.sim.engine.parallel``); every radar keeps its own
         random stream, so a radar's messages do not depend on which others run beside it
+    prepared : what the runs of this scenario on these ``tables`` share
+        (:class:`shipradar.sim.dwell.prepared.PreparedScene`: the clutter maps' readers, the
+        two-ray fallback, the false-alarm generator, spectrum, density and range profile),
+        made from the same scenario and table objects; None: made here (as in a new process).
+        A study that runs the scene again passes the previous run's :attr:`prepared`.
     """
 
+    # params: the run's options, keyword-only and each with a default (documented above)
     def __init__(
         self,
         scenario: Scenario,
@@ -153,8 +159,9 @@ class Simulation:
         processes: int = 1,
         only_radars: Sequence[int] | None = None,
         entities: Any = None,
+        prepared: PreparedScene | None = None,
     ) -> None:
-        from shipradar.sim.dwell.model import DwellModel  # the on-line radar model
+        from shipradar.sim.dwell.prepared import PreparedScene
         from shipradar.tables.scene import load_scene_tables
 
         self.scenario = scenario
@@ -178,13 +185,35 @@ class Simulation:
         self.frame = LocalFrame(scenario.origin)
         self._scene_objects(scenario, entities)
         self.tables = tables if tables is not None else load_scene_tables(scenario)
+        if prepared is None:
+            prepared = PreparedScene(scenario, self.tables)
+        else:
+            prepared.check(scenario, self.tables)
+        #: what the runs of this scenario on these tables share
+        #: (:class:`shipradar.sim.dwell.prepared.PreparedScene`): pass it to the next run
+        self.prepared = prepared
+        self.radars: list[RadarProcess] = self._radar_processes(only_radars)
+        #: some radar's messages leave late (issue 33): each process waits for its messages'
+        #: publication times, the run lasts until the last has left (SimPy or the batched
+        #: path; one process)
+        self.latency = any(r.errors is not None and r.errors.has_latency for r in self.radars)
+        #: the latest publication time of any message [s] (the run's end without latency)
+        self.last_publication = 0.0
+
+    def _radar_processes(self, only_radars: Sequence[int] | None) -> list[RadarProcess]:
+        """A :class:`RadarProcess` per radar run (``only_radars``: those indices), each with
+        its dwell model on its preparation and its own random stream."""
+        from shipradar.sim.dwell.model import DwellModel  # the on-line radar model
+
+        scenario = self.scenario
         seeds = np.random.SeedSequence(self.seed).spawn(len(scenario.radars()))
-        self.radars: list[RadarProcess] = []
+        out: list[RadarProcess] = []
         for k, (platform, radar) in enumerate(scenario.radars()):
             if only_radars is not None and k not in only_radars:
                 continue
             p_index = scenario.platforms.index(platform)
-            model = DwellModel(scenario, platform, radar, self.tables, self.target_set)
+            model = DwellModel(scenario, platform, radar, self.tables, self.target_set,
+                               self.prepared.radar(platform, radar))
             rng = np.random.default_rng(seeds[k])
             process = RadarProcess(self, p_index, platform, radar, model, rng)
             if scenario.has_sensor_errors:  # issue 33: own streams, none drawn otherwise
@@ -194,13 +223,8 @@ class Simulation:
                     radar.errors, platform.navigation, seed=self.seed, radar_id=radar.id,
                     platform_id=platform.id, sector_s=process.sector_s)
             process.index = k
-            self.radars.append(process)
-        #: some radar's messages leave late (issue 33): each process waits for its messages'
-        #: publication times, the run lasts until the last has left (SimPy or the batched
-        #: path; one process)
-        self.latency = any(r.errors is not None and r.errors.has_latency for r in self.radars)
-        #: the latest publication time of any message [s] (the run's end without latency)
-        self.last_publication = 0.0
+            out.append(process)
+        return out
 
     def _scene_objects(self, scenario: Scenario, entities: Any) -> None:
         """The run's moving objects in its local frame (:attr:`frame`): the targets (the
@@ -963,21 +987,10 @@ class RadarProcess:
     def _clutter_fa_meta(self) -> dict:
         """The radar's expected sea-clutter false alarms per scan, total and per 250 m ring
         (seed 7.2, from its P_fac map), for a tracker's clutter density; {} without a map."""
-        pfac = self.model.tables.pfac
-        if pfac is None:
+        profile = self.model.prepared.clutter_range_profile  # shared by the runs on its map
+        if profile is None:
             return {}
-        seen = _RANGE_PROFILES.get(id(pfac))
-        if seen is None or seen[0]() is not pfac:  # once per process and table object
-            from shipradar.tables.pfac import clutter_range_profile
-
-            edges, per_scan = clutter_range_profile(pfac)
-            for a in (edges, per_scan):
-                a.setflags(write=False)  # shared by every run on this table
-            seen = (weakref.ref(pfac), edges, per_scan, float(per_scan.sum()))
-            if len(_RANGE_PROFILES) >= 16:
-                _RANGE_PROFILES.pop(next(iter(_RANGE_PROFILES)))
-            _RANGE_PROFILES[id(pfac)] = seen
-        _, edges, per_scan, total = seen
+        edges, per_scan, total = profile
         out: dict[str, Any] = {
             "clutter_false_alarms_per_scan": total,
             "clutter_false_alarm_profile": {"range_edges_m": edges, "per_scan": per_scan}}
@@ -1610,10 +1623,6 @@ _BLOCK_S = 64.0
 _BLOCK_PLOTS = 250_000
 #: the topics of a sector's two messages, in their order
 _SECTOR_TOPICS = [protocol.TOPIC_PLOTS, protocol.TOPIC_TRUTH]
-#: each P_fac map's range profile for ``meta`` (tables.pfac.clutter_range_profile: edges,
-#: expected count per ring, their sum), by table object (checked through a weak reference),
-#: read-only: a run's meta read it anew (~0.1-0.2 ms of a demo run)
-_RANGE_PROFILES: dict[int, tuple[weakref.ref, np.ndarray, np.ndarray, float]] = {}
 
 
 @dataclass

@@ -227,6 +227,25 @@ def reduce_run(messages: Sequence[tuple[bytes, float, dict]], scenario, run: int
 # Per worker process: tables read from the cache once, keyed by their files.
 _WORKER_TABLES: dict[tuple, Any] = {}
 _WORKER_LOCK = threading.Lock()
+#: Per worker process: the preparation of the study's scenario on its tables
+#: (:class:`shipradar.sim.dwell.prepared.PreparedScene`) by the scenario's token (its content,
+#: :func:`dask.base.tokenize` in the client), made by a worker's first run and passed to its
+#: next runs of that scenario on the same tables; one kept, the last study's.
+_WORKER_PREPARED: dict[str, Any] = {}
+
+
+def _worker_prepared(token: str, tables):
+    """The preparation this worker keeps for the scenario of ``token`` on ``tables``, or
+    None."""
+    with _WORKER_LOCK:
+        prepared = _WORKER_PREPARED.get(token)
+        return prepared if prepared is not None and prepared.tables is tables else None
+
+
+def _keep_prepared(token: str, prepared) -> None:
+    with _WORKER_LOCK:
+        _WORKER_PREPARED.clear()
+        _WORKER_PREPARED[token] = prepared
 
 
 def _tables_from_files(files: tuple[tuple[str, str, str], ...]):
@@ -263,16 +282,23 @@ def _table_files(scene, radar_ids: Sequence[str]) -> tuple[tuple[str, str, str],
     return tuple(out)
 
 
-def _one_run(scenario, run: int, seed: int, duration_s, tables_ref) -> dict:
-    """A Dask task: one replication, reduced to rows in the worker."""
+def _one_run(scenario, run: int, seed: int, duration_s, tables_ref, token: str) -> dict:
+    """A Dask task: one replication, reduced to rows in the worker. ``token`` names the
+    scenario's content: a run of the scenario a previous run of this worker prepared runs
+    that (equal) scenario object with its preparation."""
     from shipradar.sim.engine.simulation import Simulation
 
     if isinstance(tables_ref, tuple):
         tables = _tables_from_files(tables_ref)
     else:
         tables = tables_ref
+    prepared = _worker_prepared(token, tables)
+    if prepared is not None:
+        scenario = prepared.scenario  # the same content (token): the object it was made for
     bus = MemorySink(skip={b"plots"})  # truth, eos and meta only
-    sim = Simulation(scenario, bus=bus, seed=seed, duration_s=duration_s, tables=tables)
+    sim = Simulation(scenario, bus=bus, seed=seed, duration_s=duration_s, tables=tables,
+                     prepared=prepared)
+    _keep_prepared(token, sim.prepared)
     summary = sim.run()
     out: dict[str, Any] = dict(reduce_run(bus.messages, scenario, run, seed))
     out["summary"] = {"run": run, "wall_s": summary.get("wall_s"), "pid": os.getpid()}
@@ -448,8 +474,12 @@ def _run_replications(scenario, seeds: list[int], base_seed: int, duration_s: fl
                 own_client = client = Client(cluster)
             else:
                 own_client = client = Client(scheduler)
+        from dask.base import tokenize
+
         tables_ref = files if files is not None else client.scatter(tables, broadcast=True)
-        futures = [client.submit(_one_run, scenario, i, s, duration_s, tables_ref,
+        # the scenario's content, by which a worker finds the preparation of its runs
+        token = tokenize(scenario)
+        futures = [client.submit(_one_run, scenario, i, s, duration_s, tables_ref, token,
                                  key=f"shipradar-run-{base_seed}-{i}", pure=False)
                    for i, s in enumerate(seeds)]
         bar = None

@@ -6,10 +6,10 @@ A setting's cost has three parts, paid at different times:
   run on an empty cache);
 * **table load** [s CPU]: once per process, reading the setting's tables from the cache;
 * **run** [s CPU]: every run. *Warm*: a run in a process that has already run the setting on
-  the same tables (a Monte Carlo study's second and later replications). *First*: the table
-  load plus the first run on the freshly loaded tables, with the dwell model's per-process
-  set-up (:func:`shipradar.sim.dwell.model.forget_process_caches`) forgotten first, as in a
-  new process (imports and Python's own caches stay warm).
+  the same tables, given the first run's preparation (a Monte Carlo study's second and later
+  replications: :class:`shipradar.sim.dwell.prepared.PreparedScene`). *First*: the table
+  load plus the first run on the freshly loaded tables, with a preparation of its own made
+  by the run, as in a new process (imports and Python's own caches stay warm).
 
 A candidate is timed against the reference **in alternation** (reference, candidate; then
 candidate, reference; ...), with the same seed in a pair, so that the machine's slow
@@ -221,17 +221,17 @@ class SceneTimer:
         return self._scenes[key]
 
     def __call__(self, fidelity: dict[str, Any], seed: int) -> Sample:
-        from shipradar.sim.dwell.model import forget_process_caches
         from shipradar.sim.engine.simulation import Simulation
         from shipradar.tables.scene import load_scene_tables
 
         scene = self._scene(fidelity)
-        forget_process_caches()
         c0 = time.process_time()
         tables = load_scene_tables(scene)
         c1 = time.process_time()
-        Simulation(scene, seed=seed, duration_s=self.duration_s, tables=tables).run()
+        first = Simulation(scene, seed=seed, duration_s=self.duration_s, tables=tables)
+        first.run()  # its own preparation, made in the run's set-up
         c2 = time.process_time()
-        Simulation(scene, seed=seed, duration_s=self.duration_s, tables=tables).run()
+        Simulation(scene, seed=seed, duration_s=self.duration_s, tables=tables,
+                   prepared=first.prepared).run()
         c3 = time.process_time()
         return Sample(c1 - c0, c2 - c1, c3 - c2)

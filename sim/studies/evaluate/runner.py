@@ -41,7 +41,7 @@ import traceback
 from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import IO, Any
+from typing import IO, TYPE_CHECKING, Any
 
 import msgpack
 import numpy as np
@@ -61,6 +61,9 @@ from shipradar.sim.studies.evaluate.data import (
     tracks_from_payload,
 )
 from shipradar.sim.studies.evaluate.registration import TRUTH_SENSORS_KIND
+
+if TYPE_CHECKING:
+    from shipradar.sim.dwell.prepared import PreparedScene
 
 __all__ = ["RunSpec", "fill_placeholders", "free_port", "run_and_collect",
            "run_tracker_command", "run_tracker_object"]
@@ -328,13 +331,16 @@ def _write_tracks(run_dir: Path, records: list[tuple[float, float, list[bytes]]]
             rec.write(t, frames)
 
 
-_SCENES: dict[tuple[str, int, str | None], tuple[Any, Any]] = {}
+_SCENES: dict[tuple[str, int, str | None], tuple[Any, Any, PreparedScene]] = {}
 
 
-def _scene(path: str):
-    """The scenario of ``path`` and its tables, loaded once per process while the file and
-    the table cache are the same (a study's worker runs one scene many times; the tables
-    are read-only, as :func:`run_tracker_object` already shares them between runs)."""
+def _scene(path: str) -> tuple[Any, Any, PreparedScene]:
+    """The scenario of ``path``, its tables and their preparation, loaded once per process
+    while the file and the table cache are the same (a study's worker runs one scene many
+    times; the tables are read-only, as :func:`run_tracker_object` already shares them
+    between runs, and each run is given the preparation:
+    :class:`shipradar.sim.dwell.prepared.PreparedScene`)."""
+    from shipradar.sim.dwell.prepared import PreparedScene
     from shipradar.sim.world.scenario import load_scenario
     from shipradar.tables.scene import load_scene_tables
 
@@ -343,7 +349,8 @@ def _scene(path: str):
     if key not in _SCENES:
         _SCENES.clear()
         scenario = load_scenario(path)
-        _SCENES[key] = (scenario, load_scene_tables(scenario))
+        tables = load_scene_tables(scenario)
+        _SCENES[key] = (scenario, tables, PreparedScene(scenario, tables))
     return _SCENES[key]
 
 
@@ -415,7 +422,7 @@ def _run_command(spec: RunSpec, collect: Collect | None) -> dict[str, Any]:
     wall0 = time.perf_counter()
     run_dir = Path(spec.run_dir)
     run_dir.mkdir(parents=True, exist_ok=True)
-    scenario, tables = _scene(spec.scenario)
+    scenario, tables, prepared = _scene(spec.scenario)
     duration = float(scenario.duration_s if spec.duration_s is None else spec.duration_s)
     info: dict[str, Any] = {"seed": spec.seed, "status": "ok", "error": None,
                             "scenario": scenario.name, "duration_s": duration,
@@ -426,7 +433,7 @@ def _run_command(spec: RunSpec, collect: Collect | None) -> dict[str, Any]:
                open(run_dir / "tracker.stderr", "wb"))  # noqa: SIM115
     try:
         _start_tracker(run)
-        _simulate(run, scenario, tables, duration, collect)
+        _simulate(run, scenario, tables, prepared, duration, collect)
         t_drain = time.perf_counter()
         assert run.proc is not None and run.collector is not None  # started above
         _drain(spec, run.proc, run.collector, duration)
@@ -468,10 +475,11 @@ def _start_tracker(run: _Run) -> None:
                 uses_tracks="{tracks}" in spec.tracker)
 
 
-def _simulate(run: _Run, scenario: Any, tables: Any, duration: float,
-              collect: Collect | None) -> None:
+def _simulate(run: _Run, scenario: Any, tables: Any, prepared: PreparedScene | None,
+              duration: float, collect: Collect | None) -> None:
     """The simulation, its stream recorded and published (and sent as ASTERIX when the
-    tracker reads ``{asterix}``); its summary, ``startup_s`` and ``run_s`` kept on ``run``."""
+    tracker reads ``{asterix}``), given the scene's ``prepared`` set-up; its summary,
+    ``startup_s`` and ``run_s`` kept on ``run``."""
     from shipradar.sim.engine.simulation import Simulation
 
     spec, publisher = run.spec, run.publisher
@@ -488,7 +496,8 @@ def _simulate(run: _Run, scenario: Any, tables: Any, duration: float,
 
         sim_bus = AsterixBus(bus, UdpSender(run.info["endpoints"]["asterix"]), 1400)
     sim = Simulation(scenario, bus=sim_bus, seed=spec.seed, duration_s=duration,
-                     realtime=spec.realtime, tables=tables, entities=_entities(spec.entities))
+                     realtime=spec.realtime, tables=tables, entities=_entities(spec.entities),
+                     prepared=prepared)
     t_run = time.perf_counter()
     run.startup_s = t_run - run.wall0  # the tracker until it subscribed, the simulation built
     try:
@@ -649,7 +658,8 @@ class _InProcessSink:
 
 def run_tracker_object(scenario, tracker, *, seed: int, duration_s: float | None = None,
                        tables=None, run_dir: str | Path | None = None,
-                       entities: str | None = None) -> RunData:
+                       entities: str | None = None,
+                       prepared: PreparedScene | None = None) -> RunData:
     """One seeded run with an in-process tracker object; the run's data, ready to score.
 
     Parameters
@@ -669,6 +679,10 @@ def run_tracker_object(scenario, tracker, *, seed: int, duration_s: float | None
         Also write the run directory (recordings, timings, ``run.json``) for ``--rescore``.
     entities : str or None
         A recording whose ``entities`` move the targets (:class:`RunSpec`).
+    prepared : PreparedScene or None
+        What the runs of ``scenario`` on ``tables`` share
+        (:class:`shipradar.sim.dwell.prepared.PreparedScene`, e.g. the previous run's);
+        None: the run makes its own.
     """
     from shipradar.sim.engine.simulation import Simulation
 
@@ -685,7 +699,7 @@ def run_tracker_object(scenario, tracker, *, seed: int, duration_s: float | None
     t0 = time.perf_counter()
     sink = _InProcessSink(obj, collect, holder, t0, record=run_dir is not None)
     sim = Simulation(scenario, bus=sink, seed=seed, duration_s=duration, tables=tables,
-                     entities=_entities(entities))
+                     entities=_entities(entities), prepared=prepared)
     try:
         info["summary"] = sim.run()
     except Exception as exc:  # the tracker's failure is the run's result

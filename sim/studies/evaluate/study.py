@@ -354,15 +354,20 @@ def evaluate_object(scenario, tracker, *, runs: int = 1, seed: int | None = None
         ``per_run``, ``per_scan``, ``per_target`` (rows), ``summary`` (per-run figures over
         runs with 95 % intervals), ``failed``.
     """
+    from shipradar.sim.dwell.prepared import PreparedScene
     from shipradar.sim.studies.evaluate.runner import run_tracker_object
+    from shipradar.tables.scene import load_scene_tables
 
     base = scenario.seed if seed is None else int(seed)
     seeds = study_seeds(base, runs)
     results = []
+    # the runs share the scene's tables and their preparation (loaded once, not per run)
+    tables = load_scene_tables(scenario) if tables is None else tables
+    prepared = PreparedScene(scenario, tables)
     for sd in seeds:
         run_dir = None if out is None else Path(out) / "runs" / run_dir_name(sd)
         data = run_tracker_object(scenario, tracker, seed=sd, duration_s=duration_s,
-                                  tables=tables, run_dir=run_dir)
+                                  tables=tables, run_dir=run_dir, prepared=prepared)
         ok = data.info["status"] == "ok"
         results.append((data.info, score_run(data, config) if ok else None))
     settings = {"scenario": None, "scenario_name": scenario.name,

@@ -155,8 +155,11 @@ def run_setting(scenario: Scenario, setting: Setting, seeds: Sequence[int], dura
     scans = 0
     expected: dict[tuple[str, str], float] = {}
     fallbacks = 0
+    prepared = None  # the first run's preparation, passed to the next (the same tables)
     for run, seed in enumerate(seeds):
-        sim = Simulation(scene, seed=seed, duration_s=duration_s, tables=tables)
+        sim = Simulation(scene, seed=seed, duration_s=duration_s, tables=tables,
+                         prepared=prepared)
+        prepared = sim.prepared
         for k, proc in enumerate(sim.radars):
             model = proc.model
             period = proc.radar.scan_period_s
