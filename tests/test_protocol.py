@@ -363,14 +363,14 @@ def test_fast_encoder_matches_msgpack_for_every_extension_size(n):
     payload = {"a": np.arange(n, dtype="<f8"), "b": np.zeros(n, dtype=np.uint8),
                "z": np.float64(2.5), "i": np.int32(-3), "nested": {"k": [np.arange(2), 1]}}
     payload.update({f"k{i}": i for i in range(16)})  # 21 keys: a map 16 header
-    assert encode(TOPIC_PLOTS, 1.5, payload) == protocol._encode_reference(
+    assert encode(TOPIC_PLOTS, 1.5, payload) == protocol.encode_reference(
         TOPIC_PLOTS, 1.5, payload)
     strided = {"every_other": np.arange(2 * n + 1, dtype=np.float64)[::2],
                "reversed": np.arange(n, dtype=np.int32)[::-1], "big_endian": np.ones(n, ">f8")}
-    assert encode(TOPIC_PLOTS, 1.5, strided) == protocol._encode_reference(
+    assert encode(TOPIC_PLOTS, 1.5, strided) == protocol.encode_reference(
         TOPIC_PLOTS, 1.5, strided)
     small = {"x": np.array(1.0), "y": np.array(True), "s": "text", "b": b"\x00\x01"}
-    assert encode(TOPIC_EOS, 0.0, small) == protocol._encode_reference(TOPIC_EOS, 0.0, small)
+    assert encode(TOPIC_EOS, 0.0, small) == protocol.encode_reference(TOPIC_EOS, 0.0, small)
 
 
 @settings(max_examples=60, deadline=None)
@@ -379,7 +379,7 @@ def test_fast_encoder_matches_msgpack_for_every_extension_size(n):
        st.floats(allow_nan=False, allow_infinity=False))
 def test_fast_encoder_matches_reference_encoder(array, t):
     payload = {"sensor": "s", "scan": 3, "col": array, "meta": {"x": [1.0, None]}}
-    assert encode(TOPIC_PLOTS, t, payload) == protocol._encode_reference(TOPIC_PLOTS, t, payload)
+    assert encode(TOPIC_PLOTS, t, payload) == protocol.encode_reference(TOPIC_PLOTS, t, payload)
 
 
 def test_fast_encoder_errors_are_the_documented_ones():
@@ -396,10 +396,10 @@ def test_fast_encoder_errors_are_the_documented_ones():
     with pytest.raises(ProtocolError, match="cannot be encoded"):
         encode(TOPIC_PLOTS, 0.0, {"a": "\udc80"})
     for v in (0, 127, 128, -1, 2**40, True, None, 1.5, "x" * 100):  # fixint and str shortcuts
-        assert encode(TOPIC_EOS, 1.0, {"v1": v}) == protocol._encode_reference(
+        assert encode(TOPIC_EOS, 1.0, {"v1": v}) == protocol.encode_reference(
             TOPIC_EOS, 1.0, {"v1": v})
     # the packer is left clean after an error
-    assert encode(TOPIC_EOS, 1.0, {"scan": 1}) == protocol._encode_reference(
+    assert encode(TOPIC_EOS, 1.0, {"scan": 1}) == protocol.encode_reference(
         TOPIC_EOS, 1.0, {"scan": 1})
 
 

@@ -9,8 +9,28 @@ import pytest
 from shipradar.sim.stream import protocol
 
 
-def _filled(template, floats):
-    return protocol._float_filled(template, iter(floats))
+def _filled(value, floats):
+    """``value`` with its float leaves replaced, in packing order, by ``floats`` (an
+    iterator)."""
+    if type(value) is float:
+        return next(floats)
+    if isinstance(value, dict):
+        return {k: _filled(v, floats) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_filled(v, floats) for v in value]
+    return value
+
+
+def _leaves(value):
+    """The float leaves of ``value``, in packing order."""
+    if type(value) is float:
+        yield value
+    elif isinstance(value, dict):
+        for v in value.values():
+            yield from _leaves(v)
+    elif isinstance(value, (list, tuple)):
+        for v in value:
+            yield from _leaves(v)
 
 
 TEMPLATES = [
@@ -28,9 +48,10 @@ TEMPLATES = [
 def test_rows_are_payload_items_of_each_payload(template):
     marks: list[float] = []
     protocol._float_marks(template, marks)
-    rng = np.random.default_rng(len(marks))
+    leaves = list(_leaves(template))
+    rng = np.random.default_rng(len(leaves))
     n = 41
-    columns = [rng.normal(0.0, 1e3, n) for _ in marks]
+    columns = [rng.normal(0.0, 1e3, n) for _ in leaves]
     special = [np.nan, -0.0, 0.0, np.inf, -np.inf, 5e-324, -2.2250738585072014e-308,
                1.7976931348623157e308, float.fromhex("0x1.fffffffffffffp-1")]
     for i, c in enumerate(columns):
@@ -40,7 +61,7 @@ def test_rows_are_payload_items_of_each_payload(template):
     assert len(got) == n
     for j in range(n):
         want = protocol.payload_items(protocol.TOPIC_EOS,
-                                      _filled(template, [c[j].item() for c in columns]))
+                                      _filled(template, iter([c[j].item() for c in columns])))
         assert got[j] == want
 
 

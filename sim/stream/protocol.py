@@ -44,6 +44,7 @@ __all__ = [
     "decode_array",
     "encode",
     "encode_array",
+    "encode_reference",
     "encode_slices",
     "float_rows",
     "to_jsonable",
@@ -398,7 +399,7 @@ def encode(topic: bytes, t_sim: float, payload: Mapping[str, Any]) -> list[bytes
     -----
     The body is exactly what ``msgpack.packb({"v": ..., "t": ..., **payload})`` gives with
     arrays as :data:`EXT_NDARRAY` extensions (the reference encoder,
-    :func:`_encode_reference`, kept for the tests). The top-level map is written here
+    :func:`encode_reference`, which the tests compare it with). The top-level map is written here
     directly: the envelope and the payload keys are pre-packed, and each numpy column goes
     out as its extension header plus :func:`encode_array` without passing through msgpack's
     ``default`` hook and an ``ExtType`` object (the stream's hot path: a plot frame is a
@@ -717,9 +718,10 @@ def _float_filled(value: Any, floats: Iterator[float]) -> Any:
     return value
 
 
-def _encode_reference(topic: bytes, t_sim: float, payload: Mapping[str, Any]) -> list[bytes]:
-    """The straightforward encoder (msgpack with a ``default`` hook), same bytes as
-    :func:`encode`; the tests compare the two."""
+def encode_reference(topic: bytes, t_sim: float, payload: Mapping[str, Any]) -> list[bytes]:
+    """The straightforward encoder (msgpack with a ``default`` hook for the arrays): the
+    bytes :func:`encode` must give, without its fast paths (the tests compare the two; slow,
+    not for the stream)."""
     _check_keys(payload)
     for key in _RESERVED_KEYS:
         if key in payload:
