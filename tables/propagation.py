@@ -23,7 +23,7 @@ the table samples it:
 
 from __future__ import annotations
 
-import weakref
+import functools
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -540,29 +540,28 @@ class PropagationLookup:
 LOOKUP_BLOCK = 8192
 
 
-_LOOKUPS: dict[int, tuple[weakref.ref, PropagationLookup]] = {}
+def _plain_lookup(table: Table, range_m: np.ndarray, height_m: np.ndarray) -> np.ndarray:
+    """F of a plain (range, height) table at ranges and heights [m]."""
+    return table.lookup(*np.broadcast_arrays(np.asarray(range_m, float),
+                                             np.asarray(height_m, float)))
 
 
-def _lookup_for(table: Table) -> PropagationLookup:
-    """The (cached) lookup of a table; the cache entry dies with the table."""
-    entry = _LOOKUPS.get(id(table))
-    if entry is not None and entry[0]() is table:
-        return entry[1]
-    lookup = PropagationLookup(table)
-    key = id(table)
-    _LOOKUPS[key] = (weakref.ref(table, lambda _ref: _LOOKUPS.pop(key, None)), lookup)
-    return lookup
+def propagation_lookup(table: Table) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
+    """The reader of F in a propagation table, ``reader(range_m, height_m)`` [m] (see
+    :func:`propagation_factor`), made anew: whoever reads a table many times keeps it (the
+    dwell model's :class:`shipradar.sim.dwell.prepared.PreparedRadar`; the complex field's
+    copy is ~10 MB for the largest tables)."""
+    if table.axis_names[1] == "height_m":  # a plain (range, height) table
+        return functools.partial(_plain_lookup, table)
+    return PropagationLookup(table)
 
 
 def propagation_factor(table: Table, range_m: np.ndarray, height_m: np.ndarray) -> np.ndarray:
     """Linear F at terrestrial ranges [m] and heights [m] from a propagation table.
 
     Bilinear interpolation on the table's (range, h / R) grid by :class:`PropagationLookup`
-    (built once per table and cached); O(1) per point.  NaN outside the table's domain and
-    where the table holds NaN (steep angles): the caller falls back to
-    :func:`shipradar.sensors.propagation.two_ray_factor` and counts it.
+    (made at each call: :func:`propagation_lookup` gives one to keep); O(1) per point.  NaN
+    outside the table's domain and where the table holds NaN (steep angles): the caller falls
+    back to :func:`shipradar.sensors.propagation.two_ray_factor` and counts it.
     """
-    if table.axis_names[1] == "height_m":  # a plain (range, height) table
-        return table.lookup(*np.broadcast_arrays(np.asarray(range_m, float),
-                                                 np.asarray(height_m, float)))
-    return _lookup_for(table)(range_m, height_m)
+    return propagation_lookup(table)(range_m, height_m)

@@ -451,11 +451,10 @@ class DwellModel:
         if mode == "free_space":
             return np.abs(self.elevation_pattern(elevation)), 0
         two_ray = self._two_ray
-        if mode == "two_ray" or self.tables.propagation is None:
+        pe_lookup = self.prepared.pe_lookup  # None without a PE table
+        if mode == "two_ray" or pe_lookup is None:
             return two_ray(ground_range, target_height), 0
-        from shipradar.tables.propagation import propagation_factor as pe_lookup
-
-        f = pe_lookup(self.tables.propagation, ground_range, target_height)
+        f = pe_lookup(ground_range, target_height)
         bad = ~np.isfinite(f)
         if bad.any():
             f = f.copy()

@@ -3,11 +3,11 @@
 A :class:`shipradar.sim.dwell.model.DwellModel` is made per run (its random streams, its
 observers and its target list are the run's own), but much of what it reads depends on the
 scene's radar and tables alone, and is only read afterwards: the clutter maps' stacked readers
-(a copy of the maps' arrays), the two-ray fallback's terms per target height, the P_fac map's
-false-alarm generator, the clutter spectrum at the map's sectors, the expected clutter
-false-alarm density and range profile that ``meta`` publishes. A study that runs one scene
-many times on the same tables (Monte Carlo replications, evaluate runs, a fidelity setting's
-seeds) keeps a :class:`PreparedScene` and passes it to each run
+(a copy of the maps' arrays), the PE table's reader, the two-ray fallback's terms per target
+height, the P_fac map's false-alarm generator, the clutter spectrum at the map's sectors, the
+expected clutter false-alarm density and range profile that ``meta`` publishes. A study that
+runs one scene many times on the same tables (Monte Carlo replications, evaluate runs, a
+fidelity setting's seeds) keeps a :class:`PreparedScene` and passes it to each run
 (``Simulation(..., prepared=...)``); a run given none makes its own, as a new process does.
 
 One :class:`PreparedRadar` per radar, made by its :class:`PreparedScene` at the first run that
@@ -125,6 +125,17 @@ class PreparedRadar:
         """The two-ray fallback of this antenna over the scene's sea, its per-height terms
         kept for the runs."""
         return TwoRayFallback(self.radar, self.scenario.wave_height, self.elevation_pattern)
+
+    @functools.cached_property
+    def pe_lookup(self) -> Callable[[np.ndarray, np.ndarray], np.ndarray] | None:
+        """F of the PE table at (ground range, height) [m], NaN where the table has none
+        (:func:`shipradar.tables.propagation.propagation_lookup`); None without a table."""
+        table = self.tables.propagation
+        if table is None:
+            return None
+        from shipradar.tables.propagation import propagation_lookup
+
+        return propagation_lookup(table)
 
     @functools.cached_property
     def rain_gamma_db_per_km(self) -> float:
