@@ -642,8 +642,9 @@ class RadarProcess:
         self._block_plots: tuple[int, dict, list[int]] | None = None
         self._block_frames: list[_Revolution] | None = None
         # a block's false alarms are held at once: fewer revolutions when a scan has many
-        expected = model.noise_false_alarms_per_scan + self._clutter_fa_meta.get(
-            "clutter_false_alarms_per_scan", 0.0)
+        clutter = self._clutter_false_alarms
+        expected = model.noise_false_alarms_per_scan + (0.0 if clutter is None
+                                                        else clutter.per_scan)
         self.scans_per_block = max(1, min(int(_BLOCK_S // radar.scan_period_s),
                                           int(_BLOCK_PLOTS // max(expected, 1.0))))
         if sim.live_source is not None:  # the entities known at each revolution's start
@@ -984,22 +985,16 @@ class RadarProcess:
         return list(targets.names) if targets.files or live else None
 
     @functools.cached_property
-    def _clutter_fa_meta(self) -> dict:
-        """The radar's expected sea-clutter false alarms per scan, total and per 250 m ring
-        (seed 7.2, from its P_fac map), for a tracker's clutter density; {} without a map."""
+    def _clutter_false_alarms(self) -> ClutterFalseAlarmMeta | None:
+        """The radar's expected sea-clutter false alarms per scan, total, per 250 m ring and
+        per (ring, sector) cell (seed 7.2, from its P_fac map), for a tracker's clutter
+        density (``meta``); None without a map."""
         profile = self.model.prepared.clutter_range_profile  # shared by the runs on its map
         if profile is None:
-            return {}
+            return None
         edges, per_scan, total = profile
-        out: dict[str, Any] = {
-            "clutter_false_alarms_per_scan": total,
-            "clutter_false_alarm_profile": {"range_edges_m": edges, "per_scan": per_scan}}
-        density = self.model.false_alarms.clutter_false_alarm_density()
-        if density is not None:
-            r_edges, az_edges, cells = density
-            out["clutter_false_alarm_density"] = {
-                "range_edges_m": r_edges, "azimuth_edges_rad": az_edges, "per_scan": cells}
-        return out
+        return ClutterFalseAlarmMeta(total, edges, per_scan,
+                                     self.model.false_alarms.clutter_false_alarm_density())
 
     def _emit_meta(self, t: float, scan: int, t_at: float | None = None) -> None:
         """The sensor metadata of revolution ``scan``, starting at time ``t``, with the
@@ -1035,18 +1030,12 @@ class RadarProcess:
     def _description(self) -> SensorDescription:
         """What ``meta`` says of this radar besides the scan and the antenna's state."""
         r, model, scenario = self.radar, self.model, self.sim.scenario
-        fa = self._clutter_fa_meta
-        clutter = None if not fa else ClutterFalseAlarmMeta(
-            fa["clutter_false_alarms_per_scan"],
-            fa["clutter_false_alarm_profile"]["range_edges_m"],
-            fa["clutter_false_alarm_profile"]["per_scan"],
-            None if "clutter_false_alarm_density" not in fa else tuple(
-                fa["clutter_false_alarm_density"].values()))
         return SensorDescription(
             sensor=r.id, platform=self.platform.id, radar=self._radar_dump,
             scan_period_s=r.scan_period_s, sectors_per_scan=self.n_sectors,
             sector_s=self.sector_s, pfa=model.pfa,
-            noise_false_alarms_per_scan=model.noise_false_alarms_per_scan, clutter=clutter,
+            noise_false_alarms_per_scan=model.noise_false_alarms_per_scan,
+            clutter=self._clutter_false_alarms,
             target_ids=self.target_ids, target_names=self._target_names,
             origin_codes=ORIGIN_NAMES, interference_codes=model.INTERFERENCE_NAMES,
             origin=scenario.origin.model_dump(), start_time=scenario.start_time.isoformat(),
