@@ -202,9 +202,7 @@ def _look_recorder(cols: dict[str, list[np.ndarray]], run: int, radar: int,
 
 
 def _clutter_fa_per_scan(model) -> float:
-    pfac = model.tables.pfac
-    if pfac is None:
-        return 0.0
-    from shipradar.tables.pfac import clutter_range_profile
-
-    return float(clutter_range_profile(pfac)[1].sum())
+    """The radar's expected sea-clutter false alarms per scan (its P_fac map's, 0 without
+    one), from the range profile its preparation keeps for ``meta``."""
+    profile = model.prepared.clutter_range_profile
+    return 0.0 if profile is None else profile[2]
