@@ -236,3 +236,19 @@ def test_cli_existing_scheduler(tmp_path, capsys):
         with Client(cluster.scheduler_address) as client:  # still up
             assert len(client.scheduler_info()["workers"]) == 1
     assert len(_read(out)) == 2
+
+
+def test_studies_never_share_a_task_key():
+    """Dask hands back the future of a key it still holds, whatever the function and
+    arguments (the hazard, checked on an in-process cluster), so each study's keys carry a
+    part of their own: two studies with the same seed in one client get their own runs."""
+    from distributed import Client, LocalCluster
+
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                      dashboard_address=":0") as cluster, Client(cluster) as client:
+        first = client.submit(abs, -1, key="k", pure=False)
+        again = client.submit(abs, -2, key="k", pure=False)
+        assert first.result() == again.result() == 1  # the second call's -2 never ran
+    a, b = mc.task_keys("run", 7, 3), mc.task_keys("run", 7, 3)
+    assert len(set(a)) == 3 and not set(a) & set(b)
+    assert all(k.startswith(f"shipradar-run-7-{i}-") for i, k in enumerate(a))

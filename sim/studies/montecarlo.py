@@ -57,6 +57,7 @@ import os
 import sys
 import threading
 import time
+import uuid
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -458,6 +459,16 @@ def local_cluster(n_workers: int | None) -> Any:
                         processes=True, dashboard_address=":0")
 
 
+def task_keys(kind: str, base_seed: int, n: int) -> list[str]:
+    """Dask keys of a study's ``n`` tasks: ``shipradar-{kind}-{base_seed}-{i}-{study}``, the
+    last part random per call. Dask takes a submitted key it still holds as the same task and
+    hands back that task's future (``pure=False`` does not change this for an explicit key),
+    so two studies with the same seeds in one client would share results without it (a second
+    study got the first one's runs: tests/test_evaluate.py's rescore test failed 2 in 9)."""
+    study = uuid.uuid4().hex[:12]
+    return [f"shipradar-{kind}-{base_seed}-{i}-{study}" for i in range(n)]
+
+
 def _run_replications(scenario, seeds: list[int], base_seed: int, duration_s: float | None,
                       tables, files, *, scheduler: str | None, n_workers: int | None,
                       client, progress: bool) -> tuple[list[dict], int]:
@@ -479,8 +490,9 @@ def _run_replications(scenario, seeds: list[int], base_seed: int, duration_s: fl
         tables_ref = files if files is not None else client.scatter(tables, broadcast=True)
         # the scenario's content, by which a worker finds the preparation of its runs
         token = tokenize(scenario)
+        keys = task_keys("run", base_seed, len(seeds))
         futures = [client.submit(_one_run, scenario, i, s, duration_s, tables_ref, token,
-                                 key=f"shipradar-run-{base_seed}-{i}", pure=False)
+                                 key=keys[i], pure=False)
                    for i, s in enumerate(seeds)]
         bar = None
         if progress:

@@ -128,7 +128,7 @@ def run_study(scenario: str, tracker: str, *, runs: int, out: str | Path,
     """
     from distributed import Client, as_completed
 
-    from shipradar.sim.studies.montecarlo import local_cluster
+    from shipradar.sim.studies.montecarlo import local_cluster, task_keys
     from shipradar.sim.world.scenario import load_scenario
     from shipradar.tables.scene import load_scene_tables
 
@@ -162,8 +162,8 @@ def run_study(scenario: str, tracker: str, *, runs: int, out: str | Path,
                 own = client = Client(cluster)
             else:
                 own = client = Client(scheduler)
-        futures = [client.submit(_run_and_score, sp, config, pure=False,
-                                 key=f"shipradar-evaluate-{base}-{i}")
+        keys = task_keys("evaluate", base, len(specs))
+        futures = [client.submit(_run_and_score, sp, config, pure=False, key=keys[i])
                    for i, sp in enumerate(specs)]
         results: dict[int, tuple[dict, RunScores | None]] = {}
         bar = None
