@@ -419,7 +419,7 @@ def test_run_encoding_ahead_sends_what_the_stream_gives(run):
     stream = AsterixStream()
     want = [d for m in msgs for _, d in datagrams(stream.feed(*m), 1400)]
     assert sender.sent == want and bus.stream.stats == stream.stats
-    assert not bus._ahead  # every sector made ahead was sent
+    assert bus.pending_ahead == 0  # every sector made ahead was sent
 
 
 # ----------------------------------------------------------------- UDP, CLI

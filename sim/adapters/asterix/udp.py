@@ -154,6 +154,12 @@ class AsterixBus:
         :class:`shipradar.sim.stream.bus.Bus`) or there is none."""
         return self.inner is None or takes_frames(self.inner)
 
+    @property
+    def pending_ahead(self) -> int:
+        """Messages whose CAT048 blocks :meth:`plots_ahead` made and :meth:`emit_frames`
+        has not sent yet (0 at the end of a run that reached every sector it made)."""
+        return len(self._ahead)
+
     def plots_ahead(self, sensor: str, bodies: Sequence[bytes], plots: Mapping[str, Any],
                     starts: Sequence[int], stops: Sequence[int]) -> None:
         """A revolution's ``plots`` messages of radar ``sensor``, before they are emitted.
