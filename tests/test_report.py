@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import csv
 import struct
 import zlib
 
@@ -38,9 +39,13 @@ def scene():
 @pytest.mark.slow
 def test_report_writes_every_listed_figure(tmp_path, scene):
     # a fake study file beside the report: the report must find it and draw its points
-    mc._write_csv(tmp_path / "montecarlo_pd_range.csv", mc.PD_COLUMNS, [
-        {"sensor": "giraffe", "kind": "missile", "range_lo_m": 0.0, "range_hi_m": 2000.0,
-         "looks": 10, "detections": 9, "pd": 0.9, "ci_lo": 0.6, "ci_hi": 0.98}])
+    # (written by the csv module here, in the study's columns, not by the study's own writer)
+    with open(tmp_path / "montecarlo_pd_range.csv", "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=mc.PD_COLUMNS, lineterminator="\n")
+        w.writeheader()
+        w.writerow({"sensor": "giraffe", "kind": "missile", "range_lo_m": 0.0,
+                    "range_hi_m": 2000.0, "looks": 10, "detections": 9, "pd": 0.9,
+                    "ci_lo": 0.6, "ci_hi": 0.98})
     res = build_report(scene, tmp_path, duration_s=30.0, fa_scans=20)
     names = [f["file"] for f in res["figures"]]
     # always drawn: model P_d, false alarms, PPI; I_F (the scene has an FIR bank), σ0* and
