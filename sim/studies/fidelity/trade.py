@@ -295,12 +295,16 @@ def _recommend(study: Study, timer: SampleTimer, clock: TableClock,
         if (more_accurate and not ratio.low > b_ratio.high) or ratio.high < b_ratio.low:
             pick[s.choice] = c
     candidate = {**ref_fid, **{k: v.result.setting.value for k, v in pick.items()}}
+
+    def back(choice: str, note: str) -> None:
+        """``choice`` back to the reference value, ``note`` saying why."""
+        study.notes.append(note)
+        candidate[choice] = ref_fid[choice]
+        del pick[choice]
+
     for choice in unread_choices(scenario, candidate):
         if choice in pick:
-            study.notes.append(f"{choice} dropped: not read with "
-                               f"{diff_label(candidate, ref_fid)}")
-            del pick[choice]
-            candidate[choice] = ref_fid[choice]
+            back(choice, f"{choice} dropped: not read with {diff_label(candidate, ref_fid)}")
     ref = results["reference"]
     while pick:
         label = diff_label(candidate, ref_fid)
@@ -314,22 +318,18 @@ def _recommend(study: Study, timer: SampleTimer, clock: TableClock,
             study.comparisons.append(comp)
         if not comp.ok:
             worst = max(pick, key=lambda k: error_score(pick[k], tol))
-            study.notes.append(f"the combination {label} was outside the tolerances "
-                               f"({'; '.join(comp.violations[:3])}); {worst} back to "
-                               f"{format_value(ref_fid[worst])}")
-            candidate[worst] = ref_fid[worst]
-            del pick[worst]
+            back(worst, f"the combination {label} was outside the tolerances "
+                        f"({'; '.join(comp.violations[:3])}); {worst} back to "
+                        f"{format_value(ref_fid[worst])}")
             continue
         say(f"fidelity: timing the block {label} against the reference ...")
         (cost,) = paired_costs(timer, ref_fid, [candidate], study.seeds, study.pairs)
         ratio = cost.ratio(obj)
         if not is_cheaper(ratio):
             least = max(pick, key=lambda k: _ratio_value(study, pick[k]))
-            study.notes.append(f"the block {label} re-timed as a whole: {obj} CPU "
-                               f"{ratio.fmt()}x the reference's, not measurably cheaper; "
-                               f"{least} back to {format_value(ref_fid[least])}")
-            candidate[least] = ref_fid[least]
-            del pick[least]
+            back(least, f"the block {label} re-timed as a whole: {obj} CPU {ratio.fmt()}x "
+                        f"the reference's, not measurably cheaper; {least} back to "
+                        f"{format_value(ref_fid[least])}")
             continue
         study.recommended = dict(candidate)
         study.recommended_comparison = comp
