@@ -30,7 +30,6 @@ import math
 import sys
 import time
 from collections.abc import Sequence
-from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
@@ -325,10 +324,6 @@ def compare(study_dirs: Sequence[str | Path], out: str | Path | None = None
             "studies": [str(d) for d in dirs],
             "seeds_in_common": len(set.intersection(*[{r["seed"] for r in runs}
                                                       for _, runs in loaded]))}
-
-
-def settings_of(config: MetricConfig) -> dict[str, Any]:
-    return asdict(config)
 
 
 def evaluate_object(scenario, tracker, *, runs: int = 1, seed: int | None = None,
