@@ -473,6 +473,9 @@ def test_apply_keeps_the_file_and_refuses_to_overwrite(tmp_path):
     (["--tolerance-range-m", "-5"], ["--tolerance-range-m", "-5"]),
     (["--runs", "0"], ["--runs", "[1, 1000]", "'0'"]),
     (["--duration", "abc"], ["--duration", "'abc'"]),
+    (["--tolerance-fa", "nan"], ["--tolerance-fa", "[0, 100]", "'nan'"]),
+    (["--max-build-s", "inf"], ["--max-build-s", "'inf'"]),
+    (["--pairs", "2.5"], ["--pairs", "an integer", "'2.5'"]),
 ])
 def test_bad_input_exits_2_naming_option_value_and_range(argv, words, capsys, tmp_path):
     src = tmp_path / "s.yaml"
