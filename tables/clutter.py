@@ -38,7 +38,7 @@ hashable description, not by the callable), through :func:`shipradar.tables.stor
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
 
@@ -114,6 +114,28 @@ def _noise_limit_range(ranges: np.ndarray, power: np.ndarray, limit_w: float) ->
     return out
 
 
+#: Plain-JSON conversion of a map spec's field by its declared type (see :func:`_field_inputs`).
+_FIELD_TYPES: dict[str, Callable[[Any], Any]] = {"float": float, "int": int, "bool": bool,
+                                                  "str": str}
+
+
+def _field_inputs(spec: Any, **given: Any) -> dict[str, Any]:
+    """Every field of a map spec, in declaration order, as a plain value of its declared type
+    (``float | None``: None or a float), so that equal inputs give one cache key whatever
+    their Python type (9_400_000_000 and 9.4e9); ``given`` supplies the fields of other
+    types, already converted."""
+    out: dict[str, Any] = {}
+    for f in fields(spec):
+        value = getattr(spec, f.name)
+        if f.name in given:
+            out[f.name] = given[f.name]
+        elif value is None and str(f.type).endswith("| None"):
+            out[f.name] = None
+        else:
+            out[f.name] = _FIELD_TYPES[str(f.type).split(" | ")[0]](value)
+    return out
+
+
 @dataclass(frozen=True)
 class SeaClutterMapSpec:
     """What a sea-clutter map depends on: one declaration, read by the cache key
@@ -146,30 +168,9 @@ class SeaClutterMapSpec:
     def inputs(self) -> dict[str, Any]:
         """The hashable inputs (the table's cache key and its provenance)."""
         kind, bw, sl, tilt = self.elevation_pattern
-        return {
-            "freq_hz": float(self.freq_hz),
-            "polarization": sc.polarization_letter(self.polarization),
-            "antenna_height_m": float(self.antenna_height_m),
-            "beamwidth_az_rad": float(self.beamwidth_az_rad),
-            "pulse_width_s": float(self.pulse_width_s),
-            "radar_constant_w_m2": float(self.radar_constant_w_m2),
-            "elevation_pattern": [str(kind), float(bw), float(sl), float(tilt)],
-            "noise_power_w": float(self.noise_power_w),
-            "rotation_rate_rad_s": float(self.rotation_rate_rad_s),
-            "wind_speed_mps": float(self.wind_speed_mps),
-            "wind_direction_rad": float(self.wind_direction_rad),
-            "max_range_m": float(self.max_range_m),
-            "wave_height_m": None if self.wave_height_m is None else float(self.wave_height_m),
-            "sea_state": None if self.sea_state is None else float(self.sea_state),
-            "duct_height_m": float(self.duct_height_m),
-            "a_min": float(self.a_min),
-            "motion_compensated": bool(self.motion_compensated),
-            "ship_speed_mps": float(self.ship_speed_mps),
-            "ship_heading_rad": float(self.ship_heading_rad),
-            "n_range": int(self.n_range),
-            "n_azimuth": int(self.n_azimuth),
-            "k_factor": float(self.k_factor),
-        }
+        return _field_inputs(
+            self, polarization=sc.polarization_letter(self.polarization),
+            elevation_pattern=[str(kind), float(bw), float(sl), float(tilt)])
 
 
 def sea_clutter_map_inputs(**kwargs: Any) -> dict[str, Any]:
@@ -480,30 +481,7 @@ class WeatherClutterMapSpec:
 
     def inputs(self) -> dict[str, Any]:
         """The hashable inputs (the table's cache key and its provenance)."""
-        return {
-            "freq_hz": float(self.freq_hz),
-            "antenna_height_m": float(self.antenna_height_m),
-            "beamwidth_az_rad": float(self.beamwidth_az_rad),
-            "beamwidth_el_rad": float(self.beamwidth_el_rad),
-            "pulse_width_s": float(self.pulse_width_s),
-            "prf_hz": float(self.prf_hz),
-            "radar_constant_w_m2": float(self.radar_constant_w_m2),
-            "rain_rate_mm_h": float(self.rain_rate_mm_h),
-            "cloud_base_m": float(self.cloud_base_m),
-            "rotation_rate_rad_s": float(self.rotation_rate_rad_s),
-            "wind_speed_mps": float(self.wind_speed_mps),
-            "wind_direction_rad": float(self.wind_direction_rad),
-            "max_range_m": float(self.max_range_m),
-            "precipitation": str(self.precipitation),
-            "rain_attenuation_db_per_km": float(self.rain_attenuation_db_per_km),
-            "turbulence_spread_mps": float(self.turbulence_spread_mps),
-            "motion_compensated": bool(self.motion_compensated),
-            "ship_speed_mps": float(self.ship_speed_mps),
-            "ship_heading_rad": float(self.ship_heading_rad),
-            "n_range": int(self.n_range),
-            "n_azimuth": int(self.n_azimuth),
-            "k_factor": float(self.k_factor),
-        }
+        return _field_inputs(self)
 
 
 def weather_clutter_map_inputs(**kwargs: Any) -> dict[str, Any]:

@@ -2,6 +2,7 @@
 lookup."""
 
 import math
+from dataclasses import fields
 
 import numpy as np
 import pytest
@@ -9,7 +10,7 @@ import pytest
 from shipradar.sensors import sea_clutter as sc
 from shipradar.sensors import weather_clutter as wc
 from shipradar.tables import clutter as tc
-from shipradar.tables.store import Table
+from shipradar.tables.store import Table, inputs_hash
 
 BW_EL = math.radians(4.0)
 TILT = 0.0
@@ -243,3 +244,23 @@ def test_figures_written(tmp_path, vp_map):
         plot_clutter_ppi(tmp_path / "ppi.png", vp_map),
     ):
         assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_map_inputs_every_field_plain_and_type_blind():
+    """The cache key holds every spec field once, as a plain value of its declared type:
+    equal inputs of other Python types (int, numpy) give the same key, a changed one does not."""
+    sea = tc.sea_clutter_map_inputs(**sea_kwargs())
+    assert list(sea) == [f.name for f in fields(tc.SeaClutterMapSpec)]
+    assert sea["polarization"] == "V" and sea["elevation_pattern"] == ["gaussian", BW_EL, 0.0, TILT]
+    assert sea["sea_state"] is None and sea["motion_compensated"] is True
+    same = tc.sea_clutter_map_inputs(**sea_kwargs(
+        freq_hz=9_800_000_000, antenna_height_m=np.float32(25.0), n_range=241.0,
+        motion_compensated=1, polarization="vertical"))
+    assert inputs_hash("s", 1, same) == inputs_hash("s", 1, sea)
+    assert type(same["freq_hz"]) is float and type(same["n_range"]) is int
+    assert inputs_hash("s", 1, tc.sea_clutter_map_inputs(**sea_kwargs(sea_state=3))) != \
+        inputs_hash("s", 1, sea)
+    wet = tc.weather_clutter_map_inputs(**weather_kwargs())
+    assert list(wet) == [f.name for f in fields(tc.WeatherClutterMapSpec)]
+    wet_int = tc.weather_clutter_map_inputs(**weather_kwargs(prf_hz=1200, max_range_m=200_000))
+    assert inputs_hash("w", 1, wet_int) == inputs_hash("w", 1, wet)
