@@ -115,3 +115,22 @@ def test_a_preparation_is_for_its_own_scenario_and_tables():
     other = load_scenario(ROOT / "scenarios" / "single_missile.yaml")  # equal, not the same
     with pytest.raises(ValueError, match="prepared: made for another scenario"):
         Simulation(other, tables=tables, prepared=prepared)
+
+
+@pytest.mark.parametrize(("kind", "divisor"), [("rain", 1.0), ("dry_snow", 10.0),
+                                               ("wet_snow", 5.0)])
+def test_rain_loss_of_a_preparation_at_the_rain_equivalent_rate(kind, divisor):
+    """γ_R [16] on the targets' paths is P.838 at the rain-equivalent rate (seed 4.1.4: dry
+    snow ÷ 10, wet snow ÷ 5), the number the weather map's trips carry too."""
+    from shipradar.sim.world.scenario import Rain
+    from shipradar.tables.scene import weather_rain_attenuation_db_per_km
+    from shipradar.tables.sky import rain_attenuation_db_per_km
+
+    sc = load_scenario(ROOT / "scenarios" / "single_missile.yaml")
+    env = sc.environment.model_copy(update={"rain": Rain(kind=kind, rate_mm_h=20.0)})
+    sc = sc.model_copy(update={"environment": env})
+    platform, radar = next(iter(sc.radars()))
+    gamma = PreparedScene(sc, SceneTables()).radar(platform, radar).rain_gamma_db_per_km
+    assert gamma == rain_attenuation_db_per_km(radar.frequency_hz, 20.0 / divisor,
+                                               radar.polarization)
+    assert gamma == weather_rain_attenuation_db_per_km(sc, radar) > 0.0

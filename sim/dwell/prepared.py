@@ -28,8 +28,9 @@ from numpy.typing import ArrayLike
 
 from shipradar.sensors import geometry
 from shipradar.sensors.radar import RadarConstants, false_alarm_probability, pulses_per_beamwidth
+from shipradar.sensors.weather_clutter import rain_equivalent_rate_mm_h
 from shipradar.sim.dwell.false_alarm_model import Spectrum, clutter_false_alarm_density
-from shipradar.sim.world.scenario import Platform, Radar, Rain, Scenario
+from shipradar.sim.world.scenario import Platform, Radar, Scenario
 from shipradar.tables.sky import rain_attenuation_db_per_km, scene_radar_constants
 from shipradar.tables.store import StackedLookup2D
 
@@ -144,8 +145,8 @@ class PreparedRadar:
         rain = self.scenario.environment.rain
         if rain is None or not self.scenario.fidelity.atmosphere:
             return 0.0
-        return rain_attenuation_db_per_km(self.radar.frequency_hz,
-                                          rain_equivalent_rate(rain), self.radar.polarization)
+        rate = float(rain_equivalent_rate_mm_h(rain.rate_mm_h, rain.kind))  # seed 4.1.4
+        return rain_attenuation_db_per_km(self.radar.frequency_hz, rate, self.radar.polarization)
 
     # ------------------------------------------------------------------ false alarms
     @functools.cached_property
@@ -333,8 +334,3 @@ class TwoRayFallback:
         intermediate = np.exp((1 - w) * np.log(np.maximum(f_lim, tiny))
                               + w * np.log(np.maximum(f_diff_h, tiny)))
         return np.where(inside, f_inter, np.where(beyond, diffraction, intermediate))
-
-
-def rain_equivalent_rate(rain: Rain) -> float:
-    """Rain-equivalent precipitation rate [mm/h] (seed 4.1.4: dry snow ÷10, wet snow ÷5)."""
-    return rain.rate_mm_h / {"rain": 1.0, "dry_snow": 10.0, "wet_snow": 5.0}[rain.kind]
