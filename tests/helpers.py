@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import math
 import os
 import shutil
 import socket
@@ -54,6 +55,28 @@ def bare_scene(radar: dict | None = None, targets=(), duration_s=10.0, seed=3, *
                        "radars": [radar or quiet_radar()]}],
         "targets": list(targets),
         "fidelity": fid,
+    })
+
+
+def moving_ship_scene(radar: dict, *, name: str, duration_s: float, seed: int,
+                      speed_mps: float, course_deg: float, wind_speed_mps: float,
+                      wind_from_deg: float, clutter: bool, targets=(), sea_state: int = 3):
+    """One ship with ``radar`` leaving the origin at ``speed_mps`` [m/s] on ``course_deg``
+    [deg] (a straight leg of 1000 s), in sea state ``sea_state`` with the wind
+    ``wind_speed_mps`` [m/s] from ``wind_from_deg`` [deg]; free space, no atmosphere, the
+    clutter's power modelled when ``clutter``."""
+    c = math.radians(course_deg)
+    return parse_scenario({
+        "name": name, "duration_s": duration_s, "seed": seed,
+        "origin": {"lat_deg": 44.6, "lon_deg": -63.0},
+        "environment": {"wind_speed_mps": wind_speed_mps, "wind_direction_deg": wind_from_deg,
+                        "sea_state": sea_state},
+        "platforms": [{"id": "ship", "waypoints": [
+            {"time_s": 0.0, "east_m": 0.0, "north_m": 0.0},
+            {"time_s": 1000.0, "east_m": 1000.0 * speed_mps * math.sin(c),
+             "north_m": 1000.0 * speed_mps * math.cos(c)}], "radars": [radar]}],
+        "targets": list(targets),
+        "fidelity": {"propagation": "free_space", "atmosphere": False, "clutter": clutter},
     })
 
 

@@ -18,9 +18,8 @@ from hypothesis import strategies as st
 from shipradar.sensors import sea_clutter as sc
 from shipradar.sim.dwell.model import DwellModel
 from shipradar.sim.world.kinematics import LocalFrame, antenna_geometry
-from shipradar.sim.world.scenario import parse_scenario
 from shipradar.tables.scene import SceneTables, load_scene_tables
-from tests.helpers import quiet_radar
+from tests.helpers import moving_ship_scene, quiet_radar
 
 WIND_FROM_DEG = 30.0
 SHIP_SPEED = 8.0  # [m/s], due north
@@ -28,22 +27,12 @@ SHIP_SPEED = 8.0  # [m/s], due north
 
 def _scene(compensated: bool, *, speed=SHIP_SPEED, course_deg=0.0, clutter=True,
            processor=None):
-    c = math.radians(course_deg)
     radar = quiet_radar(processor={"type": "mti", "mti_order": 2,
                                    "motion_compensated": compensated, **(processor or {})},
                         instrumented_range_m=20000)
-    return parse_scenario({
-        "name": "mc", "duration_s": 10.0, "seed": 1,
-        "origin": {"lat_deg": 44.6, "lon_deg": -63.0},
-        "environment": {"wind_speed_mps": 8.0, "wind_direction_deg": WIND_FROM_DEG,
-                        "sea_state": 3},
-        "platforms": [{"id": "ship", "waypoints": [
-            {"time_s": 0.0, "east_m": 0.0, "north_m": 0.0},
-            {"time_s": 1000.0, "east_m": 1000.0 * speed * math.sin(c),
-             "north_m": 1000.0 * speed * math.cos(c)}], "radars": [radar]}],
-        "targets": [],
-        "fidelity": {"propagation": "free_space", "atmosphere": False, "clutter": clutter},
-    })
+    return moving_ship_scene(radar, name="mc", duration_s=10.0, seed=1, speed_mps=speed,
+                             course_deg=course_deg, wind_speed_mps=8.0,
+                             wind_from_deg=WIND_FROM_DEG, clutter=clutter)
 
 
 def _model(scenario, tables=None):

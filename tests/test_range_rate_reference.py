@@ -25,10 +25,9 @@ import pytest
 
 from shipradar.sim.engine.simulation import Simulation
 from shipradar.sim.stream import protocol
-from shipradar.sim.world.scenario import parse_scenario
 from shipradar.tables.scene import SceneTables, load_scene_tables
 
-from .helpers import CaptureBus, quiet_radar
+from .helpers import CaptureBus, moving_ship_scene, quiet_radar
 
 N_FILTERS = 16
 SHIP_SPEED = 10.0  # [m/s]
@@ -39,7 +38,6 @@ ANTENNA_HEIGHT = 20.0  # quiet_radar's [m]
 
 
 def _scene(compensated: bool, clutter: bool):
-    c = math.radians(SHIP_COURSE_DEG)
     radar = quiet_radar(processor={"type": "dft_bank", "n_coherent": N_FILTERS,
                                    "motion_compensated": compensated},
                         instrumented_range_m=20000)
@@ -55,18 +53,9 @@ def _scene(compensated: bool, clutter: bool):
                 {"time_s": 0.0, "east_m": pos[0], "north_m": pos[1], "altitude_m": 50.0},
                 {"time_s": 100.0, "east_m": pos[0] + 100.0 * v * math.sin(az),
                  "north_m": pos[1] + 100.0 * v * math.cos(az), "altitude_m": 50.0}]})
-    return parse_scenario({
-        "name": "rr", "duration_s": 6.0, "seed": 11,
-        "origin": {"lat_deg": 44.6, "lon_deg": -63.0},
-        "environment": {"wind_speed_mps": 10.0, "wind_direction_deg": WIND_FROM_DEG,
-                        "sea_state": 3},
-        "platforms": [{"id": "ship", "waypoints": [
-            {"time_s": 0.0, "east_m": 0.0, "north_m": 0.0},
-            {"time_s": 1000.0, "east_m": 1000.0 * SHIP_SPEED * math.sin(c),
-             "north_m": 1000.0 * SHIP_SPEED * math.cos(c)}], "radars": [radar]}],
-        "targets": targets,
-        "fidelity": {"propagation": "free_space", "atmosphere": False, "clutter": clutter},
-    })
+    return moving_ship_scene(radar, name="rr", duration_s=6.0, seed=11, speed_mps=SHIP_SPEED,
+                             course_deg=SHIP_COURSE_DEG, wind_speed_mps=10.0,
+                             wind_from_deg=WIND_FROM_DEG, clutter=clutter, targets=targets)
 
 
 def _run(scenario, tables) -> dict:
