@@ -562,3 +562,43 @@ def test_latency_in_wall_clock_mode_and_with_processes():
     two = CaptureBus()
     Simulation(parse_scenario(data), bus=two, tables=SceneTables(), processes=2).run()
     assert two.frames == fast.frames
+
+
+def _latency_errors(fixed_s: float, mean_s: float):
+    from shipradar.sensors.sensor_errors import RadarErrors
+    from shipradar.sim.world.scenario import Navigation, SensorErrors
+
+    errors = SensorErrors.model_validate({"latency": {"fixed_s": fixed_s,
+                                                      "random_mean_s": mean_s}})
+    return RadarErrors(errors, Navigation(), seed=4, radar_id="r1", platform_id="ship",
+                       sector_s=0.1)
+
+
+def test_latencies_are_the_same_however_asked_and_exponential():
+    """The engine asks a block's latencies at once: asked one by one, in uneven pieces or all
+    at once, the draws are the same; they are the fixed delay plus an exponential law of the
+    stated mean (seeded: mean within 4σ/√n, median at mean ln 2, none below the fixed)."""
+    n = 20_000
+    whole = _latency_errors(0.2, 1.5).latencies_s(n)
+    pieces = _latency_errors(0.2, 1.5)
+    sizes = [1, 0, 255, 256, 257, 1000, 3, n - 1772]
+    got = np.concatenate([pieces.latencies_s(k) for k in sizes])
+    np.testing.assert_array_equal(got, whole)
+    x = whole - 0.2
+    assert x.min() >= 0.0
+    assert abs(x.mean() - 1.5) < 4.0 * 1.5 / math.sqrt(n)
+    # median of an exponential: mean ln 2; its sampling 1σ ≈ mean/√n
+    assert abs(np.median(x) - 1.5 * math.log(2.0)) < 4.0 * 1.5 / math.sqrt(n)
+    fixed = _latency_errors(0.7, 0.0).latencies_s(5)
+    assert fixed.tolist() == [0.7] * 5
+
+
+def test_gauss_markov_refuses_a_forgotten_step():
+    """A step before the path kept (:meth:`GaussMarkov.forget_before`) raises instead of
+    wrapping round to the path's end."""
+    gm = GaussMarkov(ErrorTerm(mean=0.0, sigma=1.0, correlation_time_s=10.0), 1.0,
+                     np.random.default_rng(2))
+    gm.forget_before(100.0)
+    with pytest.raises(ValueError, match="grid step 5 was forgotten"):
+        gm.at_index(np.array([5, 120]))
+    assert gm.at_index(np.zeros(0, np.int64)).shape == (0,)
