@@ -786,8 +786,10 @@ def beam_crossings(
 
 def _first_of_close(b_i: np.ndarray, t: np.ndarray, min_separation_s: float
                     ) -> tuple[np.ndarray, np.ndarray]:
-    """Crossings ``b_i``, ``t`` (sorted by object then time) with each run of one object's
-    crossings closer than ``min_separation_s`` [s] kept as its first."""
+    """Crossings ``b_i``, ``t`` (sorted by object then time) without those closer than
+    ``min_separation_s`` [s] after the object's last one kept (greedy, in time: a close pair
+    is its first; a chain of close crossings longer than ``min_separation_s`` keeps more
+    than one)."""
     if b_i.size > 1 and min_separation_s > 0.0:
         keep = np.ones(b_i.size, dtype=bool)
         same = b_i[1:] == b_i[:-1]
