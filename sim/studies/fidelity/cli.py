@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from shipradar.sim.cli import _float_range, _int_range
 from shipradar.sim.studies.fidelity.apply import apply_fidelity
 from shipradar.sim.studies.fidelity.compare import Tolerances
 from shipradar.sim.studies.fidelity.pareto import plot_pareto
@@ -22,6 +22,21 @@ from shipradar.sim.studies.fidelity.trade import (
 from shipradar.sim.world.scenario import Scenario, ScenarioError
 
 
+def _number(name: str, lo: float, hi: float, integer: bool = False):
+    def conv(text: str):
+        try:
+            v = int(text) if integer else float(text)
+        except ValueError:
+            v = None
+        if v is None or not (lo <= v <= hi) or (not integer and not math.isfinite(v)):
+            kind = "an integer" if integer else "a number"
+            raise argparse.ArgumentTypeError(f"{name} must be {kind} in [{lo:g}, {hi:g}], "
+                                             f"got {text!r}")
+        return v
+
+    return conv
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="shipradar fidelity",
@@ -31,31 +46,28 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("scenario", nargs="?", default=None, help="scenario YAML file")
     p.add_argument("--example", default=None, metavar="NAME",
                    help="a shipped example scenario instead of a file")
-    p.add_argument("--duration", type=_float_range("--duration", 1e-3, 1e6), default=None,
+    p.add_argument("--duration", type=_number("--duration", 1e-3, 1e6), default=None,
                    metavar="S", help="simulated seconds per run (default: the scenario's)")
-    p.add_argument("--runs", type=_int_range("--runs", 1, 1000), default=1,
+    p.add_argument("--runs", type=_number("--runs", 1, 1000, integer=True), default=1,
                    metavar="K", help="replications per setting, common seeds (default 1)")
-    p.add_argument("--tolerance-pd", type=_float_range("--tolerance-pd", 0.0, 1.0),
-                   default=0.02, metavar="X",
-                   help="largest mean |ΔP_d| per look of any target (default 0.02)")
-    p.add_argument("--tolerance-range-m", type=_float_range("--tolerance-range-m", 0.0, 1e6),
+    p.add_argument("--tolerance-pd", type=_number("--tolerance-pd", 0.0, 1.0), default=0.02,
+                   metavar="X", help="largest mean |ΔP_d| per look of any target (default 0.02)")
+    p.add_argument("--tolerance-range-m", type=_number("--tolerance-range-m", 0.0, 1e6),
                    default=500.0, metavar="M",
                    help="largest |Δ first-detection range| of any target [m] (default 500)")
-    p.add_argument("--tolerance-fa", type=_float_range("--tolerance-fa", 0.0, 100.0),
-                   default=0.1, metavar="R",
-                   help="largest relative change of the expected false alarms "
-                        "per scan of any radar and origin (default 0.1)")
-    p.add_argument("--max-latency-s", type=_float_range("--max-latency-s", 0.0, 1e4),
-                   default=None, metavar="S",
-                   help="largest plot latency (one sector) [s] (default: the "
-                        "scene's own)")
+    p.add_argument("--tolerance-fa", type=_number("--tolerance-fa", 0.0, 100.0), default=0.1,
+                   metavar="R", help="largest relative change of the expected false alarms "
+                                     "per scan of any radar and origin (default 0.1)")
+    p.add_argument("--max-latency-s", type=_number("--max-latency-s", 0.0, 1e4), default=None,
+                   metavar="S", help="largest plot latency (one sector) [s] (default: the "
+                                     "scene's own)")
     p.add_argument("--all", action="store_true", dest="include_unexercised",
                    help="also run the choices the scene does not exercise")
     p.add_argument("--cold", action="store_true",
                    help=f"also measure the table builds: every distinct table built "
                         f"{BUILD_REPEATS} times in a private empty cache (else the cost "
                         "model's estimate is shown)")
-    p.add_argument("--pairs", type=_int_range("--pairs", 2, 1000),
+    p.add_argument("--pairs", type=_number("--pairs", 2, 1000, integer=True),
                    default=DEFAULT_PAIRS, metavar="N",
                    help="alternating timing pairs (reference, setting) per setting "
                         f"(default {DEFAULT_PAIRS})")
@@ -75,10 +87,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--per-target", action="store_true",
                    help="also print one line per setting and (radar, target)")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
-    p.add_argument("--max-build-s", type=_float_range("--max-build-s", 1e-3, 1e9),
-                   default=None, metavar="S",
-                   help="longest estimated time to build the tables of every "
-                        "setting [s]; over it the study is refused before any work (default "
+    p.add_argument("--max-build-s", type=_number("--max-build-s", 1e-3, 1e9), default=None,
+                   metavar="S", help="longest estimated time to build the tables of every "
+                   "setting [s]; over it the study is refused before any work (default "
                    "$SHIPRADAR_MAX_BUILD_S or 600)")
     return p
 
